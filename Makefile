@@ -1,0 +1,31 @@
+# mmocap — run `make help` for the list of targets.
+PYTHON ?= python3
+VENV   := .venv
+PY     := $(VENV)/bin/python
+STAMP  := $(VENV)/.installed
+
+.DEFAULT_GOAL := help
+.PHONY: help install demo test test-all clean
+
+help: ## Show this help
+	@grep -hE '^[a-zA-Z0-9_-]+:.*## ' $(MAKEFILE_LIST) | awk 'BEGIN {FS = ":.*## "}; {printf "  \033[36m%-12s\033[0m %s\n", $$1, $$2}'
+
+$(STAMP): pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install --quiet --upgrade pip
+	$(PY) -m pip install --quiet -e '.[test]'
+	@touch $(STAMP)
+
+install: $(STAMP) ## Create .venv and install mmocap with its test dependencies
+
+demo: $(STAMP) ## Generate synthetic S1 walking, track it with CMA-ES, write outputs/demo/
+	$(PY) -m mmocap +experiment=demo
+
+test: $(STAMP) ## Run the fast test suite
+	$(PY) -m pytest -q
+
+test-all: $(STAMP) ## Run every test, the slow ones included
+	$(PY) -m pytest -q -m ''
+
+clean: ## Remove generated outputs (keeps .venv)
+	rm -rf outputs/*
