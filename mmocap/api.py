@@ -1,0 +1,81 @@
+"""Interfaces shared by the stages: optimisers, evaluators and the search space.
+
+Optimisers and evaluators are found through the entry-point groups
+``mmocap.optimizers`` and ``mmocap.evaluators`` (see :mod:`mmocap.registry`).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class SearchSpace:
+    """A box around a start point in which one frame (or one partition) is searched.
+
+    Attributes:
+        x0: (D,) start point, usually the previous frame's estimate.
+        lower, upper: (D,) bounds, lower < upper element-wise.
+        sigma0: (D,) initial step size per coordinate, in the coordinate's own units.
+        budget: maximum number of fitness evaluations for this search.
+    """
+
+    x0: np.ndarray
+    lower: np.ndarray
+    upper: np.ndarray
+    sigma0: np.ndarray
+    budget: int
+
+    @property
+    def dim(self) -> int:
+        return int(self.x0.shape[0])
+
+
+@dataclass
+class Result:
+    """Best point found so far."""
+
+    xbest: np.ndarray
+    fbest: float
+    evaluations: int
+    iterations: int
+    stop_reasons: dict = field(default_factory=dict)
+
+
+@runtime_checkable
+class Optimizer(Protocol):
+    """Batch ask/tell minimiser.
+
+    ``setup`` starts a new search; then ``ask`` returns a whole population (n, D) that lies
+    inside the bounds and never makes the evaluation count exceed ``space.budget``;
+    ``tell`` takes the fitness (n,) of exactly what ``ask`` returned; ``stop`` returns
+    ``{}`` to go on or a dict of reasons.
+    """
+
+    def setup(self, space: SearchSpace, rng: np.random.Generator) -> None: ...
+
+    def ask(self) -> np.ndarray: ...
+
+    def tell(self, X: np.ndarray, f: np.ndarray) -> None: ...
+
+    def stop(self) -> dict: ...
+
+    @property
+    def result(self) -> Result: ...
+
+
+@runtime_checkable
+class Evaluator(Protocol):
+    """Silhouette fitness of candidate poses (Yeguas Eq. 4-5).
+
+    ``setup`` uploads one frame (body model, cameras, foreground masks); ``__call__`` maps
+    poses (n, D_full) in the body's full parameter vector to fitness (n,) in [0, 1].
+    """
+
+    def setup(self, body, cameras, foreground) -> None: ...
+
+    def __call__(self, X: np.ndarray) -> np.ndarray: ...
+
+    def close(self) -> None: ...

@@ -1,0 +1,153 @@
+"""Stage "model building": the tracker's body model for one subject.
+
+Combines the skeleton (:mod:`mmocap.body.skeleton`), the subject-fitted MakeHuman skin
+(:mod:`mmocap.body.mesh`) resampled to a vertex count, per-joint rest frames, and marker
+points on the skin.  Units: mm and radians.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from mmocap.body import skeleton
+from mmocap.body.kinematics import global_transforms, skinning_transforms
+from mmocap.body.mesh import SkinMesh, fit_subject, load_makehuman, resample, subject_dimensions
+from mmocap.body.skeleton import JOINTS
+from mmocap.errors import ConfigError
+
+ARM_JOINTS = ("LShoulder", "LElbow", "LWrist", "RShoulder", "RElbow", "RWrist")
+FORWARD = np.array([0.0, 0.0, 1.0])
+
+
+def rest_frames(mesh: SkinMesh) -> np.ndarray:
+    """(16, 3, 3) joint rest frames; columns are the local x, y, z axes in model axes.
+
+    Arm joints: x along the segment, y = x cross forward (so +Ry flexes the elbow and
+    swings the arm forward on both sides), z completes the frame.  Other joints use the
+    model axes, so +Rx flexes the knee and -Rx flexes the hip.
+    """
+    frames = np.tile(np.eye(3), (len(JOINTS), 1, 1))
+    for name in ARM_JOINTS:
+        j = JOINTS.index(name)
+        x = mesh.segment_ends[j] - mesh.pivots[j]
+        x /= np.linalg.norm(x)
+        y = np.cross(x, FORWARD)
+        y /= np.linalg.norm(y)
+        frames[j] = np.stack([x, y, np.cross(x, y)], axis=1)
+    return frames
+
+
+# Markers: (name, joint near which to look, direction to maximise, search radius in mm).
+# Each marker is the skin vertex within the radius of the joint's pivot that lies furthest
+# along the direction (model axes: x left, y up, z forward), e.g. the lateral epicondyle.
+MARKER_RULES = (
+    ("head", "Neck", (0, 1, 0), 400),
+    ("neck", "Neck", (0, 0, -1), 90),
+    ("pelvis", "Root", (0, 0, -1), 120),
+    ("l_shoulder", "LShoulder", (0, 1, 0), 90),
+    ("l_elbow", "LElbow", (0, 0, -1), 60),
+    ("l_wrist", "LWrist", (1, 0, 0), 50),
+    ("r_shoulder", "RShoulder", (0, 1, 0), 90),
+    ("r_elbow", "RElbow", (0, 0, -1), 60),
+    ("r_wrist", "RWrist", (-1, 0, 0), 50),
+    ("l_hip", "LHip", (1, 0, 0), 120),
+    ("l_knee", "LKnee", (0, 0, 1), 80),
+    ("l_ankle", "LAnkle", (1, 0, 0), 60),
+    ("r_hip", "RHip", (-1, 0, 0), 120),
+    ("r_knee", "RKnee", (0, 0, 1), 80),
+    ("r_ankle", "RAnkle", (-1, 0, 0), 60),
+)
+MARKER_NAMES = tuple(rule[0] for rule in MARKER_RULES)
+
+
+def marker_vertices(mesh: SkinMesh) -> np.ndarray:
+    """(15,) indices into ``mesh.vertices`` of the marker points of :data:`MARKER_RULES`."""
+    out = []
+    for name, joint, direction, radius in MARKER_RULES:
+        pivot = mesh.pivots[JOINTS.index(joint)]
+        near = np.flatnonzero(np.linalg.norm(mesh.vertices - pivot, axis=1) < radius)
+        if near.size == 0:
+            raise ConfigError(f"no skin vertex within {radius} mm of {joint} for marker {name}")
+        out.append(near[np.argmax(mesh.vertices[near] @ np.asarray(direction, float))])
+    return np.asarray(out)
+
+
+class BodyModel:
+    """The articulated body the tracker fits: skeleton, vertex-sampled skin and markers.
+
+    Args:
+        subject: subject id (``"S1"``, ``"S2"``, ``"S3"``).
+        dof: 39 (Table 1), 28 (its reduction) or 51 (every axis).
+        vertices: skin sample count (e.g. 27393, 20544, 13695); None keeps the mesh's
+            13 380 vertices.
+        seed: seed of the resampling.
+
+    Attributes used by the evaluators: ``rest_vertices`` (N, 3) mm, ``rest_normals``
+    (N, 3), ``vertex_joint`` (N,), ``joint_rest_positions`` (16, 3) mm, ``patch_mm``
+    (16,) mm, and :meth:`transforms`.
+    """
+
+    def __init__(self, subject: str = "S1", dof: int = 39, vertices: int | None = None, seed: int = 0):
+        self.subject = subject_dimensions(subject)
+        self.dof = int(dof)
+        self.mask = skeleton.dof_mask(self.dof)
+        self.mesh = fit_subject(load_makehuman(), self.subject)
+        samples = resample(self.mesh, vertices, seed)
+        self.rest_vertices = samples.points
+        self.rest_normals = samples.normals
+        self.vertex_joint = samples.joint
+        self.patch_mm = samples.patch_mm
+        self.joint_rest_positions = self.mesh.pivots
+        self.rest_frames = rest_frames(self.mesh)
+        marker_idx = marker_vertices(self.mesh)
+        self.marker_names = MARKER_NAMES
+        self.marker_rest = self.mesh.vertices[marker_idx]
+        self.marker_joint = self.mesh.vertex_joint[marker_idx]
+        self.lower, self.upper = skeleton.limits()
+
+    @property
+    def n_vertices(self) -> int:
+        return len(self.rest_vertices)
+
+    @property
+    def floor_offset_mm(self) -> float:
+        """Height of the root pivot above the soles in the rest pose, mm."""
+        return float(-self.mesh.vertices[:, 1].min())
+
+    def rest_pose(self) -> np.ndarray:
+        """(51,) the A-pose standing on the floor at the world origin."""
+        x = np.zeros(skeleton.N_FULL)
+        x[1] = self.floor_offset_mm
+        return x
+
+    def full(self, active: np.ndarray, base: np.ndarray) -> np.ndarray:
+        """(n, D) active parameters placed into copies of the (51,) ``base`` -> (n, 51)."""
+        active = np.atleast_2d(active)
+        X = np.repeat(base[None, :], active.shape[0], axis=0)
+        X[:, self.mask] = active
+        return X
+
+    def clip(self, X: np.ndarray) -> np.ndarray:
+        """Full poses clipped to the joint limits."""
+        return np.clip(X, self.lower, self.upper)
+
+    def global_transforms(self, X: np.ndarray) -> np.ndarray:
+        """(n, 51) poses -> (n, 16, 4, 4) joint-to-world transforms."""
+        return global_transforms(X, self.joint_rest_positions, self.rest_frames)
+
+    def transforms(self, X: np.ndarray) -> np.ndarray:
+        """(n, 51) poses -> (n, 16, 4, 4) skinning transforms (rest mm -> world mm)."""
+        return skinning_transforms(self.global_transforms(X), self.joint_rest_positions)
+
+    def joint_positions(self, X: np.ndarray) -> np.ndarray:
+        """(n, 51) poses -> (n, 16, 3) joint positions in world mm."""
+        return self.global_transforms(X)[..., :3, 3]
+
+    def markers(self, X: np.ndarray) -> np.ndarray:
+        """(n, 51) poses -> (n, 15, 3) marker positions in world mm (rigid per joint)."""
+        S = self.transforms(X)[:, self.marker_joint]
+        return np.einsum("nmab,mb->nma", S[..., :3, :3], self.marker_rest) + S[..., :3, 3]
+
+    def posed_vertices(self, x: np.ndarray) -> np.ndarray:
+        """(51,) pose -> (N, 3) sampled skin points in world mm (rigid per joint)."""
+        S = self.transforms(x[None])[0][self.vertex_joint]
+        return np.einsum("nab,nb->na", S[:, :3, :3], self.rest_vertices) + S[:, :3, 3]
