@@ -83,6 +83,11 @@ class SkinMesh:
     def trimesh(self) -> trimesh.Trimesh:
         return trimesh.Trimesh(self.vertices, self.faces, process=False)
 
+    def posed(self, skinning: np.ndarray) -> np.ndarray:
+        """Linear blend skinning: (16, 4, 4) skinning transforms -> (V, 3) posed mm."""
+        blended = np.einsum("vj,jab->vab", self.weights, skinning[:, :3, :])
+        return np.einsum("vab,vb->va", blended[:, :, :3], self.vertices) + blended[:, :, 3]
+
 
 def _read_obj(text: str) -> tuple[np.ndarray, dict[str, list[list[int]]]]:
     """Vertices (V, 3) and, per group name, its faces as lists of 0-based vertex indices."""
@@ -185,14 +190,13 @@ def fit_subject(mesh: SkinMesh, subject: SubjectDimensions) -> SkinMesh:
     Thickness is scaled across each joint's segment and blended by the skinning weights,
     so the surface stays smooth at the joints.
     """
-    base_height = np.ptp(mesh.vertices[:, 1])
-    s = subject.height_mm / base_height
-    v, pivots, ends = mesh.vertices * s, mesh.pivots * s, mesh.segment_ends * s
+    v, pivots, ends = mesh.vertices, mesh.pivots, mesh.segment_ends
     if subject.girth != 1.0:
         closest = _closest_on_segments(v, pivots, ends)
         moved = closest + subject.girth * (v[:, None, :] - closest)
         v = np.einsum("vj,vjk->vk", mesh.weights, moved)
-    return SkinMesh(v, mesh.faces, mesh.weights, pivots, ends)
+    s = subject.height_mm / np.ptp(v[:, 1])
+    return SkinMesh(v * s, mesh.faces, mesh.weights, pivots * s, ends * s)
 
 
 @dataclass(frozen=True)

@@ -44,16 +44,17 @@ ROTATION_AXES = {
 REDUCED_AWAY = ("UpperSpine", "LWrist", "RWrist", "LAnkle", "RAnkle")
 
 # Anatomical limits in radians for (Rx, Ry, Rz); signs follow the joint frames of
-# mmocap.body.kinematics: knee flexion is +Rx, hip flexion -Rx, elbow flexion +Ry.
+# mmocap.body.kinematics: knee flexion is +Rx, hip flexion -Rx, elbow flexion +Ry.  Zero is
+# MakeHuman's rest pose, whose elbows are already flexed by about 45 degrees.
 JOINT_LIMITS = {
     "Root": ((-np.inf, np.inf),) * 3,
     "BottomSpine": ((-0.6, 0.9), (-0.7, 0.7), (-0.5, 0.5)),
     "UpperSpine": ((-0.5, 0.6), (-0.6, 0.6), (-0.4, 0.4)),
     "LShoulder": ((-1.6, 1.6), (-1.2, 2.6), (-1.6, 1.8)),
-    "LElbow": ((0, 0), (-0.1, 2.6), (0, 0)),
+    "LElbow": ((0, 0), (-0.9, 2.0), (0, 0)),
     "LWrist": ((0, 0), (-1.2, 1.2), (-0.9, 0.9)),
     "RShoulder": ((-1.6, 1.6), (-1.2, 2.6), (-1.8, 1.6)),
-    "RElbow": ((0, 0), (-0.1, 2.6), (0, 0)),
+    "RElbow": ((0, 0), (-0.9, 2.0), (0, 0)),
     "RWrist": ((0, 0), (-1.2, 1.2), (-0.9, 0.9)),
     "Neck": ((-0.8, 0.9), (-1.2, 1.2), (-0.6, 0.6)),
     "LHip": ((-2.2, 0.6), (-0.9, 0.9), (-0.5, 1.2)),

@@ -1,0 +1,3 @@
+from mmocap.cli import main
+
+main()

@@ -1,0 +1,187 @@
+"""Synthetic HumanEva-like sequences: cameras, motion, rendering, ground truth on disk.
+
+Defaults mimic HumanEva-I: 7 cameras (C1..C3 colour, BW1..BW4 greyscale) on a ring of
+about 4 m around the capture volume, 640x480 at 60 fps, a little lens distortion.  The
+images are rendered from the full MakeHuman triangle mesh posed by linear blend skinning
+(:mod:`mmocap.data.render`), with clothing colours, shading, a cluttered background and
+sensor noise; the tracker instead uses rigidly attached surface samples, so the data is
+not made by the tracker's own model.  Layout on disk: :mod:`mmocap.data.sequence`.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import shutil
+from pathlib import Path
+
+import cv2
+import numpy as np
+from tqdm.auto import tqdm
+
+from mmocap.body.kinematics import global_transforms, skinning_transforms
+from mmocap.body.mesh import SkinMesh, fit_subject, load_makehuman, subject_dimensions
+from mmocap.body.model import MARKER_NAMES, marker_vertices, rest_frames
+from mmocap.body.skeleton import JOINTS
+from mmocap.camera import Camera
+from mmocap.data import render
+from mmocap.data.motion import generate_motion
+from mmocap.data.sequence import FORMAT, Sequence, write_markers
+from mmocap.errors import ConfigError
+
+# name, colour sensor, azimuth in degrees: the first four are spread evenly so that the
+# usual 4-camera subset (C1, C2, C3, BW1) surrounds the subject.
+CAMERA_RING = (
+    ("C1", True, 20), ("C2", True, 110), ("C3", True, 200), ("BW1", False, 290),
+    ("BW2", False, 65), ("BW3", False, 155), ("BW4", False, 245),
+)
+
+
+def camera_rig(names, width: int, height: int, rng: np.random.Generator,
+               radius_mm: float = 4000.0, distortion: float = 1.0) -> list[Camera]:
+    """Cameras on a ring looking at the centre of the capture volume (y up, mm).
+
+    ``distortion`` scales the lens distortion (0 gives ideal pin-holes).
+    """
+    ring = {name: (colour, az) for name, colour, az in CAMERA_RING}
+    unknown = [n for n in names if n not in ring]
+    if unknown:
+        raise ConfigError(f"unknown camera {', '.join(unknown)}; known: {', '.join(ring)}")
+    cameras = []
+    for name in names:
+        colour, azimuth = ring[name]
+        az = np.deg2rad(azimuth + rng.uniform(-5, 5))
+        r = radius_mm * rng.uniform(0.93, 1.07)
+        eye = (r * np.sin(az), rng.uniform(1700, 2300), r * np.cos(az))
+        target = (rng.uniform(-150, 150), 950, rng.uniform(-150, 150))
+        focal = rng.uniform(580, 640) * width / 640
+        dist = distortion * np.array([rng.uniform(-0.25, -0.15), rng.uniform(0.05, 0.15),
+                                      rng.uniform(-1e-3, 1e-3), rng.uniform(-1e-3, 1e-3), 0.0])
+        cameras.append(Camera.look_at(name, eye, target, focal, width, height, dist, colour))
+    return cameras
+
+
+def face_colours(mesh: SkinMesh, rng: np.random.Generator) -> np.ndarray:
+    """(F, 3) RGB in [0, 1]: shirt, trousers, shoes, skin and hair by body part."""
+    joint_of = {j: n for n, j in enumerate(JOINTS)}
+    face_joint = np.argmax(mesh.weights[mesh.faces].sum(axis=1), axis=1)
+    shirt = rng.uniform(0.15, 0.8, 3)
+    trousers = rng.uniform(0.1, 0.35, 3)
+    skin = np.array([0.87, 0.67, 0.55]) * rng.uniform(0.6, 1.05)
+    parts = {
+        "shirt": (("BottomSpine", "UpperSpine", "LShoulder", "RShoulder"), shirt),
+        "trousers": (("Root", "LHip", "RHip", "LKnee", "RKnee"), trousers),
+        "shoes": (("LAnkle", "RAnkle"), np.array([0.12, 0.1, 0.1])),
+        "skin": (("LElbow", "RElbow", "LWrist", "RWrist", "Neck"), skin),
+    }
+    colours = np.zeros((len(mesh.faces), 3))
+    for joints, colour in parts.values():
+        colours[np.isin(face_joint, [joint_of[j] for j in joints])] = colour
+    centre = mesh.vertices[mesh.faces].mean(axis=1)
+    head = mesh.pivots[joint_of["Neck"]]
+    top = np.ptp(mesh.vertices[:, 1]) * 0.06
+    hair = (face_joint == joint_of["Neck"]) & ((centre[:, 1] > head[1] + 2.2 * top)
+                                               | ((centre[:, 1] > head[1] + top) & (centre[:, 2] < head[2] - 30)))
+    colours[hair] = rng.uniform(0.05, 0.3) * np.array([1.0, 0.8, 0.6])
+    return colours
+
+
+def settings_digest(settings: dict) -> str:
+    return hashlib.sha256(json.dumps(settings, sort_keys=True).encode()).hexdigest()[:16]
+
+
+def generate(root, subject: str = "S1", action: str = "walking", frames: int = 60,
+             cameras=("C1", "C2", "C3", "BW1", "BW2", "BW3", "BW4"), width: int = 640,
+             height: int = 480, fps: float = 60.0, seed: int = 0, background_frames: int = 10,
+             noise_sigma: float = 2.0, distortion: float = 1.0, progress: bool = True) -> Path:
+    """Render one sequence into ``root`` (replacing what is there) and return its path."""
+    if frames < 1:
+        raise ConfigError(f"dataset.frames must be >= 1, got {frames}")
+    if width < 32 or height < 32:
+        raise ConfigError(f"dataset image size must be at least 32x32, got {width}x{height}")
+    if background_frames < 2:
+        raise ConfigError(f"dataset.background_frames must be >= 2, got {background_frames}")
+    settings = dict(subject=subject, action=action, frames=frames, cameras=list(cameras),
+                    width=width, height=height, fps=fps, seed=seed,
+                    background_frames=background_frames, noise_sigma=noise_sigma,
+                    distortion=distortion)
+    dims = subject_dimensions(subject)
+    rng = np.random.default_rng([seed, sum(map(ord, subject)), sum(map(ord, action))])
+    mesh = fit_subject(load_makehuman(), dims)
+    frames_of = rest_frames(mesh)
+    cams = camera_rig(list(cameras), width, height, rng, distortion=distortion)
+    floor = float(-mesh.vertices[:, 1].min())
+    poses = generate_motion(action, frames, fps, floor, seed=int(rng.integers(2**31)))
+    colours = face_colours(mesh, rng)
+    markers_idx = marker_vertices(mesh)
+
+    root = Path(root)
+    if root.exists():
+        shutil.rmtree(root)
+    for sub in ("calibration", "background", "images", "silhouettes"):
+        (root / sub).mkdir(parents=True)
+    backgrounds = {}
+    for cam in cams:
+        cam.save(root / "calibration" / f"{cam.name}.json")
+        backgrounds[cam.name] = render.make_background(cam, rng)
+        folder = root / "background" / cam.name
+        folder.mkdir()
+        for k, img in enumerate(render.noisy_background_frames(
+                backgrounds[cam.name], cam, rng, background_frames, noise_sigma)):
+            cv2.imwrite(str(folder / f"{k:04d}.png"), img)
+        (root / "images" / cam.name).mkdir()
+        (root / "silhouettes" / cam.name).mkdir()
+
+    markers = np.zeros((frames, len(markers_idx), 3))
+    G = global_transforms(poses, mesh.pivots, frames_of)
+    S = skinning_transforms(G, mesh.pivots)
+    for f in tqdm(range(frames), desc=f"render {subject} {action}", unit="frame", disable=not progress):
+        vertices = mesh.posed(S[f])
+        markers[f] = vertices[markers_idx]
+        for cam in cams:
+            image, silhouette = render.render_view(cam, vertices, mesh.faces, colours,
+                                                   backgrounds[cam.name], rng, noise_sigma=noise_sigma)
+            cv2.imwrite(str(root / "images" / cam.name / f"{f:06d}.png"), image)
+            cv2.imwrite(str(root / "silhouettes" / cam.name / f"{f:06d}.png"),
+                        silhouette.astype(np.uint8) * 255)
+
+    write_markers(root / "markers_mm.csv", markers, MARKER_NAMES)
+    np.save(root / "poses.npy", poses)
+    meta = {
+        "format": FORMAT, "subject": subject, "action": action, "fps": fps, "frames": frames,
+        "cameras": [c.name for c in cams], "marker_names": list(MARKER_NAMES),
+        "dimensions": {"height_mm": dims.height_mm, "girth": dims.girth},
+        "x0": poses[0].tolist(), "units": {"length": "mm", "angle": "rad"},
+        "generator": {**settings, "digest": settings_digest(settings)},
+    }
+    # Written last: a folder without it is an interrupted generation and is redone.
+    (root / "sequence.json").write_text(json.dumps(meta, indent=1))
+    return root
+
+
+class SyntheticDataset:
+    """Hydra component: a synthetic sequence, generated on first use and then reused.
+
+    The folder is ``<root>/<subject>_<action>``; it is regenerated when the generation
+    settings differ from those recorded in its ``sequence.json``.
+    """
+
+    def __init__(self, root: str = "outputs/data", subject: str = "S1", action: str = "walking",
+                 frames: int = 60, cameras=("C1", "C2", "C3", "BW1"),
+                 all_cameras=("C1", "C2", "C3", "BW1", "BW2", "BW3", "BW4"), width: int = 640,
+                 height: int = 480, fps: float = 60.0, seed: int = 0, background_frames: int = 10,
+                 noise_sigma: float = 2.0, distortion: float = 1.0):
+        self.path = Path(root) / f"{subject}_{action}"
+        self.cameras = list(cameras)
+        self.settings = dict(subject=subject, action=action, frames=frames, cameras=list(all_cameras),
+                             width=width, height=height, fps=fps, seed=seed,
+                             background_frames=background_frames, noise_sigma=noise_sigma,
+                             distortion=distortion)
+
+    def open(self, progress: bool = True) -> Sequence:
+        meta_path = self.path / "sequence.json"
+        current = None
+        if meta_path.is_file():
+            current = json.loads(meta_path.read_text()).get("generator", {}).get("digest")
+        if current != settings_digest(self.settings):
+            generate(self.path, progress=progress, **self.settings)
+        return Sequence.open(self.path, self.cameras)

@@ -1,0 +1,128 @@
+"""The main job: build every stage from the config, track a sequence, write the results.
+
+Outputs in ``output_dir``: ``frames.csv`` (one row per frame, written as it goes),
+``summary.json``, ``error_per_frame.png`` and ``overlays/*.png``.
+"""
+from __future__ import annotations
+
+import logging
+import platform
+import time
+from pathlib import Path
+
+import cv2
+import numpy as np
+from hydra.utils import instantiate
+from omegaconf import DictConfig, OmegaConf
+from tqdm.auto import tqdm
+
+from mmocap.errors import ConfigError, DataError
+from mmocap.report.figures import overlay, plot_error_per_frame
+from mmocap.stages.evaluation import FrameLog, marker_error, write_json_atomic
+from mmocap.stages.foreground import Foreground
+from mmocap.stages.tracking import track
+
+log = logging.getLogger(__name__)
+
+
+def run(cfg: DictConfig, output_dir: Path) -> dict:
+    """Run the configured tracking job; returns the summary written to summary.json."""
+    output_dir = Path(output_dir)
+    output_dir.mkdir(parents=True, exist_ok=True)
+    if cfg.overlays < 0:
+        raise ConfigError(f"overlays must be >= 0, got {cfg.overlays}")
+
+    dataset = instantiate(cfg.dataset)
+    sequence = dataset.open(progress=cfg.progress)
+    body = instantiate(cfg.body)
+    if body.subject.name != sequence.subject:
+        raise ConfigError(f"body.subject is {body.subject.name} but the sequence shows {sequence.subject}")
+    optimizer = instantiate(cfg.optimizer)
+    strategy = instantiate(cfg.strategy)
+    evaluator = instantiate(cfg.evaluator)
+    foreground = Foreground(sequence, instantiate(cfg.background))
+    truth = sequence.markers()
+    n_frames = sequence.n_frames if cfg.tracking.frames is None else int(cfg.tracking.frames)
+
+    frame_log = FrameLog(output_dir / "frames.csv")
+    errors = []
+    bar = tqdm(total=n_frames, desc=f"track {cfg.optimizer.name}", unit="frame", disable=not cfg.progress)
+
+    def on_frame(result):
+        err = float(marker_error(body.markers(result.pose[None]), truth[result.frame][None])[0])
+        errors.append(err)
+        frame_log.write(result.frame, err, result.fitness, result.evaluations, result.seconds, result.pose)
+        bar.set_postfix(error_mm=f"{err:.1f}", mean_mm=f"{np.nanmean(errors):.1f}")
+        bar.update()
+
+    start = time.perf_counter()
+    try:
+        results = track(sequence, body, foreground, evaluator, optimizer, strategy,
+                        evaluations=int(cfg.tracking.evaluations), seed=int(cfg.seed),
+                        frames=cfg.tracking.frames, on_frame=on_frame)
+    finally:
+        bar.close()
+        frame_log.close()
+    wall = time.perf_counter() - start
+
+    errors = np.asarray(errors)
+    summary = {
+        "mean_marker_error_mm": float(np.nanmean(errors)),
+        "median_marker_error_mm": float(np.nanmedian(errors)),
+        "max_marker_error_mm": float(np.nanmax(errors)),
+        "frames": len(results),
+        "evaluations_per_frame": int(cfg.tracking.evaluations),
+        "evaluations_used": int(sum(r.evaluations for r in results)),
+        "seconds_per_frame": wall / len(results),
+        "optimizer": str(cfg.optimizer.name),
+        "strategy": strategy.name,
+        "dof": body.dof,
+        "backend": str(cfg.evaluator.name),
+        "vertices": body.n_vertices,
+        "subject": sequence.subject,
+        "action": sequence.meta.get("action"),
+        "cameras": [c.name for c in sequence.cameras],
+        "sequence": str(sequence.root),
+        "seed": int(cfg.seed),
+        "python": platform.python_version(),
+        "config": OmegaConf.to_container(cfg, resolve=True),
+    }
+    write_json_atomic(output_dir / "summary.json", summary)
+    plot_error_per_frame(errors, output_dir / "error_per_frame.png",
+                         f"{sequence.subject} {sequence.meta.get('action')}: {cfg.optimizer.name} "
+                         f"{strategy.name}, {body.dof} DOF, {cfg.tracking.evaluations} evaluations/frame")
+    write_overlays(output_dir / "overlays", sequence, foreground, evaluator, body, results, truth,
+                   int(cfg.overlays))
+    evaluator.close()
+    return summary
+
+
+def write_overlays(folder: Path, sequence, foreground, evaluator, body, results, truth, count: int) -> None:
+    """The tracked model over undistorted camera images for ``count`` evenly spaced frames."""
+    if count == 0:
+        return
+    folder.mkdir(exist_ok=True)
+    cameras = foreground.cameras
+    for k in np.unique(np.linspace(0, len(results) - 1, count).round().astype(int)):
+        result = results[k]
+        evaluator.setup(body, cameras, foreground.masks(result.frame))
+        joints = body.joint_positions(result.pose[None])[0]
+        tiles = []
+        for c, (cam, image) in enumerate(zip(sequence.cameras, sequence.images(result.frame))):
+            mx, my = cam.undistort_maps()
+            ideal_image = cv2.remap(image, mx, my, cv2.INTER_LINEAR)
+            tile = overlay(ideal_image, cameras[c], evaluator.render(result.pose, c), joints, truth[result.frame])
+            cv2.putText(tile, f"{cam.name} frame {result.frame}", (8, 20), cv2.FONT_HERSHEY_SIMPLEX,
+                        0.55, (255, 255, 255), 1, cv2.LINE_AA)
+            tiles.append(tile)
+        if not tiles:
+            raise DataError("no camera images to draw overlays on")
+        cv2.imwrite(str(folder / f"frame_{result.frame:06d}.png"), _grid(tiles))
+
+
+def _grid(tiles: list[np.ndarray]) -> np.ndarray:
+    """Tiles of equal size in a grid of two columns."""
+    if len(tiles) % 2:
+        tiles = tiles + [np.zeros_like(tiles[0])]
+    rows = [np.hstack(tiles[i:i + 2]) for i in range(0, len(tiles), 2)]
+    return np.vstack(rows)

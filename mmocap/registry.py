@@ -1,0 +1,60 @@
+"""Discovery of optimisers and evaluators through entry points.
+
+Built-in components are registered in mmocap's own ``pyproject.toml`` under the groups
+``mmocap.optimizers`` and ``mmocap.evaluators``, exactly as a third-party plugin registers
+its own; Hydra configs build them with ``_target_: mmocap.registry.make_optimizer``.
+"""
+from __future__ import annotations
+
+from importlib.metadata import entry_points
+
+from mmocap.errors import ConfigError
+
+GROUPS = {"optimizer": "mmocap.optimizers", "evaluator": "mmocap.evaluators"}
+
+
+def available(kind: str) -> dict:
+    """Installed entry points of one kind (``optimizer`` or ``evaluator``), by name."""
+    return {ep.name: ep for ep in entry_points(group=GROUPS[kind])}
+
+
+def load(kind: str, name: str):
+    """The class registered as ``name``; a ConfigError lists what is installed."""
+    eps = available(kind)
+    if name not in eps:
+        known = ", ".join(sorted(eps)) or "none"
+        raise ConfigError(f"unknown {kind} '{name}'; installed {kind}s: {known}")
+    try:
+        return eps[name].load()
+    except (ImportError, AttributeError) as exc:
+        raise ConfigError(f"{kind} '{name}' is registered as {eps[name].value} "
+                          f"but cannot be loaded: {exc}") from exc
+
+
+def _build(kind: str, name: str, params: dict):
+    cls = load(kind, name)
+    try:
+        return cls(**params)
+    except TypeError as exc:
+        raise ConfigError(f"{kind} '{name}': bad parameters {sorted(params)}: {exc}") from None
+
+
+def make_optimizer(name: str, **params):
+    """Build the optimiser registered as ``name`` with its config parameters."""
+    return _build("optimizer", name, params)
+
+
+def make_evaluator(name: str, **params):
+    """Build the evaluator registered as ``name`` with its config parameters."""
+    return _build("evaluator", name, params)
+
+
+def describe() -> str:
+    """Text listing every installed optimiser and evaluator with where it comes from."""
+    lines = []
+    for kind in GROUPS:
+        lines.append(f"{kind}s ({GROUPS[kind]}):")
+        for name, ep in sorted(available(kind).items()):
+            dist = ep.dist.name if ep.dist is not None else "?"
+            lines.append(f"  {name:<16} {ep.value}  [{dist}]")
+    return "\n".join(lines)
