@@ -1,0 +1,268 @@
+"""CMA-ES (Yeguas et al. 2014, Sec. 4.2.1, Fig. 4, Table 2) as a batch ask/tell minimiser.
+
+Units. The search runs in normalised coordinates ``z = (x - space.x0) / space.sigma0``:
+the mean starts at ``z = 0`` (the start point), the covariance at the identity and the
+internal step size ``sigma`` at 1.0, so coordinate ``j`` is first sampled with standard
+deviation ``space.sigma0[j]`` in its own units (rad for rotations, the body's length unit
+for translations). This is the per-coordinate scaling of pycma's ``scaling_of_variables``.
+Candidates returned by :meth:`CMAES.ask` and the result are in the original units.
+
+Bounds. Each candidate is sampled from ``N(m, sigma^2 C)`` in normalised coordinates, mapped
+back to original units and clipped to ``[space.lower, space.upper]``. Only clipped points are
+evaluated, and the update (mean, evolution paths, covariance) uses the clipped points,
+re-normalised; coordinates that were not clipped keep their exact sampled value. The mean is
+thus a weighted average of points in the box and stays inside it.
+
+Budget. Generations have ``lambda`` candidates, except that the last one is truncated so that
+the number of evaluations reaches ``space.budget`` exactly and never exceeds it. A truncated
+generation with at least ``mu`` candidates is used for a full update over its best ``mu``;
+one with fewer only updates the best point.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from mmocap.api import Result, SearchSpace
+from mmocap.errors import ConfigError
+
+_MAX_CONDITION = 1e14
+
+
+@dataclass(frozen=True)
+class StrategyParameters:
+    """Default strategy parameters of Table 2 for dimension ``dim``.
+
+    Attributes:
+        dim: D, the number of searched coordinates.
+        lam: lambda, candidates per generation.
+        mu: number of parents recombined into the mean.
+        weights: (mu,) positive log-decreasing recombination weights summing to 1.
+        mu_eff: variance effective selection mass, 1 / sum(w_i^2).
+        c_sigma, d_sigma: learning rate and damping of the step-size control.
+        c_c: learning rate of the covariance evolution path.
+        mu_cov: weighting between rank-one and rank-mu update (= mu_eff).
+        c_cov: learning rate of the covariance matrix.
+        chi_n: E||N(0, I)||, approximated as sqrt(D) (1 - 1/(4D) + 1/(21 D^2)).
+    """
+
+    dim: int
+    lam: int
+    mu: int
+    weights: np.ndarray
+    mu_eff: float
+    c_sigma: float
+    d_sigma: float
+    c_c: float
+    mu_cov: float
+    c_cov: float
+    chi_n: float
+
+
+def strategy_parameters(dim: int, popsize: int | None = None) -> StrategyParameters:
+    """Table 2 parameters for dimension ``dim``; ``popsize`` replaces lambda when given."""
+    if dim < 1:
+        raise ConfigError(f"search space dimension must be >= 1, got {dim}")
+    lam = popsize if popsize is not None else 4 + math.floor(3 * math.log(dim))
+    mu = lam // 2
+    raw = math.log(mu + 1) - np.log(np.arange(1, mu + 1))
+    weights = raw / raw.sum()
+    mu_eff = float(1.0 / np.sum(weights**2))
+    c_sigma = (mu_eff + 2) / (dim + mu_eff + 3)
+    d_sigma = 1 + 2 * max(0.0, math.sqrt((mu_eff - 1) / (dim + 1)) - 1) + c_sigma
+    c_c = 4 / (dim + 4)
+    mu_cov = mu_eff
+    c_cov = (1 / mu_cov) * 2 / (dim + math.sqrt(2)) ** 2 + (1 - 1 / mu_cov) * min(
+        1.0, (2 * mu_eff - 1) / ((dim + 2) ** 2 + mu_eff)
+    )
+    chi_n = math.sqrt(dim) * (1 - 1 / (4 * dim) + 1 / (21 * dim**2))
+    return StrategyParameters(dim, lam, mu, weights, mu_eff, c_sigma, d_sigma, c_c, mu_cov,
+                              c_cov, chi_n)
+
+
+class CMAES:
+    """CMA-ES minimiser following the :class:`mmocap.api.Optimizer` protocol.
+
+    Args:
+        popsize: lambda; ``None`` uses Table 2, ``4 + floor(3 ln D)``. At least 2.
+        sigma0: the paper's search radius (0.5 rad). The optimiser does not use it: its
+            initial per-coordinate standard deviations are ``space.sigma0``, which the
+            tracking stage builds from this value. Must be > 0.
+        tolx: stop when every coordinate's standard deviation ``sigma * sqrt(C_jj) *
+            space.sigma0[j]`` (original units) is below this. Must be >= 0.
+        tolfun: stop when the range of f in the last generation and of the best f over the
+            last ``10 + ceil(30 D / lambda)`` generations is below this. Must be >= 0.
+    """
+
+    def __init__(self, popsize: int | None = None, sigma0: float = 0.5, tolx: float = 1e-12,
+                 tolfun: float = 1e-12):
+        if popsize is not None and (isinstance(popsize, bool)
+                                    or not isinstance(popsize, (int, np.integer)) or popsize < 2):
+            raise ConfigError(f"optimizer.popsize must be an integer >= 2 or null, got {popsize!r}")
+        if not _is_real(sigma0) or not sigma0 > 0 or not math.isfinite(sigma0):
+            raise ConfigError(f"optimizer.sigma0 must be > 0, got {sigma0!r}")
+        if not _is_real(tolx) or not tolx >= 0 or not math.isfinite(tolx):
+            raise ConfigError(f"optimizer.tolx must be >= 0, got {tolx!r}")
+        if not _is_real(tolfun) or not tolfun >= 0 or not math.isfinite(tolfun):
+            raise ConfigError(f"optimizer.tolfun must be >= 0, got {tolfun!r}")
+        self.popsize = None if popsize is None else int(popsize)
+        self.sigma0 = float(sigma0)
+        self.tolx = float(tolx)
+        self.tolfun = float(tolfun)
+        self.params: StrategyParameters | None = None
+        self._space: SearchSpace | None = None
+
+    def setup(self, space: SearchSpace, rng: np.random.Generator) -> None:
+        """Start a new search in ``space``; all randomness comes from ``rng``."""
+        x0 = np.asarray(space.x0, dtype=float)
+        if x0.ndim != 1 or x0.shape[0] == 0:
+            raise ConfigError(f"search space x0 must have shape (D,), got {x0.shape}")
+        dim = x0.shape[0]
+        lower, upper, scale = (np.broadcast_to(np.asarray(a, dtype=float), (dim,)).copy()
+                               for a in (space.lower, space.upper, space.sigma0))
+        if space.budget < 1:
+            raise ConfigError(f"optimizer budget must be >= 1 evaluation, got {space.budget}")
+        if not np.all(scale > 0):
+            raise ConfigError(f"search space sigma0 must be > 0, got {scale}")
+        if not np.all(lower < upper):
+            raise ConfigError("search space bounds must satisfy lower < upper")
+        self._space = space
+        self._x0, self._lower, self._upper, self._scale = x0, lower, upper, scale
+        self._budget = int(space.budget)
+        self._rng = rng
+        self.params = p = strategy_parameters(dim, self.popsize)
+        self._mean = np.zeros(dim)
+        self._sigma = 1.0
+        self._C = np.eye(dim)
+        self._B = np.eye(dim)
+        self._D = np.ones(dim)
+        self._p_sigma = np.zeros(dim)
+        self._p_c = np.zeros(dim)
+        self._updates = 0
+        self._evaluations = 0
+        self._iterations = 0
+        self._xbest = np.clip(x0, lower, upper)
+        self._fbest = math.inf
+        self._best_history: list[float] = []
+        self._history_len = 10 + math.ceil(30 * dim / p.lam)
+        self._last_f = np.empty(0)
+        self._pending: tuple[np.ndarray, np.ndarray] | None = None
+
+    def ask(self) -> np.ndarray:
+        """Return the next candidates (n, D) in original units, inside the bounds."""
+        self._require_setup()
+        if self._pending is not None:
+            raise RuntimeError("ask() called again before tell()")
+        remaining = self._budget - self._evaluations
+        if remaining <= 0:
+            raise RuntimeError(f"evaluation budget of {self._budget} is exhausted")
+        n = min(self.params.lam, remaining)
+        normal = self._rng.standard_normal((n, self.params.dim))
+        z = self._mean + self._sigma * (normal * self._D) @ self._B.T
+        x = self._x0 + self._scale * z
+        X = np.clip(x, self._lower, self._upper)
+        z = np.where(X != x, (X - self._x0) / self._scale, z)
+        self._pending = (X.copy(), z)
+        return X
+
+    def tell(self, X: np.ndarray, f: np.ndarray) -> None:
+        """Take the fitness f (n,) of the candidates X (n, D) that :meth:`ask` returned."""
+        self._require_setup()
+        if self._pending is None:
+            raise RuntimeError("tell() called without a preceding ask()")
+        X_asked, z = self._pending
+        X = np.asarray(X)
+        f = np.asarray(f, dtype=float)
+        if X.shape != X_asked.shape or not np.array_equal(X, X_asked):
+            raise ValueError(f"tell() needs exactly the {X_asked.shape} array that ask() "
+                             f"returned, got shape {X.shape}")
+        if f.shape != (X.shape[0],):
+            raise ValueError(f"tell() needs fitness of shape ({X.shape[0]},), got {f.shape}")
+        if np.isnan(f).any():
+            raise ValueError("tell() got NaN fitness values")
+        self._pending = None
+        self._evaluations += X.shape[0]
+        self._iterations += 1
+        order = np.argsort(f, kind="stable")
+        if f[order[0]] < self._fbest:
+            self._fbest = float(f[order[0]])
+            self._xbest = X_asked[order[0]].copy()
+        self._last_f = f
+        self._best_history.append(float(f[order[0]]))
+        del self._best_history[:-self._history_len]
+        if X.shape[0] >= self.params.mu:
+            self._update(z[order[: self.params.mu]])
+
+    def _update(self, z_sel: np.ndarray) -> None:
+        """Fig. 4 update from the mu best normalised candidates z_sel (mu, D), best first.
+
+        p_sigma follows Eq. 11 (Fig. 4 prints mu_eff outside the square root); the rank-mu
+        term uses this generation's steps (Eq. 14 prints generation g). The paper does not
+        define H_sigma; it is Hansen's: ||p_sigma|| / sqrt(1 - (1 - c_sigma)^(2(g+1)))
+        < (1.4 + 2 / (D + 1)) E||N(0, I)||.
+        """
+        p = self.params
+        y = (z_sel - self._mean) / self._sigma
+        y_w = p.weights @ y
+        self._mean = self._mean + self._sigma * y_w
+        inv_sqrt_C_y_w = self._B @ ((self._B.T @ y_w) / self._D)
+        self._p_sigma = ((1 - p.c_sigma) * self._p_sigma
+                         + math.sqrt(p.c_sigma * (2 - p.c_sigma) * p.mu_eff) * inv_sqrt_C_y_w)
+        self._updates += 1
+        norm_p_sigma = float(np.linalg.norm(self._p_sigma))
+        bias = math.sqrt(1 - (1 - p.c_sigma) ** (2 * self._updates))
+        h_sigma = norm_p_sigma / bias < (1.4 + 2 / (p.dim + 1)) * p.chi_n
+        self._p_c = ((1 - p.c_c) * self._p_c
+                     + h_sigma * math.sqrt(p.c_c * (2 - p.c_c) * p.mu_eff) * y_w)
+        c_one = p.c_cov / p.mu_cov
+        c_mu = p.c_cov - c_one
+        # (1 - h_sigma) term: Hansen's compensation for the p_c update stalled by h_sigma.
+        stalled = (1 - h_sigma) * p.c_c * (2 - p.c_c)
+        C = ((1 - p.c_cov) * self._C
+             + c_one * (np.outer(self._p_c, self._p_c) + stalled * self._C)
+             + c_mu * (y.T * p.weights) @ y)
+        self._C = (C + C.T) / 2
+        self._sigma *= math.exp(p.c_sigma / p.d_sigma * (norm_p_sigma / p.chi_n - 1))
+        eigenvalues, self._B = np.linalg.eigh(self._C)
+        self._D = np.sqrt(np.maximum(eigenvalues, 0.0))
+
+    def stop(self) -> dict:
+        """Return ``{}`` to go on, else the reasons: ``budget`` (evaluations), ``tolx`` (largest
+        coordinate std, original units), ``tolfun`` (f range), ``conditioncov`` (cond(C))."""
+        self._require_setup()
+        reasons: dict = {}
+        if self._evaluations >= self._budget:
+            reasons["budget"] = self._evaluations
+        if self._updates == 0:
+            return reasons
+        std = float(np.max(self._sigma * np.sqrt(np.diag(self._C)) * self._scale))
+        if std < self.tolx:
+            reasons["tolx"] = std
+        if len(self._best_history) == self._history_len:
+            f_range = max(float(np.ptp(self._last_f)), float(np.ptp(self._best_history)))
+            if f_range < self.tolfun:
+                reasons["tolfun"] = f_range
+        d_min = float(self._D.min())
+        condition = math.inf if d_min == 0 else float((self._D.max() / d_min) ** 2)
+        if condition > _MAX_CONDITION:
+            reasons["conditioncov"] = condition
+        return reasons
+
+    @property
+    def result(self) -> Result:
+        """Best point over all evaluations; before the first tell ``fbest`` is inf (and
+        ``xbest`` is (0,) before setup, so that ``isinstance(opt, Optimizer)`` works)."""
+        if self._space is None:
+            return Result(np.empty(0), math.inf, 0, 0, {})
+        return Result(self._xbest.copy(), self._fbest, self._evaluations, self._iterations,
+                      self.stop())
+
+    def _require_setup(self) -> None:
+        if self._space is None:
+            raise RuntimeError("call setup() before using the optimiser")
+
+
+def _is_real(value) -> bool:
+    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool)

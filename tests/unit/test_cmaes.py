@@ -1,0 +1,182 @@
+import math
+
+import numpy as np
+import pytest
+
+from mmocap.api import Optimizer, SearchSpace
+from mmocap.errors import ConfigError
+from mmocap.optimizers.cmaes import CMAES, strategy_parameters
+
+
+def sphere(X):
+    return np.sum(X**2, axis=1)
+
+
+def ellipsoid(X):
+    """Condition number 1e6: axis scales 1 ... 1e3."""
+    d = X.shape[1]
+    return np.sum(1e6 ** (np.arange(d) / (d - 1)) * X**2, axis=1)
+
+
+def rosenbrock(X):
+    return np.sum(100 * (X[:, 1:] - X[:, :-1] ** 2) ** 2 + (1 - X[:, :-1]) ** 2, axis=1)
+
+
+def box(dim, x0, bound, sigma0, budget):
+    ones = np.ones(dim)
+    return SearchSpace(x0=x0 * ones, lower=-bound * ones, upper=bound * ones,
+                       sigma0=sigma0 * ones, budget=budget)
+
+
+def minimise(f, space, seed, opt=None, asked=None):
+    opt = opt or CMAES()
+    opt.setup(space, np.random.default_rng(seed))
+    while not opt.stop():
+        X = opt.ask()
+        if asked is not None:
+            asked.append(X.copy())
+        opt.tell(X, f(X))
+    return opt.result
+
+
+def test_strategy_parameters_follow_table_2_for_39_dof():
+    d = 39
+    p = strategy_parameters(d)
+    assert (p.lam, p.mu) == (14, 7)
+    raw = [math.log(8) - math.log(i) for i in range(1, 8)]
+    w = [r / sum(raw) for r in raw]
+    np.testing.assert_allclose(p.weights, w, rtol=1e-12)
+    assert p.weights.sum() == pytest.approx(1.0)
+    assert np.all(np.diff(p.weights) < 0)
+    mu_eff = 1 / sum(wi * wi for wi in w)
+    assert p.mu_eff == pytest.approx(mu_eff, rel=1e-12)
+    assert 4.0 < p.mu_eff < 5.0
+    assert p.c_sigma == pytest.approx((mu_eff + 2) / (d + mu_eff + 3))
+    assert p.d_sigma == pytest.approx(1 + p.c_sigma)  # sqrt((mu_eff-1)/(D+1)) - 1 < 0
+    assert p.c_c == pytest.approx(4 / 43)
+    assert p.mu_cov == pytest.approx(mu_eff)
+    c_cov = (2 / (mu_eff * (d + math.sqrt(2)) ** 2)
+             + (1 - 1 / mu_eff) * min(1, (2 * mu_eff - 1) / (41**2 + mu_eff)))
+    assert p.c_cov == pytest.approx(c_cov)
+
+    opt = CMAES()
+    opt.setup(box(d, 0.0, 1.0, 0.5, 100), np.random.default_rng(0))
+    assert opt.params.lam == 14 and opt.ask().shape == (14, 39)
+    assert strategy_parameters(28).lam == 13
+    assert strategy_parameters(39, popsize=20).mu == 10
+
+
+def test_satisfies_optimizer_protocol():
+    assert isinstance(CMAES(), Optimizer)
+
+
+def test_sphere_39d():
+    r = minimise(sphere, box(39, 3.0, 10.0, 1.0, 20000), seed=0)
+    assert r.fbest < 1e-8
+    assert r.evaluations <= 20000
+
+
+def test_ellipsoid_10d_needs_covariance_adaptation():
+    # Without covariance adaptation (isotropic ES with step-size control) f stays above 100
+    # after 10 000 evaluations, and the best of 10 000 uniform samples in the box is ~1e5.
+    r = minimise(ellipsoid, box(10, 3.0, 10.0, 1.0, 10000), seed=0)
+    assert r.fbest < 1e-6
+
+
+def test_rosenbrock_10d():
+    # Random search in the box gets f ~ 1e3, an isotropic ES with a fixed step size f ~ 20.
+    r = minimise(rosenbrock, box(10, 0.0, 5.0, 0.5, 30000), seed=0)
+    assert r.fbest < 1e-4
+    np.testing.assert_allclose(r.xbest, np.ones(10), atol=1e-2)
+
+
+@pytest.mark.parametrize("budget, last", [(100, 2), (95, 11), (98, 14), (5, 5), (1, 1)])
+def test_budget_is_never_exceeded(budget, last):
+    opt = CMAES()
+    asked = []
+    r = minimise(sphere, box(39, 3.0, 10.0, 1.0, budget), seed=1, opt=opt, asked=asked)
+    assert sum(len(X) for X in asked) == r.evaluations == budget
+    assert [len(X) for X in asked[:-1]] == [14] * (len(asked) - 1)
+    assert len(asked[-1]) == last
+    assert r.iterations == len(asked)
+    assert r.stop_reasons["budget"] == budget
+    assert r.fbest == pytest.approx(min(sphere(X).min() for X in asked))
+    with pytest.raises(RuntimeError, match="budget"):
+        opt.ask()
+
+
+def test_asked_points_stay_in_bounds_and_optimum_on_bound_is_found():
+    # The unconstrained optimum (2, ..., 2) lies outside the box, so many samples are clipped.
+    space = SearchSpace(x0=np.full(5, 0.9), lower=-np.ones(5), upper=np.ones(5),
+                        sigma0=np.full(5, 2.0), budget=3000)
+    asked = []
+    r = minimise(lambda X: np.sum((X - 2.0) ** 2, axis=1), space, seed=3, asked=asked)
+    X = np.concatenate(asked)
+    assert np.all(X >= space.lower) and np.all(X <= space.upper)
+    assert np.mean(X == space.upper) > 0.1
+    assert r.fbest == pytest.approx(5.0, abs=1e-8)
+    np.testing.assert_allclose(r.xbest, 1.0, atol=1e-8)
+
+
+def test_stops_on_tolx_before_the_budget():
+    r = minimise(sphere, box(10, 3.0, 10.0, 1.0, 20000), seed=2, opt=CMAES(tolx=1e-6))
+    assert set(r.stop_reasons) == {"tolx"}
+    assert r.stop_reasons["tolx"] < 1e-6
+    assert r.evaluations < 20000
+
+
+def test_stops_on_tolfun_on_a_flat_function():
+    r = minimise(lambda X: np.ones(len(X)), box(10, 0.0, 1.0, 0.5, 20000), seed=2)
+    assert r.stop_reasons == {"tolfun": 0.0}
+    assert r.evaluations < 20000
+
+
+def test_same_seed_same_result_different_seed_different():
+    space = box(10, 3.0, 10.0, 1.0, 500)
+    a, b, c = (minimise(sphere, space, seed) for seed in (7, 7, 8))
+    np.testing.assert_array_equal(a.xbest, b.xbest)
+    assert a.fbest == b.fbest
+    assert not np.array_equal(a.xbest, c.xbest)
+
+
+def test_setup_resets_state():
+    opt = CMAES()
+    space = box(10, 3.0, 10.0, 1.0, 300)
+    first = minimise(sphere, space, 4, opt=opt)
+    second = minimise(sphere, space, 4, opt=opt)
+    np.testing.assert_array_equal(first.xbest, second.xbest)
+    assert second.evaluations == 300
+
+
+def test_tell_checks_its_input():
+    opt = CMAES()
+    opt.setup(box(5, 0.0, 1.0, 0.5, 100), np.random.default_rng(0))
+    X = opt.ask()
+    with pytest.raises(ValueError):
+        opt.tell(X[:-1], sphere(X[:-1]))
+    with pytest.raises(ValueError):
+        opt.tell(X + 1e-3, sphere(X))
+    with pytest.raises(ValueError):
+        opt.tell(X, sphere(X)[:-1])
+    opt.tell(X, sphere(X))
+    with pytest.raises(RuntimeError):
+        opt.tell(X, sphere(X))
+
+
+@pytest.mark.parametrize("kwargs, name, value", [
+    ({"sigma0": -1}, "optimizer.sigma0", "-1"),
+    ({"sigma0": 0.0}, "optimizer.sigma0", "0.0"),
+    ({"sigma0": float("nan")}, "optimizer.sigma0", "nan"),
+    ({"popsize": 1}, "optimizer.popsize", "1"),
+    ({"popsize": 4.5}, "optimizer.popsize", "4.5"),
+    ({"tolx": -1e-3}, "optimizer.tolx", "-0.001"),
+    ({"tolfun": -1}, "optimizer.tolfun", "-1"),
+])
+def test_bad_constructor_values_raise_config_error(kwargs, name, value):
+    with pytest.raises(ConfigError, match=rf"{name}.*{value}"):
+        CMAES(**kwargs)
+
+
+def test_zero_budget_raises_config_error():
+    with pytest.raises(ConfigError, match="budget.*0"):
+        CMAES().setup(box(5, 0.0, 1.0, 0.5, 0), np.random.default_rng(0))
