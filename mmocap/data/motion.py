@@ -98,7 +98,7 @@ def gestures(t: np.ndarray, p: _Pose, rng: np.random.Generator) -> None:
 
 
 def boxing(t: np.ndarray, p: _Pose, rng: np.random.Generator) -> None:
-    """Guard stance with alternating jabs every ~0.6 s, torso twisting into each punch."""
+    """Guard stance with alternating punches every ~0.7 s, torso twisting into each one."""
     p["Root.ry"] = rng.uniform(-np.pi, np.pi)
     p["Root.tx"], p["Root.tz"] = rng.uniform(-300, 300, size=2)
     p["Root.ty"] += -60 + 15 * np.sin(2 * np.pi * 1.5 * t)
@@ -108,16 +108,16 @@ def boxing(t: np.ndarray, p: _Pose, rng: np.random.Generator) -> None:
         p[f"{side}Knee.rx"] = 0.45
         p[f"{side}Ankle.rx"] = -0.15
     p["LHip.rz"], p["RHip.rz"] = 0.12, -0.12
-    interval = rng.uniform(0.5, 0.7)
+    interval = rng.uniform(0.6, 0.8)
     k = np.floor(t / interval)
     s = (t - k * interval) / interval                    # 0..1 within each punch
-    punch = np.sin(np.pi * np.clip(s / 0.5, 0, 1)) ** 2  # out and back in the first half
+    punch = np.sin(np.pi * s) ** 2                       # out and back again
     left = (k % 2 == 0).astype(float)
     for side, active, sign in (("L", left, 1.0), ("R", 1 - left, -1.0)):
         extend = punch * active
         p[f"{side}Shoulder.rz"] = sign * (0.75 - 0.2 * extend)
         p[f"{side}Shoulder.ry"] = 0.9 + 0.55 * extend
-        p[f"{side}Elbow.ry"] = 1.7 - 2.2 * extend
+        p[f"{side}Elbow.ry"] = 1.7 - 2.0 * extend
         p[f"{side}Wrist.ry"] = 0.2 * extend
     p["BottomSpine.ry"] = 0.3 * punch * (2 * left - 1)
     p["Neck.rx"] = 0.1
