@@ -1,0 +1,220 @@
+"""Vectorised evaluator: the rule of :mod:`mmocap.evaluators.silhouette` with NumPy and OpenCV.
+
+Projection (steps 3-4), in float64 for the whole batch of views at once, one matrix
+product per joint (vertices are grouped by joint):
+
+- ``(u', v', z) = A [v; 1]`` with ``A = [K[0] M; K[1] M; M[2]]`` (3x4) per (view, joint);
+- the culling test ``n' . p = n^T (R^T R) v + n . (R^T b)`` for ``M = [R b]`` is a product of
+  a 12-vector per (view, joint) with the per-vertex features ``(n (x) v, n)`` (12,).
+
+Joints dropped by step 2 get ``A = 0`` and so fail ``z > NEAR_MM``.
+
+Stamping (step 5): the kept centres of all views are written into one tall uint8 canvas,
+each view in its own (Hc, Wc) window that covers its centres plus the largest patch reach
+``P`` on every side (centres are clamped to at most ``P + 1`` pixels outside the image,
+where their patches stay outside it). For each distinct patch side ``s`` the centres of
+that side go into a separate canvas dilated with an ``s x s`` kernel; OpenCV's default
+anchor ``(s//2, s//2)`` makes a centre at ``x`` cover ``x - (s-1)//2 .. x + s//2`` as
+the rule asks. The windows never reach into each other, so one ``cv2.dilate`` per side
+serves all views. Counting ANDs each window with the matching window of a padded code
+image (1 = inside the image, 3 = inside and foreground).
+
+Views with a patch side above :data:`MAX_DILATE_SIDE` (a body part within a few
+centimetres of a camera) are rendered one by one instead, with rectangles summed into a
+difference image over the whole image.
+"""
+from __future__ import annotations
+
+import cv2
+import numpy as np
+from numpy.lib.stride_tricks import sliding_window_view
+
+from mmocap.evaluators.silhouette import NEAR_MM, SilhouetteEvaluator, view_geometry
+
+MAX_DILATE_SIDE = 33
+_MAX_REACH = MAX_DILATE_SIDE // 2
+_MARGIN = 2 * _MAX_REACH + 1      # padding of the code images on every side, pixels
+_CHUNK = 1 << 21                   # views x vertices projected at once (bounds the memory)
+_ON = 255                          # a covered canvas pixel; ANDed with a code it keeps the code
+
+
+class NumpyEvaluator(SilhouetteEvaluator):
+    """The silhouette fitness vectorised over population x cameras x vertices.
+
+    Args:
+        patch_scale: factor on the body's per-joint patch size (Cano Eq. 4), > 0.
+    """
+
+    def _prepare(self) -> None:
+        body = self.body
+        joint = np.asarray(body.vertex_joint)
+        order = np.argsort(joint, kind="stable")
+        v = np.asarray(body.rest_vertices, np.float64)[order]
+        n = np.asarray(body.rest_normals, np.float64)[order]
+        self._joint = joint[order]
+        self._bounds = np.searchsorted(self._joint, np.arange(len(body.joint_rest_positions) + 1))
+        self._points = np.ascontiguousarray(np.c_[v, np.ones(len(v))].T)                # (4, N)
+        self._features = np.ascontiguousarray(
+            np.c_[(n[:, :, None] * v[:, None, :]).reshape(-1, 9), n].T)                  # (12, N)
+        self._K = np.stack([cam.K for cam in self.cameras])
+        self._hmax = max(cam.height for cam in self.cameras)
+        self._wmax = max(cam.width for cam in self.cameras)
+        pad = 2 * _MARGIN
+        codes = np.zeros((len(self.cameras), self._hmax + pad, self._wmax + pad), np.uint8)
+        for c, (cam, fg) in enumerate(zip(self.cameras, self.foreground)):
+            inside = codes[c, _MARGIN:_MARGIN + cam.height, _MARGIN:_MARGIN + cam.width]
+            inside[:] = 1 + 2 * fg.view(np.uint8)
+        self._codes = codes
+
+    def _counts(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        step = max(1, _CHUNK // (len(self.cameras) * len(self._joint)))
+        parts = [self._chunk_counts(X[i:i + step]) for i in range(0, len(X), step)]
+        return np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
+
+    def _chunk_counts(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        cams = np.arange(len(self.cameras))
+        n, C = len(X), len(cams)
+        canvas, oy, ox, exact = self._stamp(X, cams)
+        model_px = np.zeros(n * C, dtype=np.int64)
+        overlap_px = np.zeros(n * C, dtype=np.int64)
+        if canvas is not None:
+            nV, Hc, Wc = canvas.shape
+            windows = sliding_window_view(self._codes, (Hc, Wc), axis=(1, 2))
+            codes = windows[np.tile(cams, n), oy + _MARGIN, ox + _MARGIN]
+            covered = np.bitwise_and(canvas, codes, out=codes)
+            overlap = covered == 3
+            for view in range(nV):
+                model_px[view] = np.count_nonzero(covered[view])
+                overlap_px[view] = np.count_nonzero(overlap[view])
+        for view, image in exact.items():
+            model_px[view] = np.count_nonzero(image)
+            overlap_px[view] = np.count_nonzero(image & self.foreground[view % C])
+        return model_px.reshape(n, C), overlap_px.reshape(n, C)
+
+    def _render(self, x: np.ndarray, camera_index: int) -> np.ndarray:
+        cam = self.cameras[camera_index]
+        canvas, oy, ox, exact = self._stamp(x[None], np.array([camera_index]))
+        if 0 in exact:
+            return exact[0]
+        image = np.zeros((cam.height, cam.width), dtype=bool)
+        if canvas is not None:
+            _, Hc, Wc = canvas.shape
+            r0, r1 = max(oy[0], 0), min(oy[0] + Hc, cam.height)
+            c0, c1 = max(ox[0], 0), min(ox[0] + Wc, cam.width)
+            if r0 < r1 and c0 < c1:
+                image[r0:r1, c0:c1] = canvas[0, r0 - oy[0]:r1 - oy[0], c0 - ox[0]:c1 - ox[0]] != 0
+        return image
+
+    def _stamp(self, X: np.ndarray, cams: np.ndarray):
+        """Silhouettes of poses X (n, P) in cameras ``cams`` (C,): nV = n x C views, ``i * C + c``.
+
+        Returns:
+            canvas: (nV, Hc, Wc) uint8, nonzero = covered, or None when no view has a
+                centre on the dilation path; window ``v`` starts at image row ``oy[v]``
+                and column ``ox[v]``.
+            oy, ox: (nV,) int64 window origins in image pixels (may be negative).
+            exact: {view: (H, W) bool} silhouettes of views rendered one by one.
+        """
+        cameras = [self.cameras[c] for c in cams]
+        n, C = len(X), len(cams)
+        nV = n * C
+        M, side = view_geometry(self.body, cameras, X, self.patch_scale)
+        J = side.shape[2]
+        big = (side > MAX_DILATE_SIDE).any(axis=2).reshape(nV)
+        exact = {int(view): _exact_view(M.reshape(nV, J, 4, 4)[view], side.reshape(nV, J)[view],
+                                        cameras[view % C], self.body)
+                 for view in np.flatnonzero(big)}
+
+        K = self._K[cams]
+        A = np.concatenate([K[None, :, None, :2] @ M[..., :3, :], M[..., 2:3, :]], axis=-2)
+        R, b = M[..., :3, :3], M[..., :3, 3]
+        g = np.concatenate([(np.swapaxes(R, -1, -2) @ R).reshape(n, C, J, 9),
+                            np.einsum("...ki,...k->...i", R, b)], axis=-1).reshape(nV, J, 12)
+        side = np.where(big[:, None], 0, side.reshape(nV, J))      # sides on the dilation path
+        A = A.reshape(nV, J, 3, 4)
+        A[side == 0] = 0.0
+        A = np.ascontiguousarray(A.transpose(1, 2, 0, 3))          # (J, 3, nV, 4)
+
+        N = self._points.shape[1]
+        Q = np.empty((3, nV, N))                                    # u', v', z per view and vertex
+        vis = np.empty((nV, N))                                     # n' . p
+        for j in range(J):
+            lo, hi = self._bounds[j], self._bounds[j + 1]
+            if lo < hi:
+                np.matmul(A[j].reshape(3 * nV, 4), self._points[:, lo:hi],
+                          out=Q.reshape(3 * nV, N)[:, lo:hi])
+                np.matmul(g[:, j], self._features[:, lo:hi], out=vis[:, lo:hi])
+        keep = Q[2] > NEAR_MM
+        keep &= vis < 0
+        counts = np.count_nonzero(keep, axis=1)
+        oy = np.full(nV, -_MARGIN, dtype=np.int64)
+        ox = np.full(nV, -_MARGIN, dtype=np.int64)
+        present = np.flatnonzero(counts)
+        if present.size == 0:
+            return None, oy, ox, exact
+
+        k = np.flatnonzero(keep)                                    # view * N + vertex
+        u, v, z = Q.reshape(3, nV * N).take(k, axis=1)
+        sides = np.unique(side[side > 0])
+        reach = int(sides[-1]) // 2
+        cx = _centre(u, z, reach, self._wmax)
+        cy = _centre(v, z, reach, self._hmax)
+        starts = np.concatenate([[0], np.cumsum(counts[present])[:-1]])
+        xmin, xmax = np.minimum.reduceat(cx, starts), np.maximum.reduceat(cx, starts)
+        ymin, ymax = np.minimum.reduceat(cy, starts), np.maximum.reduceat(cy, starts)
+        Hc = int((ymax - ymin).max()) + 1 + 2 * reach
+        Wc = int((xmax - xmin).max()) + 1 + 2 * reach
+        oy[present] = np.minimum(ymin - reach, self._hmax + _MARGIN - Hc)
+        ox[present] = np.minimum(xmin - reach, self._wmax + _MARGIN - Wc)
+        lin = cy * Wc
+        lin += cx
+        lin += np.repeat(np.arange(nV) * (Hc * Wc) - oy * Wc - ox, counts)
+
+        if len(sides) > 1:                                          # one layer per patch side
+            layer = np.searchsorted(sides, side).astype(np.uint8)
+            lin += np.repeat(layer, np.diff(self._bounds), axis=1).take(k) * np.int64(nV * Hc * Wc)
+        layers = np.zeros((len(sides), nV * Hc, Wc), dtype=np.uint8)
+        layers.ravel()[lin] = _ON
+        for s, image in zip(sides, layers):
+            if s > 1:
+                cv2.dilate(image, np.ones((s, s), np.uint8), dst=image)
+        canvas = np.bitwise_or.reduce(layers, axis=0) if len(sides) > 1 else layers[0]
+        return canvas.reshape(nV, Hc, Wc), oy, ox, exact
+
+
+def _centre(coord: np.ndarray, z: np.ndarray, reach: int, size: int) -> np.ndarray:
+    """Homogeneous coordinate and depth (K,) -> (K,) int64 ``floor(coord / z + 0.5)``.
+
+    Clamped to ``[-reach - 1, size + reach]``: a clamped centre's patch (reach at most
+    ``reach``) stays outside the image before and after clamping.
+    """
+    c = np.divide(coord, z, out=coord)
+    c += 0.5
+    np.floor(c, out=c)
+    np.clip(c, -reach - 1, size + reach, out=c)
+    return c.astype(np.int64)
+
+
+def _exact_view(M: np.ndarray, side: np.ndarray, camera, body) -> np.ndarray:
+    """One view, any patch sizes: (J, 4, 4) ``E_c T_j``, (J,) sides -> (H, W) bool silhouette."""
+    H, W = camera.height, camera.width
+    joint = np.asarray(body.vertex_joint)
+    Mv = M[joint]
+    p = np.einsum("nab,nb->na", Mv[:, :3, :3], body.rest_vertices) + Mv[:, :3, 3]
+    normal = np.einsum("nab,nb->na", Mv[:, :3, :3], body.rest_normals)
+    s = side[joint]
+    keep = (s > 0) & (p[:, 2] > NEAR_MM) & (np.einsum("na,na->n", normal, p) < 0)
+    p, s = p[keep], s[keep]
+    cx = np.floor(p @ camera.K[0] / p[:, 2] + 0.5)
+    cy = np.floor(p @ camera.K[1] / p[:, 2] + 0.5)
+    col0, col1 = np.maximum(cx - (s - 1) // 2, 0), np.minimum(cx + s // 2, W - 1)
+    row0, row1 = np.maximum(cy - (s - 1) // 2, 0), np.minimum(cy + s // 2, H - 1)
+    ok = (col0 <= col1) & (row0 <= row1)
+    col0, col1, row0, row1 = (a[ok].astype(np.int64) for a in (col0, col1, row0, row1))
+    # +1 at each rectangle's top-left, -1 right of it and below it, +1 diagonally past it;
+    # the 2-D prefix sum then counts the rectangles covering each pixel.
+    corners = np.concatenate([row0 * (W + 1) + col0, row0 * (W + 1) + col1 + 1,
+                              (row1 + 1) * (W + 1) + col0, (row1 + 1) * (W + 1) + col1 + 1])
+    weights = np.repeat([1.0, -1.0, -1.0, 1.0], len(col0))
+    diff = np.bincount(corners, weights, minlength=(H + 1) * (W + 1)).reshape(H + 1, W + 1)
+    return np.cumsum(np.cumsum(diff, axis=0), axis=1)[:H, :W] > 0.5

@@ -1,0 +1,235 @@
+"""The silhouette fitness that every evaluator backend computes (Cano Eq. 3-7, Yeguas Eq. 4-5).
+
+This docstring is the specification; every backend (naive, numpy, multiprocessing,
+OpenCL, ...) implements exactly this rule and must give the same pixel counts.
+
+Inputs: a batch of poses ``X`` (n, P), a body (see :class:`SilhouetteEvaluator`), cameras
+used as ideal pin-holes (``K``, ``R``, ``t`` in mm; lens distortion is ignored because the
+foreground masks are undistorted upstream) and one foreground mask ``F_c`` (H_c, W_c) per
+camera. Pixel centres are at integer coordinates, as in OpenCV.
+
+For every candidate ``i``, camera ``c`` and joint ``j``:
+
+1. ``M = E_c T_j`` (4x4), with ``E_c = camera.extrinsic`` and ``T_j = body.transforms(X)[i, j]``.
+2. Patch side in pixels: ``z_j = (M [p_j; 1]).z`` with ``p_j = body.joint_rest_positions[j]``;
+   ``s = max(1, ceil(f * body.patch_mm[j] * patch_scale / z_j))`` with ``f = camera.focal``.
+   If ``z_j <= NEAR_MM`` the joint's vertices are all dropped.
+3. Each vertex ``v`` of joint ``j`` with rest normal ``n``: ``p = M [v; 1]`` (camera frame, mm)
+   and ``n' = M[:3, :3] n``. The vertex is kept iff ``p.z > NEAR_MM`` and ``n' . p < 0`` (its
+   normal faces the camera: back-face culling).
+4. Projection: ``u = (K[0] . p) / p.z``, ``v = (K[1] . p) / p.z``; centre pixel
+   ``(cx, cy) = (floor(u + 0.5), floor(v + 0.5))``.
+5. The patch covers columns ``cx - (s-1)//2 .. cx + s//2`` and rows ``cy - (s-1)//2 .. cy + s//2``,
+   clipped to the image; a vertex outside the image can still cover border pixels.
+6. The model silhouette ``M_c`` is the union of the patches; the counts are ``|M_c|`` and
+   ``|M_c & F_c|``; ``|F_c|`` is fixed per frame.
+
+Fitness per view (Eq. 6): ``f_c = (|M|-|M&F|) / (2|M|) + (|F|-|M&F|) / (2|F|)``; a term whose
+denominator is 0 counts 0.5 (no overlap), except that a view with ``|M| = |F| = 0`` scores 0
+(perfect match). The fitness of a candidate is the mean of ``f_c`` over the cameras (Eq. 7),
+in [0, 1]; never NaN.
+
+Backends may evaluate steps 3-4 in any algebraically equivalent order in float64; their
+results can then differ only for a value within rounding error of a decision boundary
+(``u + 0.5`` an integer, ``n' . p = 0``, ``p.z = NEAR_MM``), which real inputs do not hit.
+Steps 1-2 are computed once, by :func:`view_geometry`, for every backend.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from mmocap.errors import ConfigError, DataError
+
+NEAR_MM = 1.0
+
+
+def view_geometry(body, cameras, X: np.ndarray,
+                  patch_scale: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
+    """Steps 1-2 of the rule for a batch.
+
+    Args:
+        body: the body model (``transforms``, ``joint_rest_positions``, ``patch_mm``).
+        cameras: C cameras.
+        X: (n, P) poses.
+        patch_scale: factor on ``body.patch_mm``.
+
+    Returns:
+        M: (n, C, J, 4, 4) float64, ``E_c T_j`` mapping rest-pose mm to camera-frame mm.
+        side: (n, C, J) int64 patch side in pixels, 0 where the joint is dropped.
+    """
+    T = np.asarray(body.transforms(X), dtype=np.float64)
+    J = len(body.joint_rest_positions)
+    if T.shape != (len(X), J, 4, 4):
+        raise ValueError(f"body.transforms returned shape {T.shape}, expected {(len(X), J, 4, 4)}")
+    E = np.stack([cam.extrinsic for cam in cameras])
+    M = E[None, :, None] @ T[:, None]
+    pivots = np.c_[np.asarray(body.joint_rest_positions, np.float64), np.ones(J)]
+    z = np.einsum("ncjk,jk->ncj", M[..., 2, :], pivots)
+    focal = np.array([cam.focal for cam in cameras])
+    patch = np.asarray(body.patch_mm, np.float64) * patch_scale
+    ok = z > NEAR_MM
+    raw = np.ceil(focal[None, :, None] * patch[None, None, :] / np.where(ok, z, 1.0))
+    side = np.where(ok, np.maximum(raw, 1.0), 0.0).astype(np.int64)
+    return M, side
+
+
+def fitness_from_counts(model_px: np.ndarray, overlap_px: np.ndarray, fg_px: np.ndarray) -> np.ndarray:
+    """Eq. 6-7 from pixel counts.
+
+    Args:
+        model_px: (n, C) ``|M_c|`` per candidate and camera.
+        overlap_px: (n, C) ``|M_c & F_c|``.
+        fg_px: (C,) ``|F_c|``.
+
+    Returns:
+        (n,) float64 fitness in [0, 1], the mean over cameras of ``f_c``.
+    """
+    m = np.asarray(model_px, dtype=np.float64)
+    o = np.asarray(overlap_px, dtype=np.float64)
+    f = np.asarray(fg_px, dtype=np.float64)
+    if m.ndim != 2 or o.shape != m.shape or f.shape != m.shape[1:]:
+        raise ValueError(f"model_px, overlap_px and fg_px must be (n, C), (n, C) and (C,), "
+                         f"got {m.shape}, {o.shape} and {f.shape}")
+    model_term = np.where(m > 0, (m - o) / (2 * np.maximum(m, 1)), 0.5)
+    fg_term = np.where(f > 0, (f - o) / (2 * np.maximum(f, 1)), 0.5)
+    per_view = np.where((m == 0) & (f == 0), 0.0, model_term + fg_term)
+    return per_view.mean(axis=1)
+
+
+def check_poses(X: np.ndarray) -> np.ndarray:
+    """(n, P) poses as float64; ValueError for another shape or a row with NaN or inf."""
+    X = np.asarray(X, dtype=np.float64)
+    if X.ndim != 2:
+        raise ValueError(f"poses must be an (n, P) array, got shape {X.shape}")
+    bad = np.flatnonzero(~np.isfinite(X).all(axis=1))
+    if bad.size:
+        raise ValueError(f"pose row {bad[0]} contains NaN or inf ({bad.size} bad rows)")
+    return X
+
+
+def check_foreground(cameras, foreground) -> list[np.ndarray]:
+    """One (height, width) mask per camera -> list of (H_c, W_c) bool; DataError otherwise."""
+    if not hasattr(foreground, "__len__"):
+        raise DataError("foreground must be a list with one (height, width) mask per camera, "
+                        f"got {type(foreground).__name__}")
+    if len(foreground) != len(cameras):
+        raise DataError(f"got {len(foreground)} foreground masks for {len(cameras)} cameras "
+                        f"({', '.join(cam.name for cam in cameras)})")
+    masks = []
+    for cam, mask in zip(cameras, foreground):
+        mask = np.asarray(mask)
+        if mask.shape != (cam.height, cam.width):
+            raise DataError(f"foreground mask of camera {cam.name} has shape {mask.shape}, "
+                            f"expected {(cam.height, cam.width)} (height, width)")
+        if mask.dtype != bool and not np.issubdtype(mask.dtype, np.number):
+            raise DataError(f"foreground mask of camera {cam.name} has dtype {mask.dtype}, "
+                            "expected bool or numbers (nonzero = foreground)")
+        masks.append(mask != 0)
+    return masks
+
+
+def check_body(body) -> None:
+    """ValueError unless the body's arrays have consistent shapes (see SilhouetteEvaluator)."""
+    v = np.asarray(body.rest_vertices)
+    n = np.asarray(body.rest_normals)
+    vj = np.asarray(body.vertex_joint)
+    pivots = np.asarray(body.joint_rest_positions)
+    patch = np.asarray(body.patch_mm)
+    J = len(pivots)
+    if v.ndim != 2 or v.shape[1] != 3 or n.shape != v.shape or vj.shape != (len(v),):
+        raise ValueError(f"body: rest_vertices {v.shape}, rest_normals {n.shape} and vertex_joint "
+                         f"{vj.shape} must be (N, 3), (N, 3) and (N,)")
+    if pivots.shape != (J, 3) or patch.shape != (J,):
+        raise ValueError(f"body: joint_rest_positions {pivots.shape} and patch_mm {patch.shape} "
+                         "must be (J, 3) and (J,)")
+    if vj.size and (not np.issubdtype(vj.dtype, np.integer) or vj.min() < 0 or vj.max() >= J):
+        raise ValueError(f"body: vertex_joint must hold joint indices in [0, {J})")
+
+
+class SilhouetteEvaluator:
+    """Base class of the silhouette backends: validation, fitness and lifecycle.
+
+    Args:
+        patch_scale: factor on the body's per-joint patch size (Cano Eq. 4), > 0.
+
+    The body passed to :meth:`setup` provides ``rest_vertices`` (N, 3) mm, ``rest_normals``
+    (N, 3) unit, ``vertex_joint`` (N,) int, ``joint_rest_positions`` (J, 3) mm, ``patch_mm``
+    (J,) mm and ``transforms(X)``: (n, P) -> (n, J, 4, 4) rigid rest-to-world transforms.
+
+    Subclasses implement ``_counts(X)`` and ``_render(x, camera_index)`` and may extend
+    ``_prepare()``, called at the end of :meth:`setup`.
+    """
+
+    def __init__(self, patch_scale: float = 1.0):
+        try:
+            patch_scale = float(patch_scale)
+        except (TypeError, ValueError):
+            raise ConfigError(f"patch_scale must be a number, got {patch_scale!r}") from None
+        if not (np.isfinite(patch_scale) and patch_scale > 0):
+            raise ConfigError(f"patch_scale must be a finite number > 0, got {patch_scale}")
+        self.patch_scale = patch_scale
+        self.body = None
+        self.cameras: list = []
+        self.foreground: list[np.ndarray] = []
+        self.fg_px = np.zeros(0, dtype=np.int64)
+
+    def setup(self, body, cameras, foreground) -> None:
+        """Upload one frame: the body, C cameras and C (H_c, W_c) bool-like foreground masks."""
+        cameras = list(cameras)
+        if not cameras:
+            raise DataError("the evaluator needs at least one camera")
+        check_body(body)
+        self.foreground = check_foreground(cameras, foreground)
+        self.fg_px = np.array([np.count_nonzero(m) for m in self.foreground], dtype=np.int64)
+        self.cameras = cameras
+        self.body = body
+        self._prepare()
+
+    def _prepare(self) -> None:
+        """Backend hook: per-frame precomputation after :meth:`setup` stored its inputs."""
+
+    def _require_setup(self) -> None:
+        if self.body is None:
+            raise RuntimeError(f"{type(self).__name__}: call setup(body, cameras, foreground) first")
+
+    def counts(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(n, P) poses -> ``model_px`` ``|M_c|`` and ``overlap_px`` ``|M_c & F_c|``, (n, C) int64."""
+        self._require_setup()
+        X = check_poses(X)
+        if len(X) == 0:
+            empty = np.zeros((0, len(self.cameras)), dtype=np.int64)
+            return empty, empty.copy()
+        return self._counts(X)
+
+    def __call__(self, X: np.ndarray) -> np.ndarray:
+        """(n, P) poses -> (n,) fitness in [0, 1] (0 = perfect match)."""
+        model_px, overlap_px = self.counts(X)
+        return fitness_from_counts(model_px, overlap_px, self.fg_px)
+
+    def render(self, x: np.ndarray, camera_index: int) -> np.ndarray:
+        """(P,) pose -> (H, W) bool model silhouette ``M_c`` in camera ``camera_index``."""
+        self._require_setup()
+        x = check_poses(np.asarray(x, dtype=np.float64)[None])[0]
+        if not 0 <= camera_index < len(self.cameras):
+            raise IndexError(f"camera_index {camera_index} is out of range for "
+                             f"{len(self.cameras)} cameras")
+        return self._render(x, int(camera_index))
+
+    def _counts(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        raise NotImplementedError
+
+    def _render(self, x: np.ndarray, camera_index: int) -> np.ndarray:
+        raise NotImplementedError
+
+    def close(self) -> None:
+        """Release the frame's data; :meth:`setup` may be called again afterwards."""
+        self.body = None
+        self.cameras = []
+        self.foreground = []
+        self.fg_px = np.zeros(0, dtype=np.int64)
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()

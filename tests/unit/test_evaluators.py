@@ -1,0 +1,293 @@
+"""Silhouette evaluators: the shared rule, the naive reference and the NumPy backend."""
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from mmocap.api import Evaluator
+from mmocap.camera import Camera
+from mmocap.errors import ConfigError, DataError
+from mmocap.evaluators.naive import NaiveEvaluator
+from mmocap.evaluators.numpy_backend import MAX_DILATE_SIDE, NumpyEvaluator
+from mmocap.evaluators.silhouette import fitness_from_counts, view_geometry
+
+BACKENDS = [NaiveEvaluator, NumpyEvaluator]
+W, H = 320, 240
+
+
+def ellipsoid(centre, radii, count):
+    """(count, 3) evenly spread points on an ellipsoid and their (count, 3) outward normals."""
+    i = np.arange(count) + 0.5
+    polar, azimuth = np.arccos(1 - 2 * i / count), np.pi * (1 + 5 ** 0.5) * i
+    unit = np.stack([np.sin(polar) * np.cos(azimuth), np.cos(polar),
+                     np.sin(polar) * np.sin(azimuth)], axis=1)
+    radii = np.asarray(radii, float)
+    normals = unit / radii
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    return np.asarray(centre, float) + unit * radii, normals
+
+
+class BlobBody:
+    """Stand-in body: pelvis, trunk and head ellipsoids on a chain of 3 joints (mm, y up).
+
+    Pose (8,): root translation (3, mm), root rotation vector (3, rad), trunk and head
+    bends about their pivots' x axes (rad).
+    """
+
+    PARTS = (  # centre, radii, pivot, vertex count
+        ((0, 0, 0), (150, 100, 100), (0, 0, 0), 400),
+        ((0, 400, 0), (90, 250, 80), (0, 150, 0), 700),
+        ((0, 750, 0), (90, 90, 90), (0, 650, 0), 300),
+    )
+
+    def __init__(self):
+        points, normals, joints, patch = [], [], [], []
+        for j, (centre, radii, _, count) in enumerate(self.PARTS):
+            p, n = ellipsoid(centre, radii, count)
+            points.append(p)
+            normals.append(n)
+            joints.append(np.full(count, j))
+            a, b, c = (r ** 1.6075 for r in radii)  # Thomsen's ellipsoid area, 1 % accurate
+            area = 4 * np.pi * ((a * b + a * c + b * c) / 3) ** (1 / 1.6075)
+            patch.append(np.sqrt(area / (2 * count)))
+        self.rest_vertices = np.concatenate(points)
+        self.rest_normals = np.concatenate(normals)
+        self.vertex_joint = np.concatenate(joints)
+        self.joint_rest_positions = np.array([part[2] for part in self.PARTS], float)
+        self.patch_mm = np.array(patch)
+
+    def transforms(self, X):
+        X = np.atleast_2d(X)
+        T = np.tile(np.eye(4), (len(X), 3, 1, 1))
+        T[:, 0, :3, :3] = Rotation.from_rotvec(X[:, 3:6]).as_matrix()
+        T[:, 0, :3, 3] = X[:, :3]
+        for j, column in ((1, 6), (2, 7)):
+            bend = np.tile(np.eye(4), (len(X), 1, 1))
+            bend[:, :3, :3] = Rotation.from_euler("x", X[:, column, None]).as_matrix()
+            pivot = self.joint_rest_positions[j]
+            bend[:, :3, 3] = pivot - bend[:, :3, :3] @ pivot
+            T[:, j] = T[:, j - 1] @ bend
+        return T
+
+
+class PlateBody:
+    """One joint: a 200 x 200 mm plate of vertices in the z = 0 plane, normals +z."""
+
+    def __init__(self):
+        g = np.linspace(-100, 100, 21)
+        xx, yy = np.meshgrid(g, g)
+        self.rest_vertices = np.stack([xx.ravel(), yy.ravel(), np.zeros(xx.size)], axis=1)
+        self.rest_normals = np.tile([0.0, 0.0, 1.0], (xx.size, 1))
+        self.vertex_joint = np.zeros(xx.size, int)
+        self.joint_rest_positions = np.zeros((1, 3))
+        self.patch_mm = np.array([10.0])
+
+    def transforms(self, X):
+        T = np.tile(np.eye(4), (len(np.atleast_2d(X)), 1, 1, 1))
+        T[:, 0, :3, 3] = np.atleast_2d(X)[:, :3]
+        return T
+
+
+class PointBody(PlateBody):
+    """One joint, one vertex at the origin facing -z; pose (3,) is its translation in mm."""
+
+    def __init__(self):
+        super().__init__()
+        self.rest_vertices = np.zeros((1, 3))
+        self.rest_normals = np.array([[0.0, 0.0, -1.0]])
+        self.vertex_joint = np.zeros(1, int)
+        self.patch_mm = np.array([2.0])
+
+
+def camera(name, eye, target=(0, 400, 0), focal=400.0):
+    return Camera.look_at(name, eye, target, focal, W, H)
+
+
+FRONT = camera("front", (300, 500, 3000))
+SIDE = camera("side", (2800, 900, 400))
+HIGH = camera("high", (-1500, 2500, -1800))
+NEAR = camera("near", (0, 0, 450), (0, 0, 0))          # patches of 13 px and more
+INSIDE = camera("inside", (0, 400, 40), (0, 400, 1000))  # in the trunk: pivots behind it
+SMALL = Camera.look_at("small", (-2500, 800, 1500), (0, 400, 0), 250.0, 200, 150)
+TRUE_POSE = np.array([30.0, -20.0, 50.0, 0.1, 0.3, -0.05, 0.4, -0.3])
+
+
+@pytest.fixture(scope="module")
+def body():
+    return BlobBody()
+
+
+def empty_masks(cameras):
+    return [np.zeros((cam.height, cam.width), bool) for cam in cameras]
+
+
+def own_render(backend, body, cameras, x):
+    """Foreground masks equal to the model's own silhouettes of pose x."""
+    with backend() as ev:
+        ev.setup(body, cameras, empty_masks(cameras))
+        return [ev.render(x, c) for c in range(len(cameras))]
+
+
+def test_backends_meet_the_protocol():
+    for backend in BACKENDS:
+        assert isinstance(backend(), Evaluator)
+
+
+def test_fitness_from_counts_follows_eq6_and_the_empty_cases():
+    model = np.array([[100, 0, 0, 50, 40]])
+    overlap = np.array([[100, 0, 0, 0, 10]])
+    fg = np.array([100, 0, 30, 0, 20])
+    # perfect, both empty, model empty, foreground empty, partial: 30/80 + 10/40
+    expected = np.array([0.0, 0.0, 1.0, 1.0, 30 / 80 + 10 / 40])
+    np.testing.assert_allclose(fitness_from_counts(model, overlap, fg), [expected.mean()])
+    for c in range(5):
+        f = fitness_from_counts(model[:, c:c + 1], overlap[:, c:c + 1], fg[c:c + 1])
+        assert f[0] == pytest.approx(expected[c])
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_perfect_match_scores_zero_and_no_overlap_one(backend, body):
+    cameras = [FRONT, SIDE]
+    fg = own_render(backend, body, cameras, TRUE_POSE)
+    assert all(m.sum() > 500 for m in fg)
+    with backend() as ev:
+        ev.setup(body, cameras, fg)
+        np.testing.assert_array_equal(ev(TRUE_POSE[None]), [0.0])
+        model_px, overlap_px = ev.counts(TRUE_POSE[None])
+        np.testing.assert_array_equal(model_px, [[m.sum() for m in fg]])
+        np.testing.assert_array_equal(overlap_px, model_px)
+        # foreground only where the model is not
+        ev.setup(body, cameras, [~m for m in fg])
+        np.testing.assert_array_equal(ev(TRUE_POSE[None]), [1.0])
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_empty_foreground_and_model_outside_the_view(backend, body):
+    cameras = [FRONT, SIDE]
+    away = TRUE_POSE + np.r_[-2000.0, 0, 0, np.zeros(5)]  # out of the front view, in the side one
+    with backend() as ev:
+        ev.setup(body, cameras, empty_masks(cameras))
+        model_px, _ = ev.counts(away[None])
+        assert model_px[0, 0] == 0 and model_px[0, 1] > 0
+        f = ev(np.stack([TRUE_POSE, away]))
+        # a view with model and no foreground scores 1, one with neither 0; fused by the mean
+        np.testing.assert_array_equal(f, [1.0, 0.5])
+        ev.setup(body, cameras, own_render(backend, body, cameras, TRUE_POSE))
+        f = ev(away[None])
+        assert ev.counts(away[None])[0][0, 0] == 0  # front: foreground, no model: f_c = 1
+        assert np.isfinite(f).all() and 0.5 < f[0] < 1.0
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_population_of_one_and_of_zero(backend, body):
+    with backend() as ev:
+        ev.setup(body, [FRONT], empty_masks([FRONT]))
+        assert ev(TRUE_POSE[None]).shape == (1,)
+        assert ev(np.zeros((0, 8))).shape == (0,)
+        assert ev.counts(np.zeros((0, 8)))[0].shape == (0, 1)
+
+
+@pytest.mark.parametrize("cameras", [[FRONT, SIDE, NEAR], [HIGH, INSIDE, SMALL]],
+                         ids=["front-side-near", "high-inside-small"])
+@pytest.mark.parametrize("patch_scale", [0.3, 1.0, 1.7, 3.0])
+def test_numpy_counts_equal_naive(body, cameras, patch_scale):
+    rng = np.random.default_rng(7)
+    X = TRUE_POSE + rng.normal(0, 1, (4, 8)) * np.r_[150, 150, 150, 0.4, 0.4, 0.4, 0.5, 0.5]
+    partly_outside = TRUE_POSE + np.r_[1100.0, 0, 0, np.zeros(5)]
+    behind = TRUE_POSE + np.r_[0, 0, 5000.0, np.zeros(5)]
+    X = np.vstack([X, partly_outside, behind])
+    fg = own_render(NaiveEvaluator, body, cameras, TRUE_POSE)
+    naive, fast = NaiveEvaluator(patch_scale), NumpyEvaluator(patch_scale)
+    naive.setup(body, cameras, fg)
+    fast.setup(body, cameras, fg)
+    expected = naive.counts(X)
+    got = fast.counts(X)
+    np.testing.assert_array_equal(got[0], expected[0])
+    np.testing.assert_array_equal(got[1], expected[1])
+    np.testing.assert_array_equal(fast(X), naive(X))
+    for c in range(len(cameras)):
+        np.testing.assert_array_equal(fast.render(X[-2], c), naive.render(X[-2], c))
+    # the cases this test is meant to cover do occur
+    _, side = view_geometry(body, cameras, X, patch_scale)
+    assert expected[0].min() == 0 and expected[0].max() > 0
+    if cameras[0] is FRONT:
+        front = naive.render(partly_outside, 0)
+        assert front[:, -1].any() and front.sum() < naive.render(TRUE_POSE, 0).sum()
+        assert ((side > 0) & (side % 2 == 0)).any() or patch_scale == 0.3
+        assert (side > MAX_DILATE_SIDE).any() or patch_scale < 3.0  # views rendered one by one
+    else:
+        assert (side[:, 1] == 0).any()  # joints whose pivot is behind the inside camera
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+@pytest.mark.parametrize("side", [1, 2, 3, 4, 5, 6])
+def test_patch_covers_the_documented_pixels(backend, side):
+    """A lone vertex projecting to (100.3, 50.7) covers cx-(s-1)//2 .. cx+s//2 around (100, 51)."""
+    cam = Camera.look_at("point", (0, 0, -1000), (0, 0, 0), 500.0, 200, 120)
+    assert cam.K[0, 2] == 99.5 and cam.K[1, 2] == 59.5
+    body = PointBody()
+    # f * patch_mm * scale / z = side - 0.5, so the patch side is exactly `side`
+    ev = backend(patch_scale=(side - 0.5) / (500.0 * 2.0 / 1000))
+    ev.setup(body, [cam], empty_masks([cam]))
+    x = np.array([-1.6, 17.6, 0.0])  # camera x, y = world -x, -y: u = 99.5 + 0.8, v = 59.5 - 8.8
+    image = ev.render(x, 0)
+    rows, cols = np.nonzero(image)
+    assert (cols.min(), cols.max()) == (100 - (side - 1) // 2, 100 + side // 2)
+    assert (rows.min(), rows.max()) == (51 - (side - 1) // 2, 51 + side // 2)
+    assert image.sum() == side * side
+    # a vertex one pixel left of the image still covers its patch's columns inside it
+    image = ev.render(x + np.r_[202.0, 0, 0], 0)
+    assert image.sum() == side * (side // 2)
+    if side > 1:
+        assert image[:, :side // 2].all(axis=1).sum() == side
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_back_faces_are_culled(backend):
+    front = Camera.look_at("front", (0, 0, 1000), (0, 0, 0), 300.0, 160, 120)
+    back = Camera.look_at("back", (0, 0, -1000), (0, 0, 0), 300.0, 160, 120)
+    body = PlateBody()
+    with backend() as ev:
+        ev.setup(body, [front, back], empty_masks([front, back]))
+        model_px, _ = ev.counts(np.zeros((1, 3)))
+        assert model_px[0, 0] > 2000 and model_px[0, 1] == 0
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_fitness_decreases_as_the_pose_approaches_the_truth(backend, body):
+    cameras = [FRONT, SIDE, HIGH]
+    fg = own_render(backend, body, cameras, TRUE_POSE)
+    offsets = np.array([400.0, 200, 100, 40, 15, 0])
+    X = np.repeat(TRUE_POSE[None], len(offsets), axis=0)
+    X[:, 0] += offsets
+    X[:, 1] -= offsets / 2
+    with backend() as ev:
+        ev.setup(body, cameras, fg)
+        f = ev(X)
+    assert np.all(np.diff(f) < 0) and f[-1] == 0.0 and f[0] > 0.5
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_setup_and_input_errors(backend, body):
+    ev = backend()
+    with pytest.raises(RuntimeError, match="setup"):
+        ev(TRUE_POSE[None])
+    masks = empty_masks([FRONT, SIDE])
+    masks[1] = np.zeros((H, W + 1), bool)
+    with pytest.raises(DataError, match=r"side.*\(240, 321\).*\(240, 320\)"):
+        ev.setup(body, [FRONT, SIDE], masks)
+    with pytest.raises(DataError, match="1 foreground masks for 2 cameras"):
+        ev.setup(body, [FRONT, SIDE], masks[:1])
+    with pytest.raises(ConfigError, match="patch_scale"):
+        backend(patch_scale=0.0)
+    ev.setup(body, [FRONT], empty_masks([FRONT]))
+    X = np.repeat(TRUE_POSE[None], 3, axis=0)
+    X[2, 4] = np.nan
+    with pytest.raises(ValueError, match="row 2"):
+        ev(X)
+    with pytest.raises(ValueError, match=r"\(n, P\)"):
+        ev(TRUE_POSE)
+    with pytest.raises(IndexError):
+        ev.render(TRUE_POSE, 1)
+    ev.close()
+    with pytest.raises(RuntimeError):
+        ev.counts(TRUE_POSE[None])
