@@ -18,7 +18,8 @@ class SearchSpace:
     Attributes:
         x0: (D,) start point, usually the previous frame's estimate.
         lower, upper: (D,) bounds, lower < upper element-wise.
-        sigma0: (D,) initial step size per coordinate, in the coordinate's own units.
+        sigma0: (D,) search radius per coordinate in its own units (rad, mm): the unit
+            of the optimisers' normalised coordinates and the scale of their first step.
         budget: maximum number of fitness evaluations for this search.
     """
 

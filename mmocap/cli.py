@@ -6,20 +6,24 @@ culprit and exit with status 2, without a traceback.
 """
 from __future__ import annotations
 
-import logging
-import sys
-from pathlib import Path
+import os
 
-import hydra
-from hydra.core.hydra_config import HydraConfig
-from hydra.errors import InstantiationException
-from hydra.utils import instantiate
-from omegaconf import DictConfig
+# The evaluators batch many small matrix products; BLAS threads only add overhead there
+# (and fight with process-level parallelism), so default to one unless the user says.
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
-from mmocap import registry
-from mmocap.errors import MmocapError
+import sys  # noqa: E402
+from pathlib import Path  # noqa: E402
 
-log = logging.getLogger("mmocap")
+import hydra  # noqa: E402
+from hydra.core.hydra_config import HydraConfig  # noqa: E402
+from hydra.errors import InstantiationException  # noqa: E402
+from hydra.utils import instantiate  # noqa: E402
+from omegaconf import DictConfig  # noqa: E402
+
+from mmocap import registry  # noqa: E402
+from mmocap.errors import MmocapError  # noqa: E402
+
 CONFIG_PATH = str(Path(__file__).resolve().parent.parent / "conf")
 
 

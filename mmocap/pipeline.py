@@ -5,7 +5,6 @@ Outputs in ``output_dir``: ``frames.csv`` (one row per frame, written as it goes
 """
 from __future__ import annotations
 
-import logging
 import platform
 import time
 from pathlib import Path
@@ -21,8 +20,6 @@ from mmocap.report.figures import overlay, plot_error_per_frame
 from mmocap.stages.evaluation import FrameLog, marker_error, write_json_atomic
 from mmocap.stages.foreground import Foreground
 from mmocap.stages.tracking import track
-
-log = logging.getLogger(__name__)
 
 
 def run(cfg: DictConfig, output_dir: Path) -> dict:
@@ -121,7 +118,9 @@ def write_overlays(folder: Path, sequence, foreground, evaluator, body, results,
 
 
 def _grid(tiles: list[np.ndarray]) -> np.ndarray:
-    """Tiles of equal size in a grid of two columns."""
+    """Tiles, resized to the first one's size, in a grid of two columns."""
+    h, w = tiles[0].shape[:2]
+    tiles = [t if t.shape[:2] == (h, w) else cv2.resize(t, (w, h)) for t in tiles]
     if len(tiles) % 2:
         tiles = tiles + [np.zeros_like(tiles[0])]
     rows = [np.hstack(tiles[i:i + 2]) for i in range(0, len(tiles), 2)]

@@ -1,10 +1,11 @@
 """CMA-ES (Yeguas et al. 2014, Sec. 4.2.1, Fig. 4, Table 2) as a batch ask/tell minimiser.
 
-Units. The search runs in normalised coordinates ``z = (x - space.x0) / space.sigma0``:
-the mean starts at ``z = 0`` (the start point), the covariance at the identity and the
-internal step size ``sigma`` at 1.0, so coordinate ``j`` is first sampled with standard
-deviation ``space.sigma0[j]`` in its own units (rad for rotations, the body's length unit
-for translations). This is the per-coordinate scaling of pycma's ``scaling_of_variables``.
+Units. The search runs in normalised coordinates ``z = (x - space.x0) / space.sigma0``
+(``space.sigma0`` holds the search radius of each coordinate): the mean starts at ``z = 0``
+(the start point), the covariance at the identity and the internal step size ``sigma`` at
+the constructor's ``sigma0``, so coordinate ``j`` is first sampled with standard deviation
+``sigma0 * space.sigma0[j]`` in its own units (rad for rotations, mm for translations).
+This is the per-coordinate scaling of pycma's ``scaling_of_variables``.
 Candidates returned by :meth:`CMAES.ask` and the result are in the original units.
 
 Bounds. Each candidate is sampled from ``N(m, sigma^2 C)`` in normalised coordinates, mapped
@@ -87,16 +88,16 @@ class CMAES:
 
     Args:
         popsize: lambda; ``None`` uses Table 2, ``4 + floor(3 ln D)``. At least 2.
-        sigma0: the paper's search radius (0.5 rad). The optimiser does not use it: its
-            initial per-coordinate standard deviations are ``space.sigma0``, which the
-            tracking stage builds from this value. Must be > 0.
+        sigma0: initial step size as a fraction of the search radius ``space.sigma0``.
+            1.0 is Yeguas Table 3 (step = radius = 0.5 rad); smaller values suit the small
+            motion between video frames better. Must be > 0.
         tolx: stop when every coordinate's standard deviation ``sigma * sqrt(C_jj) *
             space.sigma0[j]`` (original units) is below this. Must be >= 0.
         tolfun: stop when the range of f in the last generation and of the best f over the
             last ``10 + ceil(30 D / lambda)`` generations is below this. Must be >= 0.
     """
 
-    def __init__(self, popsize: int | None = None, sigma0: float = 0.5, tolx: float = 1e-12,
+    def __init__(self, popsize: int | None = None, sigma0: float = 1.0, tolx: float = 1e-12,
                  tolfun: float = 1e-12):
         if popsize is not None and (isinstance(popsize, bool)
                                     or not isinstance(popsize, (int, np.integer)) or popsize < 2):
@@ -134,7 +135,7 @@ class CMAES:
         self._rng = rng
         self.params = p = strategy_parameters(dim, self.popsize)
         self._mean = np.zeros(dim)
-        self._sigma = 1.0
+        self._sigma = self.sigma0
         self._C = np.eye(dim)
         self._B = np.eye(dim)
         self._D = np.ones(dim)

@@ -180,3 +180,15 @@ def test_bad_constructor_values_raise_config_error(kwargs, name, value):
 def test_zero_budget_raises_config_error():
     with pytest.raises(ConfigError, match="budget.*0"):
         CMAES().setup(box(5, 0.0, 1.0, 0.5, 0), np.random.default_rng(0))
+
+
+def test_sigma0_is_the_first_step_as_a_fraction_of_the_radius():
+    space = SearchSpace(x0=np.zeros(6), lower=np.full(6, -100.0), upper=np.full(6, 100.0),
+                        sigma0=np.array([1, 1, 1, 10, 10, 10.0]), budget=10_000)
+    spreads = []
+    for sigma0 in (1.0, 0.1):
+        opt = CMAES(popsize=4000, sigma0=sigma0)
+        opt.setup(space, np.random.default_rng(1))
+        spreads.append(opt.ask().std(axis=0))
+    np.testing.assert_allclose(spreads[0], [1, 1, 1, 10, 10, 10], rtol=0.06)
+    np.testing.assert_allclose(spreads[1], [0.1, 0.1, 0.1, 1, 1, 1], rtol=0.06)
