@@ -57,8 +57,8 @@ def test_track_tiny_sequence(data_root, tmp_path):
         assert key in summary
     assert summary["frames"] == 2 and summary["dof"] == 39 and summary["optimizer"] == "cmaes"
     assert summary["evaluations_used"] <= 2 * 300
-    # started from the true first pose; even with a small budget it must stay on the person
-    assert summary["mean_marker_error_mm"] < 60
+    # started from the true first pose, with a small budget, at 320x240
+    assert summary["mean_marker_error_mm"] < 30  # measured: 12.5 mm
     lines = (run_dir / "frames.csv").read_text().splitlines()
     assert len(lines) == 3
     assert (run_dir / "error_per_frame.png").stat().st_size > 1000
