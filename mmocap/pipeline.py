@@ -19,7 +19,7 @@ from mmocap.errors import ConfigError, DataError
 from mmocap.report.figures import overlay, plot_error_per_frame
 from mmocap.stages.evaluation import FrameLog, marker_error, write_json_atomic
 from mmocap.stages.foreground import Foreground
-from mmocap.stages.tracking import track
+from mmocap.stages.tracking import check_budget, track
 
 
 def run(cfg: DictConfig, output_dir: Path) -> dict:
@@ -29,14 +29,15 @@ def run(cfg: DictConfig, output_dir: Path) -> dict:
     if cfg.overlays < 0:
         raise ConfigError(f"overlays must be >= 0, got {cfg.overlays}")
 
-    dataset = instantiate(cfg.dataset)
-    sequence = dataset.open(progress=cfg.progress)
-    body = instantiate(cfg.body)
-    if body.subject.name != sequence.subject:
-        raise ConfigError(f"body.subject is {body.subject.name} but the sequence shows {sequence.subject}")
+    check_budget(cfg.tracking.evaluations)
+    # Components first: a bad value fails before any data is rendered or read.
     optimizer = instantiate(cfg.optimizer)
     strategy = instantiate(cfg.strategy)
     evaluator = instantiate(cfg.evaluator)
+    body = instantiate(cfg.body)
+    sequence = instantiate(cfg.dataset).open(progress=cfg.progress)
+    if body.subject.name != sequence.subject:
+        raise ConfigError(f"body.subject is {body.subject.name} but the sequence shows {sequence.subject}")
     foreground = Foreground(sequence, instantiate(cfg.background))
     truth = sequence.markers()
     n_frames = sequence.n_frames if cfg.tracking.frames is None else int(cfg.tracking.frames)

@@ -62,14 +62,19 @@ class Holistic:
         return body.full(result.xbest, x_prev)[0], float(result.fbest), int(result.evaluations)
 
 
+def check_budget(evaluations) -> None:
+    """Reject a per-frame evaluation budget below 1."""
+    if evaluations < 1:
+        raise ConfigError(f"tracking.evaluations must be >= 1, got {evaluations}")
+
+
 def track(sequence, body, foreground, evaluator, optimizer, strategy, evaluations: int,
           seed: int, frames: int | None = None, on_frame=None) -> list[FrameResult]:
     """Track ``frames`` frames (default: all) of ``sequence``.
 
     ``on_frame(result)`` is called after every frame (progress, incremental writing).
     """
-    if evaluations < 1:
-        raise ConfigError(f"tracking.evaluations must be >= 1, got {evaluations}")
+    check_budget(evaluations)
     n = sequence.n_frames if frames is None else int(frames)
     if not 1 <= n <= sequence.n_frames:
         raise ConfigError(f"tracking.frames must be in [1, {sequence.n_frames}], got {frames}")
