@@ -21,6 +21,11 @@ class SearchSpace:
         sigma0: (D,) search radius per coordinate in its own units (rad, mm): the unit
             of the optimisers' normalised coordinates and the scale of their first step.
         budget: maximum number of fitness evaluations for this search.
+        partitions: optional groups of coordinate indices (each an int array into the D
+            coordinates, together covering each coordinate once) in hierarchical order,
+            e.g. root first, then torso, then each limb.  Partitioned-sampling optimisers
+            (PSAPF) search them one after another; the others ignore them.  None means
+            one partition holding every coordinate.
     """
 
     x0: np.ndarray
@@ -28,6 +33,7 @@ class SearchSpace:
     upper: np.ndarray
     sigma0: np.ndarray
     budget: int
+    partitions: tuple[np.ndarray, ...] | None = None
 
     @property
     def dim(self) -> int:
