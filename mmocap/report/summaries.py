@@ -1,0 +1,50 @@
+"""Collect the ``summary.json`` files of finished runs into one table.
+
+``python -m mmocap.report.summaries FOLDER [--csv OUT]`` prints a Markdown table (one row
+per run, best first) of every summary.json below FOLDER.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+import pandas as pd
+
+COLUMNS = ["optimizer", "strategy", "dof", "evaluations_per_frame", "subject", "action", "frames",
+           "mean_marker_error_mm", "median_marker_error_mm", "max_marker_error_mm",
+           "seconds_per_frame", "backend"]
+
+
+def collect(folder: Path) -> pd.DataFrame:
+    """One row per summary.json below ``folder``, sorted by mean marker error."""
+    rows = []
+    for path in sorted(Path(folder).rglob("summary.json")):
+        summary = json.loads(path.read_text())
+        rows.append({**{k: summary.get(k) for k in COLUMNS}, "run": str(path.parent)})
+    if not rows:
+        return pd.DataFrame(columns=COLUMNS + ["run"])
+    return pd.DataFrame(rows).sort_values("mean_marker_error_mm", ignore_index=True)
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("folder", type=Path)
+    parser.add_argument("--csv", type=Path, help="also write the table as CSV")
+    args = parser.parse_args(argv)
+    if not args.folder.is_dir():
+        print(f"mmocap: error: no such folder: {args.folder}", file=sys.stderr)
+        return 2
+    table = collect(args.folder)
+    if table.empty:
+        print(f"mmocap: error: no summary.json below {args.folder}", file=sys.stderr)
+        return 2
+    if args.csv:
+        table.to_csv(args.csv, index=False)
+    print(table.drop(columns="run").to_markdown(index=False, floatfmt=".1f"))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
