@@ -35,6 +35,7 @@ def run(cfg: DictConfig, output_dir: Path) -> dict:
     strategy = instantiate(cfg.strategy)
     evaluator = instantiate(cfg.evaluator)
     body = instantiate(cfg.body)
+    strategy.check(body, optimizer, int(cfg.tracking.evaluations))
     sequence = instantiate(cfg.dataset).open(progress=cfg.progress)
     if body.subject.name != sequence.subject:
         raise ConfigError(f"body.subject is {body.subject.name} but the sequence shows {sequence.subject}")

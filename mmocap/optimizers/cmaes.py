@@ -14,10 +14,11 @@ evaluated, and the update (mean, evolution paths, covariance) uses the clipped p
 re-normalised; coordinates that were not clipped keep their exact sampled value. The mean is
 thus a weighted average of points in the box and stays inside it.
 
-Budget. Generations have ``lambda`` candidates, except that the last one is truncated so that
-the number of evaluations reaches ``space.budget`` exactly and never exceeds it. A truncated
-generation with at least ``mu`` candidates is used for a full update over its best ``mu``;
-one with fewer only updates the best point.
+Budget. A search needs at least one generation (``lambda`` evaluations). Generations have
+``lambda`` candidates, except that the last one is truncated so that the number of evaluations
+reaches ``space.budget`` exactly and never exceeds it. A truncated generation with at least
+``mu`` candidates is used for a full update over its best ``mu``; one with fewer only updates
+the best point.
 """
 from __future__ import annotations
 
@@ -26,8 +27,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mmocap.api import Result, SearchSpace
 from mmocap.errors import ConfigError
+from mmocap.optimizers.base import PopulationOptimizer, check_number
 
 _MAX_CONDITION = 1e14
 
@@ -83,7 +84,7 @@ def strategy_parameters(dim: int, popsize: int | None = None) -> StrategyParamet
                               c_cov, chi_n)
 
 
-class CMAES:
+class CMAES(PopulationOptimizer):
     """CMA-ES minimiser following the :class:`mmocap.api.Optimizer` protocol.
 
     Args:
@@ -97,42 +98,22 @@ class CMAES:
             last ``10 + ceil(30 D / lambda)`` generations is below this. Must be >= 0.
     """
 
+    name = "cmaes"
+
     def __init__(self, popsize: int | None = None, sigma0: float = 1.0, tolx: float = 1e-12,
                  tolfun: float = 1e-12):
-        if popsize is not None and (isinstance(popsize, bool)
-                                    or not isinstance(popsize, (int, np.integer)) or popsize < 2):
-            raise ConfigError(f"optimizer.popsize must be an integer >= 2 or null, got {popsize!r}")
-        if not _is_real(sigma0) or not sigma0 > 0 or not math.isfinite(sigma0):
-            raise ConfigError(f"optimizer.sigma0 must be > 0, got {sigma0!r}")
-        if not _is_real(tolx) or not tolx >= 0 or not math.isfinite(tolx):
-            raise ConfigError(f"optimizer.tolx must be >= 0, got {tolx!r}")
-        if not _is_real(tolfun) or not tolfun >= 0 or not math.isfinite(tolfun):
-            raise ConfigError(f"optimizer.tolfun must be >= 0, got {tolfun!r}")
-        self.popsize = None if popsize is None else int(popsize)
-        self.sigma0 = float(sigma0)
-        self.tolx = float(tolx)
-        self.tolfun = float(tolfun)
+        super().__init__()
+        self.popsize = None if popsize is None else check_number("popsize", popsize, 2, integer=True)
+        self.sigma0 = check_number("sigma0", sigma0, 0.0, low_open=True)
+        self.tolx = check_number("tolx", tolx, 0.0)
+        self.tolfun = check_number("tolfun", tolfun, 0.0)
         self.params: StrategyParameters | None = None
-        self._space: SearchSpace | None = None
 
-    def setup(self, space: SearchSpace, rng: np.random.Generator) -> None:
-        """Start a new search in ``space``; all randomness comes from ``rng``."""
-        x0 = np.asarray(space.x0, dtype=float)
-        if x0.ndim != 1 or x0.shape[0] == 0:
-            raise ConfigError(f"search space x0 must have shape (D,), got {x0.shape}")
-        dim = x0.shape[0]
-        lower, upper, scale = (np.broadcast_to(np.asarray(a, dtype=float), (dim,)).copy()
-                               for a in (space.lower, space.upper, space.sigma0))
-        if space.budget < 1:
-            raise ConfigError(f"optimizer budget must be >= 1 evaluation, got {space.budget}")
-        if not np.all(scale > 0):
-            raise ConfigError(f"search space sigma0 must be > 0, got {scale}")
-        if not np.all(lower < upper):
-            raise ConfigError("search space bounds must satisfy lower < upper")
-        self._space = space
-        self._x0, self._lower, self._upper, self._scale = x0, lower, upper, scale
-        self._budget = int(space.budget)
-        self._rng = rng
+    def population_size(self, dim: int) -> int:
+        return strategy_parameters(dim, self.popsize).lam
+
+    def _start(self) -> None:
+        dim = self.dim
         self.params = p = strategy_parameters(dim, self.popsize)
         self._mean = np.zeros(dim)
         self._sigma = self.sigma0
@@ -142,54 +123,22 @@ class CMAES:
         self._p_sigma = np.zeros(dim)
         self._p_c = np.zeros(dim)
         self._updates = 0
-        self._evaluations = 0
-        self._iterations = 0
-        self._xbest = np.clip(x0, lower, upper)
-        self._fbest = math.inf
         self._best_history: list[float] = []
         self._history_len = 10 + math.ceil(30 * dim / p.lam)
         self._last_f = np.empty(0)
-        self._pending: tuple[np.ndarray, np.ndarray] | None = None
 
-    def ask(self) -> np.ndarray:
-        """Return the next candidates (n, D) in original units, inside the bounds."""
-        self._require_setup()
-        if self._pending is not None:
-            raise RuntimeError("ask() called again before tell()")
-        remaining = self._budget - self._evaluations
-        if remaining <= 0:
-            raise RuntimeError(f"evaluation budget of {self._budget} is exhausted")
-        n = min(self.params.lam, remaining)
-        normal = self._rng.standard_normal((n, self.params.dim))
-        z = self._mean + self._sigma * (normal * self._D) @ self._B.T
-        x = self._x0 + self._scale * z
-        X = np.clip(x, self._lower, self._upper)
-        z = np.where(X != x, (X - self._x0) / self._scale, z)
-        self._pending = (X.copy(), z)
-        return X
+    def _propose(self, n_max: int) -> np.ndarray:
+        """lambda samples of N(m, sigma^2 C), fewer in a last generation cut by the budget."""
+        n = min(self.params.lam, n_max)
+        normal = self.rng.standard_normal((n, self.params.dim))
+        self._z = self._mean + self._sigma * (normal * self._D) @ self._B.T
+        self._x = self.from_unit(self._z)
+        return self._x
 
-    def tell(self, X: np.ndarray, f: np.ndarray) -> None:
-        """Take the fitness f (n,) of the candidates X (n, D) that :meth:`ask` returned."""
-        self._require_setup()
-        if self._pending is None:
-            raise RuntimeError("tell() called without a preceding ask()")
-        X_asked, z = self._pending
-        X = np.asarray(X)
-        f = np.asarray(f, dtype=float)
-        if X.shape != X_asked.shape or not np.array_equal(X, X_asked):
-            raise ValueError(f"tell() needs exactly the {X_asked.shape} array that ask() "
-                             f"returned, got shape {X.shape}")
-        if f.shape != (X.shape[0],):
-            raise ValueError(f"tell() needs fitness of shape ({X.shape[0]},), got {f.shape}")
-        if np.isnan(f).any():
-            raise ValueError("tell() got NaN fitness values")
-        self._pending = None
-        self._evaluations += X.shape[0]
-        self._iterations += 1
+    def _learn(self, X: np.ndarray, f: np.ndarray) -> None:
+        # Clipped coordinates are re-normalised; the others keep their exact sampled value.
+        z = np.where(X != self._x, self.to_unit(X), self._z)
         order = np.argsort(f, kind="stable")
-        if f[order[0]] < self._fbest:
-            self._fbest = float(f[order[0]])
-            self._xbest = X_asked[order[0]].copy()
         self._last_f = f
         self._best_history.append(float(f[order[0]]))
         del self._best_history[:-self._history_len]
@@ -229,16 +178,13 @@ class CMAES:
         eigenvalues, self._B = np.linalg.eigh(self._C)
         self._D = np.sqrt(np.maximum(eigenvalues, 0.0))
 
-    def stop(self) -> dict:
-        """Return ``{}`` to go on, else the reasons: ``budget`` (evaluations), ``tolx`` (largest
-        coordinate std, original units), ``tolfun`` (f range), ``conditioncov`` (cond(C))."""
-        self._require_setup()
+    def _reasons(self) -> dict:
+        """``tolx`` (largest coordinate std, original units), ``tolfun`` (f range),
+        ``conditioncov`` (cond(C))."""
         reasons: dict = {}
-        if self._evaluations >= self._budget:
-            reasons["budget"] = self._evaluations
         if self._updates == 0:
             return reasons
-        std = float(np.max(self._sigma * np.sqrt(np.diag(self._C)) * self._scale))
+        std = float(np.max(self._sigma * np.sqrt(np.diag(self._C)) * self.scale))
         if std < self.tolx:
             reasons["tolx"] = std
         if len(self._best_history) == self._history_len:
@@ -250,20 +196,3 @@ class CMAES:
         if condition > _MAX_CONDITION:
             reasons["conditioncov"] = condition
         return reasons
-
-    @property
-    def result(self) -> Result:
-        """Best point over all evaluations; before the first tell ``fbest`` is inf (and
-        ``xbest`` is (0,) before setup, so that ``isinstance(opt, Optimizer)`` works)."""
-        if self._space is None:
-            return Result(np.empty(0), math.inf, 0, 0, {})
-        return Result(self._xbest.copy(), self._fbest, self._evaluations, self._iterations,
-                      self.stop())
-
-    def _require_setup(self) -> None:
-        if self._space is None:
-            raise RuntimeError("call setup() before using the optimiser")
-
-
-def _is_real(value) -> bool:
-    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool)

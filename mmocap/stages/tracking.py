@@ -93,6 +93,35 @@ class Strategy:
             groups.append([g for g in per_joint if len(g)])
         return groups
 
+    def plan(self, body, budget: int) -> list[tuple[list[np.ndarray], int]]:
+        """The searches of one frame in order: (partitions, budget) each, a partition being
+        an index array into the 51-vector."""
+        raise NotImplementedError
+
+    def check(self, body, optimizer, budget: int) -> None:
+        """Raise a ConfigError if a search of the plan gets less than ``optimizer`` needs
+        (its ``min_budget(dim, partitions)``, one evaluation for optimisers without one)."""
+        check_budget(budget)
+        min_budget = getattr(optimizer, "min_budget", lambda dim, partitions=1: 1)
+        for k, (parts, share) in enumerate(self.plan(body, budget)):
+            dim = sum(len(p) for p in parts)
+            needed = min_budget(dim, len(parts))
+            if share < needed:
+                where = f"step {k + 1} ({', '.join(self.steps[k])})" if self.name == "hierarchical" else "the frame"
+                raise ConfigError(f"tracking.evaluations={budget} gives {where} {share} evaluations "
+                                  f"but optimizer '{getattr(optimizer, 'name', type(optimizer).__name__)}' "
+                                  f"needs at least {needed} for {dim} degrees of freedom")
+
+    def estimate(self, body, x_prev, evaluate, optimizer, budget, rng) -> tuple[np.ndarray, float, int]:
+        """Run ``optimizer`` on one frame from ``x_prev`` (51,) following the plan; returns
+        (pose (51,), fitness, evaluations used)."""
+        self.check(body, optimizer, budget)
+        x, fitness, used = x_prev, float("nan"), 0
+        for parts, share in self.plan(body, budget):
+            x, fitness, n = self.search(body, x, parts, evaluate, optimizer, share, rng)
+            used += n
+        return x, fitness, used
+
     def search(self, body, x_base, parts, evaluate, optimizer, budget, rng) -> tuple[np.ndarray, float, int]:
         """Optimise the parameters in ``parts`` (index arrays into the 51-vector) around
         ``x_base`` (51,), the others held fixed; returns (pose (51,), fitness, evaluations).
@@ -129,10 +158,8 @@ class Holistic(Strategy):
 
     name = "holistic"
 
-    def estimate(self, body, x_prev, evaluate, optimizer, budget, rng) -> tuple[np.ndarray, float, int]:
-        """Run ``optimizer`` on the frame; returns (pose (51,), fitness, evaluations)."""
-        parts = [np.concatenate(step) for step in self.step_groups(body)]
-        return self.search(body, x_prev, parts, evaluate, optimizer, budget, rng)
+    def plan(self, body, budget: int) -> list[tuple[list[np.ndarray], int]]:
+        return [([np.concatenate(step) for step in self.step_groups(body)], int(budget))]
 
 
 class Hierarchical(Strategy):
@@ -151,13 +178,9 @@ class Hierarchical(Strategy):
         shares[: budget - shares.sum()] += 1
         return shares.tolist()
 
-    def estimate(self, body, x_prev, evaluate, optimizer, budget, rng) -> tuple[np.ndarray, float, int]:
+    def plan(self, body, budget: int) -> list[tuple[list[np.ndarray], int]]:
         groups = self.step_groups(body)
-        x, fitness, used = x_prev, float("nan"), 0
-        for step, share in zip(groups, self.budgets(groups, budget)):
-            x, fitness, n = self.search(body, x, step, evaluate, optimizer, share, rng)
-            used += n
-        return x, fitness, used
+        return list(zip(groups, self.budgets(groups, budget)))
 
 
 def check_budget(evaluations) -> None:

@@ -83,14 +83,19 @@ def test_ellipsoid_10d_needs_covariance_adaptation():
     assert r.fbest < 1e-6
 
 
-def test_rosenbrock_10d():
+def test_rosenbrock_10d_reaches_the_global_optimum_in_most_runs():
     # Random search in the box gets f ~ 1e3, an isotropic ES with a fixed step size f ~ 20.
-    r = minimise(rosenbrock, box(10, 0.0, 5.0, 0.5, 30000), seed=0)
-    assert r.fbest < 1e-4
-    np.testing.assert_allclose(r.xbest, np.ones(10), atol=1e-2)
+    # With the default population CMA-ES ends in the local optimum near (-1, 1, ..., 1)
+    # (f ~ 3.99) in roughly one run in five (Hansen's reported rate), so 10 seeds are run.
+    results = [minimise(rosenbrock, box(10, 0.0, 5.0, 0.5, 30000), seed=s) for s in range(10)]
+    solved = [r for r in results if r.fbest < 1e-10]
+    assert len(solved) >= 7
+    assert all(r.fbest < 4.0 for r in results)
+    for r in solved:
+        np.testing.assert_allclose(r.xbest, np.ones(10), atol=1e-4)
 
 
-@pytest.mark.parametrize("budget, last", [(100, 2), (95, 11), (98, 14), (5, 5), (1, 1)])
+@pytest.mark.parametrize("budget, last", [(100, 2), (95, 11), (98, 14), (14, 14), (15, 1)])
 def test_budget_is_never_exceeded(budget, last):
     opt = CMAES()
     asked = []
@@ -103,6 +108,12 @@ def test_budget_is_never_exceeded(budget, last):
     assert r.fbest == pytest.approx(min(sphere(X).min() for X in asked))
     with pytest.raises(RuntimeError, match="budget"):
         opt.ask()
+
+
+@pytest.mark.parametrize("budget", [1, 13])
+def test_budget_smaller_than_one_generation_is_a_config_error(budget):
+    with pytest.raises(ConfigError, match=r"at least 14 evaluations .*got %d" % budget):
+        CMAES().setup(box(39, 0.0, 1.0, 0.5, budget), np.random.default_rng(0))
 
 
 def test_asked_points_stay_in_bounds_and_optimum_on_bound_is_found():

@@ -112,6 +112,10 @@ def test_bad_steps_are_config_errors(bodies):
 
 def test_budget_below_one_population_is_a_config_error(bodies):
     body = bodies[39]
-    with pytest.raises(ConfigError, match="budget"):
+    with pytest.raises(ConfigError, match=r"tracking.evaluations=5 gives step 1 \(Root\) 1 "
+                                          r"evaluations but optimizer 'cmaes' needs at least 9"):
         Hierarchical().estimate(body, body.rest_pose(), Recorder(body.rest_pose()), CMAES(), 5,
                                 np.random.default_rng(0))
+    with pytest.raises(ConfigError, match="gives the frame 13 evaluations.*at least 14 for 39"):
+        Holistic().check(body, CMAES(), 13)
+    Holistic().check(body, CMAES(), 14)
