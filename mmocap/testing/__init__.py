@@ -1,0 +1,1 @@
+"""Conformance suites that plugins reuse in their own tests (see :mod:`.optimizers`)."""
