@@ -3,6 +3,10 @@ PYTHON ?= python3
 VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
+# Example plugins, installed (not editable: Hydra finds their configs in site-packages) so
+# that the test suite runs them like a user's own plugin.
+PLUGINS       := plugins/mmocap-pycma
+PLUGIN_FILES  := $(shell find $(PLUGINS) -name '*.py' -o -name '*.toml' -o -name '*.yaml')
 
 .DEFAULT_GOAL := help
 .PHONY: help install demo test test-all clean
@@ -10,13 +14,14 @@ STAMP  := $(VENV)/.installed
 help: ## Show this help
 	@grep -hE '^[a-zA-Z0-9_-]+:.*## ' $(MAKEFILE_LIST) | awk 'BEGIN {FS = ":.*## "}; {printf "  \033[36m%-12s\033[0m %s\n", $$1, $$2}'
 
-$(STAMP): pyproject.toml
+$(STAMP): pyproject.toml $(PLUGIN_FILES)
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
 	$(PY) -m pip install --quiet -e '.[test]'
+	$(PY) -m pip install --quiet $(addprefix ./,$(PLUGINS))
 	@touch $(STAMP)
 
-install: $(STAMP) ## Create .venv and install mmocap with its test dependencies
+install: $(STAMP) ## Create .venv; install mmocap, its test dependencies and the example plugins
 
 demo: $(STAMP) ## Generate synthetic S1 walking, track it with CMA-ES, write outputs/demo/
 	$(PY) -m mmocap +experiment=demo

@@ -1,0 +1,1 @@
+"""mmocap optimiser plugin around pycma, the reference CMA-ES implementation."""
