@@ -9,7 +9,7 @@ PLUGINS       := plugins/mmocap-pycma
 PLUGIN_FILES  := $(shell find $(PLUGINS) -name '*.py' -o -name '*.toml' -o -name '*.yaml')
 
 .DEFAULT_GOAL := help
-.PHONY: help install demo test test-all clean
+.PHONY: help install demo optimizers test test-all clean
 
 help: ## Show this help
 	@grep -hE '^[a-zA-Z0-9_-]+:.*## ' $(MAKEFILE_LIST) | awk 'BEGIN {FS = ":.*## "}; {printf "  \033[36m%-12s\033[0m %s\n", $$1, $$2}'
@@ -25,6 +25,13 @@ install: $(STAMP) ## Create .venv; install mmocap, its test dependencies and the
 
 demo: $(STAMP) ## Generate synthetic S1 walking, track it with CMA-ES, write outputs/demo/
 	$(PY) -m mmocap +experiment=demo
+
+optimizers: $(STAMP) ## Demo sequence with every built-in optimiser, holistic and hierarchical; table in outputs/tables/
+	$(PY) -m mmocap -m +experiment=demo optimizer=cmaes,de,pso,apf,psapf strategy=holistic,hierarchical \
+		overlays=0 progress=false hydra.sweep.dir=outputs/optimizers
+	@mkdir -p outputs/tables
+	$(PY) -m mmocap.report.summaries outputs/optimizers --csv outputs/tables/optimizers.csv \
+		| tee outputs/tables/optimizers.md
 
 test: $(STAMP) ## Run the fast test suite
 	$(PY) -m pytest -q

@@ -75,6 +75,14 @@ BAD_CONFIGS = [
     (["tracking.frames=99"], "tracking.frames must be in [1, 4], got 99"),
     (["dataset.cameras=[C1,C4]"], "camera C4 not in sequence"),
     (["strategy.rotation_radius=0"], "strategy.rotation_radius must be in (0, pi], got 0"),
+    (["tracking.evaluations=13"], "tracking.evaluations=13 gives the frame 13 evaluations but "
+                                  "optimizer 'cmaes' needs at least 14 for 39 degrees of freedom"),
+    (["optimizer.popsize=1"], "optimizer.popsize must be an integer in [2, inf), got 1"),
+    (["strategy=hierarchical", "partition.steps=[[Root],[Torso]]"], "unknown joint(s) Torso"),
+    (["strategy=hierarchical", "body.dof=28",
+      "partition.steps=[[Root],[BottomSpine,UpperSpine,Neck],[LShoulder,LElbow],[LWrist,RWrist],"
+      "[RShoulder,RElbow],[LHip,LKnee,LAnkle],[RHip,RKnee,RAnkle]]"],
+     "strategy step 4 (LWrist, RWrist) has no degree of freedom in the 28-DOF body model"),
 ]
 
 
