@@ -27,6 +27,7 @@ demo: $(STAMP) ## Generate synthetic S1 walking, track it with CMA-ES, write out
 	$(PY) -m mmocap +experiment=demo
 
 optimizers: $(STAMP) ## Demo sequence with every built-in optimiser, holistic and hierarchical; table in outputs/tables/
+	rm -rf outputs/optimizers
 	$(PY) -m mmocap -m +experiment=demo optimizer=cmaes,de,pso,apf,psapf strategy=holistic,hierarchical \
 		overlays=0 progress=false hydra.sweep.dir=outputs/optimizers
 	@mkdir -p outputs/tables
