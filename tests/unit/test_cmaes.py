@@ -203,3 +203,28 @@ def test_sigma0_is_the_first_step_as_a_fraction_of_the_radius():
         spreads.append(opt.ask().std(axis=0))
     np.testing.assert_allclose(spreads[0], [1, 1, 1, 10, 10, 10], rtol=0.06)
     np.testing.assert_allclose(spreads[1], [0.1, 0.1, 0.1, 1, 1, 1], rtol=0.06)
+
+
+def test_ellipsoid_evaluations_within_a_small_factor_of_pycma():
+    # pycma (Hansen's reference implementation, with its default active covariance update)
+    # is installed with the example plugin. Same problem, start, step and target.
+    cma = pytest.importorskip("cma")
+    dim, target = 10, 1e-8
+    ours, reference = [], []
+    for seed in range(3):
+        opt = CMAES(sigma0=1.0)
+        opt.setup(box(dim, 3.0, 1e3, 1.0, 10**5), np.random.default_rng(seed))
+        while opt.result.fbest > target:
+            X = opt.ask()
+            opt.tell(X, ellipsoid(X))
+        ours.append(opt.result.evaluations)
+        rng = np.random.default_rng(seed)
+        es = cma.CMAEvolutionStrategy(np.full(dim, 3.0), 1.0, {
+            "ftarget": target, "verbose": -9, "seed": np.nan,
+            "randn": lambda *shape: rng.standard_normal(shape)})
+        es.optimize(lambda x: float(ellipsoid(np.atleast_2d(x))[0]))
+        reference.append(es.result.evaluations)
+    ratio = np.mean(ours) / np.mean(reference)
+    # measured 1.5 (1.1 against pycma without active CMA, the update Table 2 describes);
+    # without covariance adaptation the ellipsoid takes ~100 times more evaluations
+    assert ratio < 2.0, f"{ours} vs pycma {reference}"
