@@ -18,6 +18,7 @@ of each coordinate) make one unit the search radius in every coordinate (rad or 
 from __future__ import annotations
 
 import math
+from abc import ABC, abstractmethod
 
 import numpy as np
 
@@ -25,7 +26,7 @@ from mmocap.api import Result, SearchSpace
 from mmocap.errors import ConfigError
 
 
-class PopulationOptimizer:
+class PopulationOptimizer(ABC):
     """Base class of batch ask/tell minimisers; see the module docstring for the hooks."""
 
     #: name used in error messages; subclasses set their registry name
@@ -35,17 +36,21 @@ class PopulationOptimizer:
         self._space: SearchSpace | None = None
 
     # -- hooks -------------------------------------------------------------------------------
+    @abstractmethod
     def population_size(self, dim: int) -> int:
-        raise NotImplementedError
+        """Candidates per generation for ``dim`` coordinates."""
 
+    @abstractmethod
     def _start(self) -> None:
-        raise NotImplementedError
+        """Initialise the search state (called at the end of ``setup``)."""
 
+    @abstractmethod
     def _propose(self, n_max: int) -> np.ndarray:
-        raise NotImplementedError
+        """The next candidates (n, D), 1 <= n <= n_max, original units."""
 
+    @abstractmethod
     def _learn(self, X: np.ndarray, f: np.ndarray) -> None:
-        raise NotImplementedError
+        """Update from the evaluated candidates X (n, D) and their fitness f (n,)."""
 
     def _reasons(self) -> dict:
         return {}

@@ -14,6 +14,7 @@ joint names that together name each of the 16 joints once ("Root" includes the t
 from __future__ import annotations
 
 import time
+from abc import ABC, abstractmethod
 from dataclasses import dataclass
 
 import numpy as np
@@ -52,7 +53,7 @@ def joint_indices(joint: str, mask: np.ndarray) -> np.ndarray:
     return idx[mask[idx]]
 
 
-class Strategy:
+class Strategy(ABC):
     """Shared search box, step validation and the ask/tell loop of the strategies."""
 
     name = "strategy"
@@ -93,10 +94,10 @@ class Strategy:
             groups.append([g for g in per_joint if len(g)])
         return groups
 
+    @abstractmethod
     def plan(self, body, budget: int) -> list[tuple[list[np.ndarray], int]]:
         """The searches of one frame in order: (partitions, budget) each, a partition being
         an index array into the 51-vector."""
-        raise NotImplementedError
 
     def check(self, body, optimizer, budget: int) -> None:
         """Raise a ConfigError if a search of the plan gets less than ``optimizer`` needs
