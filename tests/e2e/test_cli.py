@@ -18,7 +18,7 @@ def overrides(root, **extra):
         "dataset.cameras": "[" + ",".join(TINY["cameras"]) + "]",
         "dataset.all_cameras": "[" + ",".join(TINY["cameras"]) + "]",
         "dataset.width": TINY["width"], "dataset.height": TINY["height"],
-        "dataset.background_frames": TINY["background_frames"], "seed": TINY["seed"],
+        "dataset.background_frames": TINY["background_frames"], "dataset.seed": TINY["seed"],
         "progress": "false", "overlays": 1, "tracking.frames": 2, "tracking.evaluations": 300,
     }
     args.update(extra)

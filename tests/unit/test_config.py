@@ -47,3 +47,9 @@ def test_builtins_are_registered_as_entry_points():
     assert {"naive", "numpy"} <= set(registry.available("evaluator"))
     assert all(ep.dist.name == "mmocap" for ep in registry.available("optimizer").values()
                if ep.name == "cmaes")
+
+
+def test_search_seed_does_not_change_the_data():
+    with initialize_config_dir(config_dir=str(CONF), version_base="1.3"):
+        cfg = compose("config", overrides=["seed=7"])
+    assert cfg.seed == 7 and cfg.dataset.seed == 0

@@ -37,7 +37,7 @@ def test_tracks_from_the_command_line(tmp_path):
     out = tmp_path / "run"
     args = [f"dataset.root={root}", "dataset.frames=2", "dataset.cameras=[C1,BW1]",
             "dataset.all_cameras=[C1,BW1]", "dataset.width=160", "dataset.height=120",
-            "dataset.background_frames=3", "seed=1", "progress=false", "overlays=0",
+            "dataset.background_frames=3", "dataset.seed=1", "progress=false", "overlays=0",
             "tracking.evaluations=200", "optimizer=pycma", f"hydra.run.dir={out}"]
     proc = subprocess.run([sys.executable, "-m", "mmocap", *args], capture_output=True, text=True,
                           timeout=600)
