@@ -1,0 +1,253 @@
+import itertools
+from pathlib import Path
+
+import numpy as np
+import pytest
+from omegaconf import OmegaConf
+
+from mmocap.api import Optimizer, SearchSpace
+from mmocap.errors import ConfigError
+from mmocap.optimizers.de import DifferentialEvolution, assortative_mating
+from mmocap.registry import make_optimizer
+
+D = 39
+# Optimum 0.2 search radii from the start point in every coordinate, as in tracking.
+SHIFT = np.random.default_rng(123).choice([-1.0, 1.0], D) * 0.2
+
+
+def sphere(X):
+    return np.sum(X**2, axis=1)
+
+
+def ellipsoid(X):
+    """Condition number 1e3: axis scales 1 ... 31.6."""
+    d = X.shape[1]
+    return np.sum(1e3 ** (np.arange(d) / (d - 1)) * X**2, axis=1)
+
+
+def rosenbrock(X):
+    return np.sum(100 * (X[:, 1:] - X[:, :-1] ** 2) ** 2 + (1 - X[:, :-1]) ** 2, axis=1)
+
+
+TRACKING_LIKE = {  # start point 0, box of one search radius (1) around it, budget 1500
+    "sphere": lambda X: sphere(X - SHIFT),
+    "ellipsoid": lambda X: ellipsoid(X - SHIFT),
+    "rosenbrock": lambda X: rosenbrock(X + 1 - SHIFT),
+}
+
+
+def box(dim, x0, bound, sigma0, budget):
+    ones = np.ones(dim)
+    return SearchSpace(x0=x0 * ones, lower=-bound * ones, upper=bound * ones,
+                       sigma0=sigma0 * ones, budget=budget)
+
+
+def minimise(f, space, seed, opt=None, asked=None):
+    opt = opt or DifferentialEvolution()
+    opt.setup(space, np.random.default_rng(seed))
+    while not opt.stop():
+        X = opt.ask()
+        if asked is not None:
+            asked.append(X.copy())
+        opt.tell(X, f(X))
+    return opt.result
+
+
+def random_search(f, space, seed):
+    X = np.random.default_rng(seed).uniform(space.lower, space.upper, (space.budget, space.dim))
+    return float(f(X).min())
+
+
+def test_defaults_follow_table_3_and_the_yaml():
+    opt = DifferentialEvolution()
+    assert (opt.popsize, opt.n_placing, opt.n_leading, opt.n_correcting) == (10, 5, 5, 5)
+    assert (opt.cr, opt.f) == (0.9, 0.5)
+    assert (opt.init_spread, opt.include_x0) == (1.0, True)
+    assert isinstance(opt, Optimizer)
+    cfg = OmegaConf.load(Path(__file__).resolve().parents[2] / "conf/optimizer/de.yaml")
+    built = make_optimizer(**{k: v for k, v in cfg.items() if k != "_target_"})
+    assert vars(built) == vars(opt)
+
+
+@pytest.mark.parametrize("name", TRACKING_LIKE)
+def test_default_setting_beats_random_search_and_f0(name):
+    # Means over 3 seeds at the tracking budget. N = 10 in 39-D converges early (from
+    # f(x0) = 1.56 / 240 / 867 to 0.96 / 100 / 462), yet far below random search in the box
+    # (7.9 / 636 / 2910); with F ~ 0 the donor is the placing vector, no new directions are
+    # made and DE stays near f(x0) (1.55 / 235 / 834).
+    f = TRACKING_LIKE[name]
+    space = box(D, 0.0, 1.0, 1.0, 1500)
+    de = np.mean([minimise(f, space, s).fbest for s in range(3)])
+    rand = np.mean([random_search(f, space, s) for s in range(3)])
+    no_f = np.mean([minimise(f, space, s, DifferentialEvolution(f=1e-9)).fbest for s in range(3)])
+    assert de < rand / 5
+    assert de < no_f / 1.2
+    assert de < 0.8 * f(np.zeros((1, D)))[0]
+
+
+@pytest.mark.parametrize("f, random_factor, f0_factor", [(sphere, 50, 20), (ellipsoid, 30, 10)])
+def test_larger_population_converges_far_from_the_start(f, random_factor, f0_factor):
+    # N = 40 from x0 = 3 (f = 351 / 3.5e4) in a box of +-5, seed 0: sphere 1.8 (random
+    # search 169, F ~ 0 56), ellipsoid 222 (random 1.2e4, F ~ 0 4.0e3).
+    kw = dict(popsize=40, n_placing=20, n_leading=20, n_correcting=20)
+    space = box(D, 3.0, 5.0, 5.0, 8000)
+    r = minimise(f, space, 0, DifferentialEvolution(**kw))
+    assert r.fbest < random_search(f, space, 0) / random_factor
+    assert r.fbest < minimise(f, space, 0, DifferentialEvolution(f=1e-9, **kw)).fbest / f0_factor
+
+
+def test_assortative_mating():
+    rng = np.random.default_rng(0)
+    Z = np.arange(6.0)[:, None] * np.ones((1, 3))  # member j at distance j*sqrt(3) from 0
+    ref = Z[0]
+    cands = [1, 2, 3, 4, 5]
+    for _ in range(50):
+        keys = rng.random(6)
+        assert assortative_mating(cands, Z, ref, 1.0, keys) == 1    # nearest of all
+        assert assortative_mating(cands, Z, ref, -1.0, keys) == 5   # farthest of all
+        # |alpha| = 0.5: nearest (farthest) of 3 random candidates, never the 2 farthest
+        # (nearest)
+        assert assortative_mating(cands, Z, ref, 0.5, keys) in (1, 2, 3)
+        assert assortative_mating(cands, Z, ref, -0.5, keys) in (3, 4, 5)
+    picks = [assortative_mating(cands, Z, ref, 0.0, rng.random(6)) for _ in range(2000)]
+    counts = np.bincount(picks, minlength=6)[1:]
+    assert np.all(np.abs(counts / 2000 - 0.2) < 0.04)  # alpha = 0: random mating
+
+
+def started(seed=0, budget=1000, bound=100.0, **kw):
+    """Optimiser after generation 0 on the sphere; x0 = 0 and sigma0 = 1, so normalised
+    coordinates are the original ones."""
+    opt = DifferentialEvolution(**kw)
+    opt.setup(box(D, 0.0, bound, 1.0, budget), np.random.default_rng(seed))
+    X = opt.ask()
+    opt.tell(X, sphere(X))
+    return opt, X, sphere(X)
+
+
+@pytest.mark.parametrize("kw", [{}, dict(n_placing=1, n_leading=2, n_correcting=1)])
+def test_mates_follow_the_roles(kw):
+    opt, X, f = started(**kw)
+    order = np.argsort(f)
+    best = lambda k: set(order[:k].tolist())  # noqa: E731
+    worst = set(order[10 - opt.n_correcting:].tolist())
+    everyone = set(range(10))
+    for _ in range(30):
+        idx, alpha = opt.mates()
+        for i, (p, l, c) in enumerate(idx):
+            assert len({i, p, l, c}) == 4
+            # a role set emptied by the exclusions falls back to the rest of the population
+            assert p in (best(opt.n_placing) - {i} or everyone - {i})
+            assert l in (best(opt.n_leading) - {i, p} or everyone - {i, p})
+            assert c in (worst - {i, p, l} or everyone - {i, p, l})
+        assert np.all(np.abs(alpha) <= 1)
+
+
+def test_trials_inherit_the_placing_vectors_alpha_altered_with_probability_0_1():
+    opt, _, _ = started()
+    inherited = []
+    for _ in range(200):
+        idx, alpha = opt.mates()
+        inherited.append(alpha == opt._alpha[idx[:, 0]])
+    assert np.mean(inherited) == pytest.approx(0.9, abs=0.02)
+
+
+def test_trials_are_eq_15_donors_of_role_vectors_with_cr_1():
+    opt, X, f = started(cr=1.0)
+    U = opt.ask()  # bounds of +-100: nothing is clipped
+    order = np.argsort(f)
+    for i, u in enumerate(U):
+        found = [(p, l, c) for p, l, c in itertools.permutations(range(10), 3)
+                 if np.allclose(u, X[p] + 0.5 * (X[l] - X[c]))]
+        assert len(found) == 1
+        p, l, c = found[0]
+        assert i not in (p, l, c)
+        assert p in order[:5] and l in order[:5] and c in order[5:]
+
+
+def test_crossover_with_cr_0_changes_one_coordinate():
+    opt, X, _ = started(cr=0.0)
+    U = opt.ask()
+    assert np.all(np.sum(U != X, axis=1) == 1)
+
+
+def test_selection_keeps_the_better_of_receiver_and_trial_in_a_truncated_generation():
+    opt, X, f = started(budget=15)
+    U = opt.ask()
+    assert U.shape == (5, D)  # the budget leaves 5 evaluations
+    trial_alpha = opt._trial_alpha.copy()
+    old_alpha = opt._alpha.copy()
+    fu = np.array([0.0, 1e9, 0.0, 1e9, f[4]])  # trials 0, 2 win; 4 ties and wins
+    opt.tell(U, fu)
+    won = np.array([True, False, True, False, True] + [False] * 5)
+    np.testing.assert_array_equal(opt._Z[won], U[[0, 2, 4]])
+    np.testing.assert_array_equal(opt._Z[~won], X[~won])
+    np.testing.assert_array_equal(opt._fit, np.where(won, np.r_[fu, f[5:]], f))
+    np.testing.assert_array_equal(opt._alpha[won], trial_alpha[won])
+    np.testing.assert_array_equal(opt._alpha[~won], old_alpha[~won])
+    assert opt.stop() == {"budget": 15}
+
+
+def test_initial_population_holds_x0_and_spreads_init_spread_radii():
+    space = SearchSpace(x0=np.full(D, 0.5), lower=-np.ones(D), upper=np.ones(D),
+                        sigma0=np.full(D, 2.0), budget=100)
+    for spread, lo, hi in [(1.0, -1.0, 1.0), (0.1, 0.3, 0.7)]:
+        opt = DifferentialEvolution(init_spread=spread)
+        opt.setup(space, np.random.default_rng(0))
+        X = opt.ask()
+        np.testing.assert_array_equal(X[0], space.x0)
+        assert X[1:].min() >= lo and X[1:].max() <= hi
+        assert X[1:].min() < lo + 0.1 and X[1:].max() > hi - 0.1
+    opt = DifferentialEvolution(include_x0=False)
+    opt.setup(space, np.random.default_rng(0))
+    assert not np.any(np.all(opt.ask() == space.x0, axis=1))
+
+
+@pytest.mark.parametrize("budget, last", [(10, 10), (11, 1), (95, 5), (100, 10), (1500, 10)])
+def test_budget_is_hit_exactly(budget, last):
+    asked = []
+    opt = DifferentialEvolution()
+    r = minimise(lambda X: sphere(X - SHIFT), box(D, 0.0, 1.0, 1.0, budget), 1, opt, asked)
+    assert sum(len(X) for X in asked) == r.evaluations == budget
+    assert [len(X) for X in asked[:-1]] == [10] * (len(asked) - 1)
+    assert len(asked[-1]) == last
+    assert r.stop_reasons == {"budget": budget}
+    with pytest.raises(RuntimeError, match="budget"):
+        opt.ask()
+
+
+def test_budget_smaller_than_the_population_is_a_config_error():
+    with pytest.raises(ConfigError, match="at least 10 evaluations"):
+        DifferentialEvolution().setup(box(D, 0.0, 1.0, 1.0, 9), np.random.default_rng(0))
+
+
+def test_asked_points_stay_in_bounds_and_optimum_on_bound_is_found():
+    space = SearchSpace(x0=np.full(5, 0.9), lower=-np.ones(5), upper=np.ones(5),
+                        sigma0=np.full(5, 2.0), budget=2000)
+    asked = []
+    r = minimise(lambda X: np.sum((X - 2.0) ** 2, axis=1), space, 3, asked=asked)
+    X = np.concatenate(asked)
+    assert np.all(X >= space.lower) and np.all(X <= space.upper)
+    assert r.fbest == pytest.approx(5.0, abs=1e-6)
+
+
+def test_same_seed_same_result_different_seed_different():
+    space = box(D, 0.0, 1.0, 1.0, 300)
+    f = TRACKING_LIKE["sphere"]
+    a, b, c = (minimise(f, space, seed) for seed in (7, 7, 8))
+    np.testing.assert_array_equal(a.xbest, b.xbest)
+    assert a.fbest == b.fbest
+    assert not np.array_equal(a.xbest, c.xbest)
+
+
+@pytest.mark.parametrize("kw, name", [
+    (dict(popsize=3), "popsize"), (dict(popsize=10.5), "popsize"),
+    (dict(n_placing=11), "n_placing"), (dict(n_placing=0), "n_placing"),
+    (dict(n_leading=11), "n_leading"), (dict(n_correcting=0), "n_correcting"),
+    (dict(popsize=6, n_correcting=7), "n_correcting"),
+    (dict(cr=-0.1), "cr"), (dict(cr=1.5), "cr"), (dict(f=0.0), "f"), (dict(f=-0.5), "f"),
+    (dict(f=float("nan")), "f"), (dict(init_spread=0.0), "init_spread"),
+    (dict(include_x0="yes"), "include_x0"),
+])
+def test_bad_parameters_are_config_errors(kw, name):
+    with pytest.raises(ConfigError, match=rf"optimizer\.{name}\b"):
+        DifferentialEvolution(**kw)
