@@ -184,3 +184,11 @@ def check_number(name: str, value, low: float, high: float = math.inf, *,
         interval = f"{'(' if low_open else '['}{low}, {high}{']' if high != math.inf else ')'}"
         raise ConfigError(f"optimizer.{name} must be {kind} in {interval}, got {value!r}")
     return int(value) if integer else float(value)
+
+
+def check_flag(name: str, value) -> bool:
+    """Return ``value`` as a bool if it is one, else raise a ConfigError naming
+    ``optimizer.<name>``."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise ConfigError(f"optimizer.{name} must be true or false, got {value!r}")
+    return bool(value)

@@ -44,8 +44,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from mmocap.errors import ConfigError
-from mmocap.optimizers.base import PopulationOptimizer, check_number
+from mmocap.optimizers.base import PopulationOptimizer, check_flag, check_number
 
 #: probability that an alpha of the placing vector is redrawn when it is passed on
 ALPHA_RESET = 0.1
@@ -102,9 +101,7 @@ class DifferentialEvolution(PopulationOptimizer):
         self.cr = check_number("cr", cr, 0.0, 1.0)
         self.f = check_number("f", f, 0.0, low_open=True)
         self.init_spread = check_number("init_spread", init_spread, 0.0, low_open=True)
-        if not isinstance(include_x0, (bool, np.bool_)):
-            raise ConfigError(f"optimizer.include_x0 must be true or false, got {include_x0!r}")
-        self.include_x0 = bool(include_x0)
+        self.include_x0 = check_flag("include_x0", include_x0)
 
     def population_size(self, dim: int) -> int:
         return self.popsize

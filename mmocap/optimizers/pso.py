@@ -38,7 +38,7 @@ import math
 import numpy as np
 
 from mmocap.errors import ConfigError
-from mmocap.optimizers.base import PopulationOptimizer, check_number
+from mmocap.optimizers.base import PopulationOptimizer, check_flag, check_number
 
 
 def inertia_schedule(w_max: float, w_min: float, moves: int) -> np.ndarray:
@@ -89,9 +89,7 @@ class ParticleSwarm(PopulationOptimizer):
                               f"got {self.w_min}")
         self.v_max = None if v_max is None else check_number("v_max", v_max, 0.0, low_open=True)
         self.init_spread = check_number("init_spread", init_spread, 0.0, low_open=True)
-        if not isinstance(include_x0, (bool, np.bool_)):
-            raise ConfigError(f"optimizer.include_x0 must be true or false, got {include_x0!r}")
-        self.include_x0 = bool(include_x0)
+        self.include_x0 = check_flag("include_x0", include_x0)
 
     def population_size(self, dim: int) -> int:
         return self.popsize

@@ -6,37 +6,12 @@ import pytest
 from mmocap.api import Optimizer, SearchSpace
 from mmocap.errors import ConfigError
 from mmocap.optimizers.cmaes import CMAES, strategy_parameters
-
-
-def sphere(X):
-    return np.sum(X**2, axis=1)
-
-
-def ellipsoid(X):
-    """Condition number 1e6: axis scales 1 ... 1e3."""
-    d = X.shape[1]
-    return np.sum(1e6 ** (np.arange(d) / (d - 1)) * X**2, axis=1)
-
-
-def rosenbrock(X):
-    return np.sum(100 * (X[:, 1:] - X[:, :-1] ** 2) ** 2 + (1 - X[:, :-1]) ** 2, axis=1)
-
-
-def box(dim, x0, bound, sigma0, budget):
-    ones = np.ones(dim)
-    return SearchSpace(x0=x0 * ones, lower=-bound * ones, upper=bound * ones,
-                       sigma0=sigma0 * ones, budget=budget)
+from tests.unit import objectives
+from tests.unit.objectives import box, ellipsoid, rosenbrock, sphere
 
 
 def minimise(f, space, seed, opt=None, asked=None):
-    opt = opt or CMAES()
-    opt.setup(space, np.random.default_rng(seed))
-    while not opt.stop():
-        X = opt.ask()
-        if asked is not None:
-            asked.append(X.copy())
-        opt.tell(X, f(X))
-    return opt.result
+    return objectives.minimise(f, space, seed, opt or CMAES(), asked)
 
 
 def test_strategy_parameters_follow_table_2_for_39_dof():
@@ -222,6 +197,7 @@ def test_ellipsoid_evaluations_within_a_small_factor_of_pycma():
         es = cma.CMAEvolutionStrategy(np.full(dim, 3.0), 1.0, {
             "ftarget": target, "verbose": -9, "seed": np.nan,
             "randn": lambda *shape: rng.standard_normal(shape)})
+
         es.optimize(lambda x: float(ellipsoid(np.atleast_2d(x))[0]))
         reference.append(es.result.evaluations)
     ratio = np.mean(ours) / np.mean(reference)
