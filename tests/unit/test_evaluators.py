@@ -1,7 +1,6 @@
 """Silhouette evaluators: the shared rule, the naive reference and the NumPy backend."""
 import numpy as np
 import pytest
-from scipy.spatial.transform import Rotation
 
 from mmocap.api import Evaluator
 from mmocap.camera import Camera
@@ -9,115 +8,15 @@ from mmocap.errors import ConfigError, DataError
 from mmocap.evaluators.naive import NaiveEvaluator
 from mmocap.evaluators.numpy_backend import MAX_DILATE_SIDE, NumpyEvaluator
 from mmocap.evaluators.silhouette import fitness_from_counts, view_geometry
+from mmocap.testing.evaluators import (FRONT, H, HIGH, INSIDE, NEAR, SIDE, SMALL, TRUE_POSE, W,
+                                       BlobBody, PlateBody, PointBody, empty_masks)
 
 BACKENDS = [NaiveEvaluator, NumpyEvaluator]
-W, H = 320, 240
-
-
-def ellipsoid(centre, radii, count):
-    """(count, 3) evenly spread points on an ellipsoid and their (count, 3) outward normals."""
-    i = np.arange(count) + 0.5
-    polar, azimuth = np.arccos(1 - 2 * i / count), np.pi * (1 + 5 ** 0.5) * i
-    unit = np.stack([np.sin(polar) * np.cos(azimuth), np.cos(polar),
-                     np.sin(polar) * np.sin(azimuth)], axis=1)
-    radii = np.asarray(radii, float)
-    normals = unit / radii
-    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
-    return np.asarray(centre, float) + unit * radii, normals
-
-
-class BlobBody:
-    """Stand-in body: pelvis, trunk and head ellipsoids on a chain of 3 joints (mm, y up).
-
-    Pose (8,): root translation (3, mm), root rotation vector (3, rad), trunk and head
-    bends about their pivots' x axes (rad).
-    """
-
-    PARTS = (  # centre, radii, pivot, vertex count
-        ((0, 0, 0), (150, 100, 100), (0, 0, 0), 400),
-        ((0, 400, 0), (90, 250, 80), (0, 150, 0), 700),
-        ((0, 750, 0), (90, 90, 90), (0, 650, 0), 300),
-    )
-
-    def __init__(self):
-        points, normals, joints, patch = [], [], [], []
-        for j, (centre, radii, _, count) in enumerate(self.PARTS):
-            p, n = ellipsoid(centre, radii, count)
-            points.append(p)
-            normals.append(n)
-            joints.append(np.full(count, j))
-            a, b, c = (r ** 1.6075 for r in radii)  # Thomsen's ellipsoid area, 1 % accurate
-            area = 4 * np.pi * ((a * b + a * c + b * c) / 3) ** (1 / 1.6075)
-            patch.append(np.sqrt(area / (2 * count)))
-        self.rest_vertices = np.concatenate(points)
-        self.rest_normals = np.concatenate(normals)
-        self.vertex_joint = np.concatenate(joints)
-        self.joint_rest_positions = np.array([part[2] for part in self.PARTS], float)
-        self.patch_mm = np.array(patch)
-
-    def transforms(self, X):
-        X = np.atleast_2d(X)
-        T = np.tile(np.eye(4), (len(X), 3, 1, 1))
-        T[:, 0, :3, :3] = Rotation.from_rotvec(X[:, 3:6]).as_matrix()
-        T[:, 0, :3, 3] = X[:, :3]
-        for j, column in ((1, 6), (2, 7)):
-            bend = np.tile(np.eye(4), (len(X), 1, 1))
-            bend[:, :3, :3] = Rotation.from_euler("x", X[:, column, None]).as_matrix()
-            pivot = self.joint_rest_positions[j]
-            bend[:, :3, 3] = pivot - bend[:, :3, :3] @ pivot
-            T[:, j] = T[:, j - 1] @ bend
-        return T
-
-
-class PlateBody:
-    """One joint: a 200 x 200 mm plate of vertices in the z = 0 plane, normals +z."""
-
-    def __init__(self):
-        g = np.linspace(-100, 100, 21)
-        xx, yy = np.meshgrid(g, g)
-        self.rest_vertices = np.stack([xx.ravel(), yy.ravel(), np.zeros(xx.size)], axis=1)
-        self.rest_normals = np.tile([0.0, 0.0, 1.0], (xx.size, 1))
-        self.vertex_joint = np.zeros(xx.size, int)
-        self.joint_rest_positions = np.zeros((1, 3))
-        self.patch_mm = np.array([10.0])
-
-    def transforms(self, X):
-        T = np.tile(np.eye(4), (len(np.atleast_2d(X)), 1, 1, 1))
-        T[:, 0, :3, 3] = np.atleast_2d(X)[:, :3]
-        return T
-
-
-class PointBody(PlateBody):
-    """One joint, one vertex at the origin facing -z; pose (3,) is its translation in mm."""
-
-    def __init__(self):
-        super().__init__()
-        self.rest_vertices = np.zeros((1, 3))
-        self.rest_normals = np.array([[0.0, 0.0, -1.0]])
-        self.vertex_joint = np.zeros(1, int)
-        self.patch_mm = np.array([2.0])
-
-
-def camera(name, eye, target=(0, 400, 0), focal=400.0):
-    return Camera.look_at(name, eye, target, focal, W, H)
-
-
-FRONT = camera("front", (300, 500, 3000))
-SIDE = camera("side", (2800, 900, 400))
-HIGH = camera("high", (-1500, 2500, -1800))
-NEAR = camera("near", (0, 0, 450), (0, 0, 0))          # patches of 13 px and more
-INSIDE = camera("inside", (0, 400, 40), (0, 400, 1000))  # in the trunk: pivots behind it
-SMALL = Camera.look_at("small", (-2500, 800, 1500), (0, 400, 0), 250.0, 200, 150)
-TRUE_POSE = np.array([30.0, -20.0, 50.0, 0.1, 0.3, -0.05, 0.4, -0.3])
 
 
 @pytest.fixture(scope="module")
 def body():
     return BlobBody()
-
-
-def empty_masks(cameras):
-    return [np.zeros((cam.height, cam.width), bool) for cam in cameras]
 
 
 def own_render(backend, body, cameras, x):
