@@ -1,0 +1,172 @@
+// The silhouette rule of mmocap/evaluators/silhouette.py, steps 3-6, in float64.
+// One work-group of LOCAL_SIZE work-items per model-view g = candidate * C + camera: the
+// work-items share the view's vertices, stamp their patches into a bit mask in local
+// memory (1 bit per pixel, rows padded to 32-bit words, cleared and counted 8 words at a time) and count |M| and |M & F| with
+// popcounts against the camera's foreground bit mask.
+//
+// Compile-time constants: LOCAL_SIZE and NEAR_MM, so that a program is built once per
+// context. With LOCAL_SIZE 1 (CPU devices) a work-group is one work-item and plain
+// read-modify-writes replace the local atomics. With write_masks != 0 the kernel also
+// copies each view's mask to masks_out (nV, mask_words) for rendering.
+#pragma OPENCL EXTENSION cl_khr_fp64 : enable
+#pragma OPENCL FP_CONTRACT OFF   // no fused multiply-adds: round as NumPy does
+
+#if LOCAL_SIZE == 1
+#define OR_WORD(p, x) (*(p) |= (x))
+#define MIN_INT(p, x) (*(p) = min(*(p), (x)))
+#define MAX_INT(p, x) (*(p) = max(*(p), (x)))
+#define ADD_INT(p, x) (*(p) += (x))
+#else
+#define OR_WORD(p, x) atomic_or((p), (x))
+#define MIN_INT(p, x) atomic_min((p), (x))
+#define MAX_INT(p, x) atomic_max((p), (x))
+#define ADD_INT(p, x) atomic_add((p), (x))
+#endif
+
+// Vertices are processed 4 at a time in double4 (one AVX2 register on a CPU; PoCL's
+// builtins are not built for AVX-512, so wider vectors would break their ABI): the
+// vertex arrays are structures of arrays, each joint's run padded to a multiple of 4 with
+// zero-normal vertices, which the culling test always rejects.
+
+// (cx, cy) clamped to [-2^20, 2^20] before the conversion to int: far beyond any image.
+#define CLAMP_PX 1048576.0
+
+// floor(t) as int, t clamped to [-CLAMP_PX, CLAMP_PX]; exact, without calls to builtins
+// (which PoCL compiles for a generic x86-64 and which were most of the kernel's time).
+inline int4 floor_int(double4 t)
+{
+    t = t < -CLAMP_PX ? -CLAMP_PX : t;
+    t = t > CLAMP_PX ? CLAMP_PX : t;
+    const int4 truncated = convert_int4(t);
+    return truncated + convert_int4(convert_double4(truncated) > t);   // true is -1
+}
+
+// Sets the bits of the patch of one kept vertex; widens the row range [*lo, *hi] it touched.
+// A clipped patch row of at most 32 pixels spans words w0 and w0 + 1 (the latter maybe
+// with no bit to set: the mask has a spare word at its end for that).
+inline void stamp(__local uint *mask, const int stride, const int width, const int height,
+                  const int cx, const int cy, const int before, const int after,
+                  int *lo, int *hi)
+{
+    const int col0 = max(cx - before, 0), col1 = min(cx + after, width - 1);
+    const int row0 = max(cy - before, 0), row1 = min(cy + after, height - 1);
+    if (col0 > col1 || row0 > row1) return;
+    *lo = min(*lo, row0);
+    *hi = max(*hi, row1);
+    const int w0 = col0 >> 5, len = col1 - col0 + 1;
+    if (len <= 32) {
+        const ulong bits = (0xffffffffUL >> (32 - len)) << (col0 & 31);
+        const uint low = (uint)bits, high = (uint)(bits >> 32);
+        for (__local uint *row = mask + row0 * stride + w0; row <= mask + row1 * stride + w0;
+             row += stride) {
+            OR_WORD(row, low);
+            OR_WORD(row + 1, high);
+        }
+        return;
+    }
+    const int w1 = col1 >> 5;
+    const uint first = 0xffffffffu << (col0 & 31);
+    const uint last = 0xffffffffu >> (31 - (col1 & 31));
+    for (int r = row0; r <= row1; ++r) {
+        __local uint *row = mask + r * stride;
+        OR_WORD(row + w0, first);
+        for (int k = w0 + 1; k < w1; ++k) OR_WORD(row + k, 0xffffffffu);
+        OR_WORD(row + w1, last);
+    }
+}
+
+// Set bits per 32-bit lane (SWAR; PoCL's popcount builtin is a call on generic x86-64).
+inline uint8 bit_count(uint8 v)
+{
+    v = v - ((v >> 1) & 0x55555555u);
+    v = (v & 0x33333333u) + ((v >> 2) & 0x33333333u);
+    v = (v + (v >> 4)) & 0x0f0f0f0fu;
+    return (v * 0x01010101u) >> 24;
+}
+
+__kernel __attribute__((reqd_work_group_size(LOCAL_SIZE, 1, 1)))
+void silhouette_counts(
+    __global const double *vertices,   // (6, N4) rest x, y, z (mm) and normal x, y, z
+    __global const int *joint_start,   // (J + 1,) first vertex of each joint (multiples of 4)
+    __global const double *geometry,   // (nV, J, 12) rows 0-2 of E_c T_j, row-major
+    __global const int *sides,         // (nV, J) patch side in px, 0 = joint dropped
+    __global const double *intrinsics, // (C, 6) K[0, :] and K[1, :]
+    __global const int *shapes,        // (C, 3) width, height, first word of the mask in fg
+    __global const uint *fg,           // foreground bit masks, bit x % 32 of word x / 32,
+                                       // each camera's followed by zeros to mask_words
+    const int C, const int J,          // cameras, joints
+    __local uint8 *mask,               // mask_words / 8: the largest camera's mask + 8 spare
+    __global int *counts,              // (nV, 2) |M|, |M & F|
+    const int write_masks, const int mask_words, // mask_words: a multiple of 8
+    __global uint *masks_out)          // (nV, mask_words) when write_masks != 0
+{
+    __local int row_lo, row_hi, model_px, overlap_px;
+    const int g = get_group_id(0), lid = get_local_id(0), c = g % C;
+    const int width = shapes[3 * c], height = shapes[3 * c + 1];
+    const int stride = (width + 31) / 32;
+    const int N4 = joint_start[J];
+    for (int k = lid; k < mask_words / 8; k += LOCAL_SIZE) mask[k] = (uint8)(0u);
+    __local uint *words = (__local uint *)mask;
+    if (lid == 0) { row_lo = height; row_hi = -1; model_px = 0; overlap_px = 0; }
+    barrier(CLK_LOCAL_MEM_FENCE);
+
+    const double k00 = intrinsics[6 * c], k01 = intrinsics[6 * c + 1],
+                 k02 = intrinsics[6 * c + 2], k10 = intrinsics[6 * c + 3],
+                 k11 = intrinsics[6 * c + 4], k12 = intrinsics[6 * c + 5];
+    int lo = height, hi = -1;
+    for (int j = 0; j < J; ++j) {
+        const int s = sides[g * J + j];
+        if (s == 0) continue;
+        __global const double *m = geometry + (g * J + j) * 12;
+        const double r00 = m[0], r01 = m[1], r02 = m[2], t0 = m[3],
+                     r10 = m[4], r11 = m[5], r12 = m[6], t1 = m[7],
+                     r20 = m[8], r21 = m[9], r22 = m[10], t2 = m[11];
+        const int before = (s - 1) / 2, after = s / 2;
+        for (int v = joint_start[j] + 4 * lid; v < joint_start[j + 1]; v += 4 * LOCAL_SIZE) {
+            const double4 x = vload4(0, vertices + v), y = vload4(0, vertices + N4 + v),
+                          z = vload4(0, vertices + 2 * N4 + v);
+            const double4 pz = r20 * x + r21 * y + r22 * z + t2;
+            const double4 px = r00 * x + r01 * y + r02 * z + t0;
+            const double4 py = r10 * x + r11 * y + r12 * z + t1;
+            const double4 ax = vload4(0, vertices + 3 * N4 + v),
+                          ay = vload4(0, vertices + 4 * N4 + v),
+                          az = vload4(0, vertices + 5 * N4 + v);
+            const double4 nx = r00 * ax + r01 * ay + r02 * az;
+            const double4 ny = r10 * ax + r11 * ay + r12 * az;
+            const double4 nz = r20 * ax + r21 * ay + r22 * az;
+            const long4 keep = (pz > NEAR_MM) & (nx * px + ny * py + nz * pz < 0.0);
+            if (!any(keep)) continue;
+            const double4 u = (k00 * px + k01 * py + k02 * pz) / pz;
+            const double4 w = (k10 * px + k11 * py + k12 * pz) / pz;
+            const int4 cx = floor_int(u + 0.5), cy = floor_int(w + 0.5);
+#define STAMP(i) if (keep.s##i) stamp(words, stride, width, height, cx.s##i, cy.s##i, before, after, &lo, &hi)
+            STAMP(0); STAMP(1); STAMP(2); STAMP(3);
+#undef STAMP
+        }
+    }
+    MIN_INT(&row_lo, lo);
+    MAX_INT(&row_hi, hi);
+    barrier(CLK_LOCAL_MEM_FENCE);
+
+    __global const uint8 *f = (__global const uint8 *)(fg + shapes[3 * c + 2]);
+    uint8 model8 = 0u, overlap8 = 0u;
+    for (int k = row_lo * stride / 8 + lid; k < ((row_hi + 1) * stride + 7) / 8; k += LOCAL_SIZE) {
+        const uint8 bits = mask[k];
+        model8 += bit_count(bits);
+        overlap8 += bit_count(bits & f[k]);
+    }
+    const int model = model8.s0 + model8.s1 + model8.s2 + model8.s3 + model8.s4 + model8.s5
+                      + model8.s6 + model8.s7;
+    const int overlap = overlap8.s0 + overlap8.s1 + overlap8.s2 + overlap8.s3 + overlap8.s4
+                        + overlap8.s5 + overlap8.s6 + overlap8.s7;
+    ADD_INT(&model_px, model);
+    ADD_INT(&overlap_px, overlap);
+    barrier(CLK_LOCAL_MEM_FENCE);
+    if (write_masks)
+        for (int k = lid; k < stride * height; k += LOCAL_SIZE)
+            masks_out[g * mask_words + k] = words[k];
+    if (lid == 0) {
+        counts[2 * g] = model_px;
+        counts[2 * g + 1] = overlap_px;
+    }
+}

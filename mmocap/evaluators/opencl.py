@@ -1,0 +1,342 @@
+"""OpenCL evaluators: the rule of :mod:`mmocap.evaluators.silhouette` as a PyOpenCL kernel.
+
+Steps 1-2 (``view_geometry``) run on the host in float64; the kernel
+``kernels/silhouette.cl`` does steps 3-6 in float64, one work-group per (candidate, camera)
+pair, each with its own bit mask in local memory (1 bit per pixel: 38 400 bytes for
+640x480), so no two work-groups ever write the same memory. The foreground masks are
+uploaded once per frame as bit masks and counted against with popcounts. The kernel needs
+double precision (``cl_khr_fp64``): PoCL on CPUs and current GPUs have it.
+
+Devices: ``platform`` is an index into ``pyopencl.get_platforms()`` or a case-insensitive
+part of a platform's name (``"portable"`` for PoCL, ``"nvidia"``), None for the first
+platform that has a device; ``device`` is an index into that platform's devices. PoCL, the
+CPU platform, comes from PyPI (``pocl-binary-distribution``), so a machine without any
+system OpenCL driver still has one. No platform, or an index that does not exist, is a
+:class:`~mmocap.errors.ConfigError` that lists what there is: there is no silent fallback.
+
+Programs are built once per process and context (cached here). PoCL also keeps compiled
+kernels on disk in ``POCL_CACHE_DIR``: this module points it at a private temporary folder
+per process before OpenCL starts, so that parallel runs of a sweep never share one.
+
+:class:`MultiDeviceEvaluator` (``evaluator=multidevice``) splits the population over
+several devices of a platform, or over PoCL sub-devices when the platform has one CPU
+device; every (candidate, camera) pair is computed by the same kernel on one device, so
+the counts are those of a single device.
+"""
+from __future__ import annotations
+
+import atexit
+import logging
+import os
+import shutil
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from mmocap.errors import ConfigError
+from mmocap.evaluators.silhouette import NEAR_MM, SilhouetteEvaluator, view_geometry
+
+log = logging.getLogger(__name__)
+KERNEL = Path(__file__).with_name("kernels") / "silhouette.cl"
+_PID_VAR = "MMOCAP_POCL_CACHE_PID"
+
+
+def _private_pocl_cache() -> None:
+    """Give this process its own POCL_CACHE_DIR (a child does not reuse its parent's)."""
+    if os.environ.get(_PID_VAR) == str(os.getpid()):
+        return
+    folder = tempfile.mkdtemp(prefix="mmocap-pocl-")
+    atexit.register(shutil.rmtree, folder, ignore_errors=True)
+    os.environ["POCL_CACHE_DIR"] = folder
+    os.environ[_PID_VAR] = str(os.getpid())
+
+
+_private_pocl_cache()
+import pyopencl as cl  # noqa: E402  (after POCL_CACHE_DIR is set)
+
+_CONTEXTS: dict[tuple, cl.Context] = {}
+_PROGRAMS: dict[tuple, cl.Program] = {}
+_SUB_DEVICES: dict[tuple, list] = {}
+
+
+def platforms() -> list:
+    """The OpenCL platforms; ConfigError when there is none."""
+    try:
+        found = cl.get_platforms()
+    except cl.Error as err:
+        found, reason = [], str(err)
+    else:
+        reason = "the ICD loader lists none"
+    if not found:
+        raise ConfigError("no OpenCL platform found (" + reason + "): install "
+                          "pocl-binary-distribution (CPU) or a GPU OpenCL driver, or choose "
+                          "evaluator=numpy")
+    return found
+
+
+def describe(found) -> str:
+    """'[0] PoCL: [0] cpu-name, ...' for an error message."""
+    return "; ".join(f"[{i}] {p.name}: " + ", ".join(f"[{k}] {d.name.strip()}"
+                                                      for k, d in enumerate(p.get_devices()))
+                     for i, p in enumerate(found))
+
+
+def select_platform(platform):
+    """A platform by index, by part of its name, or (None) the first with a device."""
+    found = platforms()
+    if platform is None:
+        for p in found:
+            if p.get_devices():
+                return p
+        raise ConfigError(f"no OpenCL platform has a device ({describe(found)})")
+    if isinstance(platform, (int, np.integer)) and not isinstance(platform, bool):
+        if 0 <= platform < len(found):
+            return found[platform]
+        raise ConfigError(f"OpenCL platform index {platform} does not exist; there are "
+                          f"{len(found)}: {describe(found)}")
+    if isinstance(platform, str):
+        match = [p for p in found if platform.lower() in p.name.lower()]
+        if match:
+            return match[0]
+    raise ConfigError(f"no OpenCL platform matches platform={platform!r}; there are: "
+                      f"{describe(found)}")
+
+
+def select_device(platform, device):
+    """One device of a platform (see :func:`select_platform`) by index."""
+    p = select_platform(platform)
+    devices = p.get_devices()
+    if isinstance(device, bool) or not isinstance(device, (int, np.integer)):
+        raise ConfigError(f"OpenCL device must be an index, got {device!r}")
+    if not 0 <= device < len(devices):
+        raise ConfigError(f"OpenCL device index {device} does not exist on platform "
+                          f"{p.name!r}, which has {len(devices)}: {describe([p])}")
+    return devices[device]
+
+
+def context(devices) -> cl.Context:
+    """The process's one context for this tuple of devices."""
+    key = tuple(d.int_ptr for d in devices)
+    if key not in _CONTEXTS:
+        _CONTEXTS[key] = cl.Context(list(devices))
+    return _CONTEXTS[key]
+
+
+def program(ctx: cl.Context, local_size: int) -> cl.Program:
+    """The kernel built for a context and work-group size, once per process."""
+    key = (ctx.int_ptr, local_size)
+    if key not in _PROGRAMS:
+        options = [f"-DLOCAL_SIZE={local_size}", f"-DNEAR_MM={NEAR_MM!r}"]
+        _PROGRAMS[key] = cl.Program(ctx, KERNEL.read_text()).build(options=options)
+    return _PROGRAMS[key]
+
+
+def sub_devices(device, count: int) -> list:
+    """``count`` sub-devices of equal compute units of a device (cached per process)."""
+    key = (device.int_ptr, count)
+    if key not in _SUB_DEVICES:
+        units = device.max_compute_units
+        if not 1 <= count <= units:
+            raise ConfigError(f"cannot split OpenCL device {device.name.strip()!r} with {units} "
+                              f"compute units into {count} sub-devices")
+        parts = device.create_sub_devices([cl.device_partition_property.EQUALLY, units // count])
+        _SUB_DEVICES[key] = parts[:count]
+    return _SUB_DEVICES[key]
+
+
+class _Lane:
+    """One device with its queue, program and per-frame buffers."""
+
+    def __init__(self, device, ctx: cl.Context, local_size: int | None):
+        if not device.endian_little:
+            raise ConfigError(f"OpenCL device {device.name.strip()!r} is big-endian; the bit "
+                              "masks need a little-endian device")
+        if not device.double_fp_config:
+            raise ConfigError(f"OpenCL device {device.name.strip()!r} has no double precision "
+                              "(cl_khr_fp64), which the kernel needs")
+        if local_size is None:
+            local_size = 1 if device.type & cl.device_type.CPU else 64
+        if not 1 <= int(local_size) <= device.max_work_group_size:
+            raise ConfigError(f"local_size must be in [1, {device.max_work_group_size}] on "
+                              f"{device.name.strip()!r}, got {local_size}")
+        self.device, self.ctx, self.local_size = device, ctx, int(local_size)
+        self.queue = cl.CommandQueue(ctx, device)
+        self.kernel = cl.Kernel(program(ctx, self.local_size), "silhouette_counts")
+        self.frame: dict[str, cl.Buffer] = {}
+        self.batch: dict[str, tuple[int, cl.Buffer]] = {}
+
+    def upload(self, **arrays: np.ndarray) -> None:
+        """Per-frame read-only buffers."""
+        flags = cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR
+        self.frame = {k: cl.Buffer(self.ctx, flags, hostbuf=np.ascontiguousarray(a))
+                      for k, a in arrays.items()}
+
+    def buffer(self, name: str, nbytes: int) -> cl.Buffer:
+        """A per-call buffer of at least ``nbytes``, grown as needed."""
+        size, buf = self.batch.get(name, (0, None))
+        if size < nbytes:
+            size = max(nbytes, 2 * size, 64)
+            buf = cl.Buffer(self.ctx, cl.mem_flags.READ_WRITE, size)
+            self.batch[name] = (size, buf)
+        return buf
+
+
+class OpenCLEvaluator(SilhouetteEvaluator):
+    """The silhouette fitness on one OpenCL device.
+
+    Args:
+        patch_scale: factor on the body's per-joint patch size (Cano Eq. 4), > 0.
+        platform: platform index, part of its name, or None (the first with a device).
+        device: device index on that platform.
+        local_size: work-items per (candidate, camera) work-group; None: 1 on a CPU, 64
+            on other devices.
+    """
+
+    def __init__(self, patch_scale: float = 1.0, platform=None, device: int = 0,
+                 local_size: int | None = None):
+        super().__init__(patch_scale)
+        self._lanes = self._make_lanes(platform, device, local_size)
+        self._weights = np.array([lane.device.max_compute_units for lane in self._lanes], float)
+
+    def _make_lanes(self, platform, device, local_size) -> list[_Lane]:
+        dev = select_device(platform, device)
+        log.info("OpenCL evaluator on %s (%s)", dev.name.strip(), dev.platform.name)
+        return [_Lane(dev, context([dev]), local_size)]
+
+    @property
+    def devices(self) -> list:
+        """The OpenCL devices the population is split over."""
+        return [lane.device for lane in self._lanes]
+
+    def _prepare(self) -> None:
+        vertices, start = _vertex_arrays(self.body)
+        intrinsics = np.stack([np.r_[cam.K[0], cam.K[1]] for cam in self.cameras])
+        # each mask with a spare word (see the kernel's stamp), padded to a multiple of 8
+        words = max((cam.width + 31) // 32 * cam.height for cam in self.cameras)
+        self._mask_words = (words + 1 + 7) // 8 * 8
+        shapes = np.array([(cam.width, cam.height, c * self._mask_words)
+                           for c, cam in enumerate(self.cameras)], np.int32)
+        for lane in self._lanes:
+            if 4 * self._mask_words + 64 > lane.device.local_mem_size:
+                raise ConfigError(f"a {max(cam.width for cam in self.cameras)} px wide mask needs "
+                                  f"{4 * self._mask_words} bytes of local memory; "
+                                  f"{lane.device.name.strip()!r} has {lane.device.local_mem_size}")
+            lane.upload(vertices=vertices, start=start, intrinsics=intrinsics, shapes=shapes,
+                        fg=np.concatenate([_pack_bits(m, self._mask_words) for m in self.foreground]))
+
+    def _counts(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        counts, _ = self._run(X, write_masks=False)
+        return counts[..., 0].astype(np.int64), counts[..., 1].astype(np.int64)
+
+    def _render(self, x: np.ndarray, camera_index: int) -> np.ndarray:
+        _, masks = self._run(x[None], write_masks=True)
+        cam = self.cameras[camera_index]
+        stride = (cam.width + 31) // 32
+        words = masks[camera_index, :stride * cam.height].reshape(cam.height, stride)
+        bits = np.unpackbits(words.view(np.uint8), axis=1, bitorder="little")
+        return bits[:, :cam.width].astype(bool)
+
+    def _run(self, X: np.ndarray, write_masks: bool):
+        """Counts (n, C, 2) int32 and, with ``write_masks``, masks (n * C, mask_words) uint32."""
+        M, side = view_geometry(self.body, self.cameras, X, self.patch_scale)
+        n, C, J = side.shape
+        geometry = np.ascontiguousarray(M[..., :3, :].reshape(n * C, J * 12))
+        sides = side.reshape(n * C, J).astype(np.int32)
+        counts = np.empty((n * C, 2), np.int32)
+        masks = np.empty((n * C if write_masks else 1, self._mask_words), np.uint32)
+        edges = np.round(np.r_[0, np.cumsum(self._weights)] / self._weights.sum() * n).astype(int)
+        events = []
+        for lane, a, b in zip(self._lanes, edges[:-1], edges[1:]):
+            if a == b:
+                continue
+            views = slice(a * C, b * C)
+            nV = (b - a) * C
+            geo = lane.buffer("geometry", geometry[views].nbytes)
+            sid = lane.buffer("sides", sides[views].nbytes)
+            out = lane.buffer("counts", counts[views].nbytes)
+            img = lane.buffer("masks", masks[views].nbytes if write_masks else 4)
+            cl.enqueue_copy(lane.queue, geo, geometry[views], is_blocking=False)
+            cl.enqueue_copy(lane.queue, sid, sides[views], is_blocking=False)
+            f = lane.frame
+            lane.kernel.set_args(f["vertices"], f["start"], geo, sid, f["intrinsics"], f["shapes"],
+                                 f["fg"], np.int32(C), np.int32(J),
+                                 cl.LocalMemory(4 * self._mask_words), out,
+                                 np.int32(write_masks), np.int32(self._mask_words), img)
+            cl.enqueue_nd_range_kernel(lane.queue, lane.kernel, (nV * lane.local_size,),
+                                       (lane.local_size,))
+            events.append(cl.enqueue_copy(lane.queue, counts[views], out, is_blocking=False))
+            if write_masks:
+                events.append(cl.enqueue_copy(lane.queue, masks[views], img, is_blocking=False))
+        cl.wait_for_events(events)
+        return counts.reshape(n, C, 2), masks
+
+    def close(self) -> None:
+        for lane in self._lanes:
+            lane.frame = {}
+        super().close()
+
+
+class MultiDeviceEvaluator(OpenCLEvaluator):
+    """The OpenCL evaluator with the population split over several devices.
+
+    Args:
+        patch_scale: factor on the body's per-joint patch size (Cano Eq. 4), > 0.
+        platform: as for :class:`OpenCLEvaluator`.
+        devices: device indices on that platform, or None for all of them.
+        sub_devices: when the selection is a single CPU device, split it into this many
+            PoCL sub-devices (None: one per compute unit), each with its own queue.
+        local_size: as for :class:`OpenCLEvaluator`.
+
+    Candidates go to the devices in proportion to their compute units.
+    """
+
+    def __init__(self, patch_scale: float = 1.0, platform=None, devices=None,
+                 sub_devices: int | None = None, local_size: int | None = None):
+        self._sub_devices = sub_devices
+        super().__init__(patch_scale, platform, devices, local_size)
+
+    def _make_lanes(self, platform, devices, local_size) -> list[_Lane]:
+        if devices is None:
+            chosen = select_platform(platform).get_devices()
+        else:
+            chosen = [select_device(platform, d) for d in devices]
+        if not chosen:
+            raise ConfigError("multidevice: the device list is empty")
+        if len(chosen) == 1 and chosen[0].type & cl.device_type.CPU:
+            count = self._sub_devices or chosen[0].max_compute_units
+            chosen = sub_devices(chosen[0], count)
+        log.info("multidevice evaluator on %d devices: %s", len(chosen),
+                 ", ".join(d.name.strip() for d in chosen))
+        # devices of one platform share a context, hence one program build
+        ctx = context(chosen)
+        return [_Lane(d, ctx, local_size) for d in chosen]
+
+
+def _vertex_arrays(body) -> tuple[np.ndarray, np.ndarray]:
+    """The body's vertices for the kernel: (6, N4) float64 rest x, y, z (mm) and normal,
+    sorted by joint, each joint's run padded to a multiple of 4 with zero-normal vertices
+    (always culled); (J + 1,) int32 first vertex of each joint, then N4."""
+    joint = np.asarray(body.vertex_joint)
+    J = len(body.joint_rest_positions)
+    order = np.argsort(joint, kind="stable")
+    sizes = np.bincount(joint, minlength=J)
+    padded = (sizes + 3) // 4 * 4
+    start = np.r_[0, np.cumsum(padded)].astype(np.int32)
+    slots = start[joint[order]] + (np.arange(len(order)) - np.r_[0, np.cumsum(sizes)][joint[order]])
+    vertices = np.zeros((6, start[-1]))
+    vertices[:3, slots] = np.asarray(body.rest_vertices, np.float64)[order].T
+    vertices[3:, slots] = np.asarray(body.rest_normals, np.float64)[order].T
+    return vertices, start
+
+
+def _pack_bits(mask: np.ndarray, size: int) -> np.ndarray:
+    """(H, W) bool -> (size,) uint32: bit x % 32 of word x // 32 of each row of
+    ceil(W / 32) words, then zeros."""
+    H, W = mask.shape
+    padded = np.zeros((H, (W + 31) // 32 * 32), bool)
+    padded[:, :W] = mask
+    out = np.zeros(size, np.uint32)
+    words = np.packbits(padded, axis=1, bitorder="little").view("<u4").ravel()
+    out[:len(words)] = words
+    return out
