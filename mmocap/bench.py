@@ -1,0 +1,221 @@
+"""Evaluator benchmark: the Cano paper's Tables 1 and 2 (and Fig. 3) for this machine.
+
+Table 2 (``model-view``): time to project the model and count its pixels in one 640x480
+view, per backend and vertex level, from a population evaluated in one camera (so the
+shared host work, body kinematics and :func:`view_geometry`, is included), best of
+``repeats`` runs; speed-up against ``naive`` timed in the same run.
+
+Table 1 (``frame``): time per frame of CMA-ES (holistic, 39 DOF) with a budget of
+evaluations and 7 cameras, split into the time spent evaluating solutions and the rest;
+frames per second (Fig. 3). ``naive`` would take minutes per frame: its frame time is
+extrapolated from its Table 2 time per model-view (evaluations x cameras x that time),
+and marked so.
+
+Scene: the MakeHuman body resampled to the vertex level, cameras of the synthetic ring
+(no lens distortion), the foreground being the model's own silhouettes of a reference
+pose; candidates are that pose with normal noise on the joint angles.
+
+Usage::
+
+    python -m mmocap.bench table2 --vertices 27393,20544,13695
+    python -m mmocap.bench table1 --budgets 500,1500,3000,5000
+    python -m mmocap.bench all --vertices 27393 --budgets 500,1500 --prefix bench_
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import platform
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from mmocap import registry
+from mmocap.body.model import BodyModel
+from mmocap.data.synthetic import CAMERA_RING, camera_rig
+from mmocap.stages.tracking import Holistic
+
+BACKENDS = ("naive", "numpy", "multiprocessing", "opencl", "multidevice")
+PATCH_SCALE = 1.5
+
+
+class Scene:
+    """Body at a vertex level, ``cameras`` 640x480 cameras and their foreground masks."""
+
+    def __init__(self, vertices: int, cameras: int = 7, seed: int = 0):
+        rng = np.random.default_rng(seed)
+        self.body = BodyModel(vertices=vertices)
+        names = [name for name, _, _ in CAMERA_RING][:cameras]
+        self.cameras = camera_rig(names, 640, 480, rng, distortion=0.0)
+        self.pose = self.body.rest_pose() + self.noise(rng, 1, 0.15)[0]
+        with registry.make_evaluator("numpy", patch_scale=PATCH_SCALE) as ev:
+            ev.setup(self.body, self.cameras, [np.zeros((480, 640), bool)] * cameras)
+            self.foreground = [ev.render(self.pose, c) for c in range(cameras)]
+
+    def noise(self, rng: np.random.Generator, n: int, radians: float) -> np.ndarray:
+        """(n, 51) normal noise of ``radians`` on the active joint angles, none on the root."""
+        scale = np.where(np.arange(51) >= 6, radians, 0.0) * self.body.mask
+        return rng.normal(0.0, 1.0, (n, 51)) * scale
+
+    def candidates(self, n: int, seed: int = 1) -> np.ndarray:
+        """(n, 51) poses around the reference pose."""
+        return self.pose + self.noise(np.random.default_rng(seed), n, 0.05)
+
+
+def model_view_us(ev, scene: Scene, population: int, repeats: int) -> float:
+    """Best time per model-view in microseconds: ``population`` candidates, camera 0."""
+    ev.setup(scene.body, scene.cameras[:1], scene.foreground[:1])
+    X = scene.candidates(population)
+    ev(X[:1])  # warm-up: kernels, caches, workers
+    best = np.inf
+    for _ in range(repeats):
+        start = time.perf_counter()
+        ev(X)
+        best = min(best, time.perf_counter() - start)
+    return best / population * 1e6
+
+
+class _Timed:
+    """An evaluator wrapper that adds up the time spent in calls."""
+
+    def __init__(self, ev):
+        self.ev, self.seconds = ev, 0.0
+
+    def __call__(self, X: np.ndarray) -> np.ndarray:
+        start = time.perf_counter()
+        try:
+            return self.ev(X)
+        finally:
+            self.seconds += time.perf_counter() - start
+
+
+def frame_ms(ev, scene: Scene, budget: int, frames: int) -> tuple[float, float]:
+    """Mean (frame, solutions) time in ms of CMA-ES on ``frames`` frames of ``budget``."""
+    strategy, total, solutions = Holistic(), 0.0, 0.0
+    rng = np.random.default_rng(budget)
+    for _ in range(frames):
+        optimizer = registry.make_optimizer("cmaes")
+        timed = _Timed(ev)
+        x_prev = scene.pose + scene.noise(rng, 1, 0.05)[0]
+        start = time.perf_counter()
+        ev.setup(scene.body, scene.cameras, scene.foreground)
+        strategy.estimate(scene.body, x_prev, timed, optimizer, budget, rng)
+        total += time.perf_counter() - start
+        solutions += timed.seconds
+    return total / frames * 1e3, solutions / frames * 1e3
+
+
+def table2(evaluators: dict, scenes: dict, population: int, repeats: int) -> pd.DataFrame:
+    """Time per model-view (us) per backend and vertex level, with the speed-up vs naive."""
+    rows = []
+    for vertices, scene in scenes.items():
+        for name, ev in evaluators.items():
+            n, r = (2, 1) if name == "naive" else (population, repeats)
+            us = model_view_us(ev, scene, n, r)
+            rows.append({"vertices": vertices, "backend": name, "us_per_model_view": us})
+            print(f"table 2: {vertices} vertices, {name}: {us:.1f} us per model-view", flush=True)
+    df = pd.DataFrame(rows)
+    if "naive" in evaluators:
+        naive = df[df.backend == "naive"].set_index("vertices").us_per_model_view
+        df["speedup_vs_naive"] = naive.loc[df.vertices].to_numpy() / df.us_per_model_view
+    return df
+
+
+def table1(evaluators: dict, scenes: dict, budgets, frames: int, naive_us: dict) -> pd.DataFrame:
+    """Frame and solutions time (ms) of CMA-ES per backend, vertex level and budget; fps."""
+    rows = []
+    for vertices, scene in scenes.items():
+        C = len(scene.cameras)
+        for budget in budgets:
+            for name, ev in evaluators.items():
+                if name == "naive":
+                    if vertices not in naive_us:
+                        continue
+                    solutions = budget * C * naive_us[vertices] / 1e3
+                    rows.append({"vertices": vertices, "evaluations": budget, "backend": name,
+                                 "frame_ms": solutions, "solutions_ms": solutions,
+                                 "extrapolated": True})
+                    continue
+                frame, solutions = frame_ms(ev, scene, budget, frames)
+                rows.append({"vertices": vertices, "evaluations": budget, "backend": name,
+                             "frame_ms": frame, "solutions_ms": solutions, "extrapolated": False})
+                print(f"table 1: {vertices} vertices, {budget} evaluations, {name}: "
+                      f"{frame:.0f} ms per frame ({solutions:.0f} ms evaluating)", flush=True)
+    df = pd.DataFrame(rows)
+    df["fps"] = 1e3 / df.frame_ms
+    if naive_us:
+        key = ["vertices", "evaluations"]
+        naive = df[df.backend == "naive"].set_index(key)
+        index = pd.MultiIndex.from_frame(df[key])
+        df["speedup_vs_naive"] = naive.frame_ms.reindex(index).to_numpy() / df.frame_ms
+    return df
+
+
+def machine() -> str:
+    """One line about the CPU and the OpenCL device the benchmark ran on."""
+    cpus = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    line = f"{platform.processor() or platform.machine()}, {cpus} CPUs usable"
+    try:
+        from mmocap.evaluators.opencl import select_device
+        dev = select_device(None, 0)
+        line += f"; OpenCL: {dev.name.strip()} ({dev.platform.name})"
+    except Exception as err:  # no OpenCL: say so, the table simply has no opencl rows
+        line += f"; OpenCL unavailable ({err})"
+    return line
+
+
+def write(df: pd.DataFrame, out: Path, name: str, title: str) -> None:
+    """CSV and Markdown (with a title and the machine) into ``out``."""
+    out.mkdir(parents=True, exist_ok=True)
+    df.to_csv(out / f"{name}.csv", index=False)
+    text = f"# {title}\n\n{machine()}\n\n{df.to_markdown(index=False, floatfmt='.4g')}\n"
+    (out / f"{name}.md").write_text(text)
+    print(text)
+
+
+def main(argv=None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("table", choices=["table1", "table2", "all"])
+    parser.add_argument("--backends", default=",".join(BACKENDS))
+    parser.add_argument("--vertices", default="27393,20544,13695")
+    parser.add_argument("--budgets", default="500,1500,3000,5000")
+    parser.add_argument("--cameras", type=int, default=7)
+    parser.add_argument("--population", type=int, default=64, help="candidates per timing (table 2)")
+    parser.add_argument("--repeats", type=int, default=3, help="timings per backend (table 2), best kept")
+    parser.add_argument("--frames", type=int, default=1, help="frames per budget (table 1)")
+    parser.add_argument("--out", type=Path, default=Path("outputs/tables"))
+    parser.add_argument("--prefix", default="", help="prefix of the output file names")
+    args = parser.parse_args(argv)
+    names = [b for b in args.backends.split(",") if b]
+    unknown = sorted(set(names) - set(registry.available("evaluator")))
+    if unknown:
+        parser.error(f"unknown backend(s) {', '.join(unknown)}; installed: "
+                     f"{', '.join(sorted(registry.available('evaluator')))}")
+    levels = [int(v) for v in args.vertices.split(",")]
+    scenes = {v: Scene(v, args.cameras) for v in levels}
+    evaluators = {name: registry.make_evaluator(name, patch_scale=PATCH_SCALE) for name in names}
+    try:
+        naive_us, t2 = {}, None
+        if args.table != "table1":
+            t2 = table2(evaluators, scenes, args.population, args.repeats)
+            write(t2, args.out, f"{args.prefix}table2", "Time per model-view (Cano Table 2): "
+                  "project + count, one 640x480 view, microseconds")
+        elif "naive" in evaluators:  # for the extrapolated naive frame times
+            t2 = table2({"naive": evaluators["naive"]}, scenes, args.population, args.repeats)
+        if "naive" in evaluators:
+            naive = t2[t2.backend == "naive"]
+            naive_us = dict(zip(naive.vertices, naive.us_per_model_view))
+        if args.table in ("table1", "all"):
+            t1 = table1(evaluators, scenes, [int(b) for b in args.budgets.split(",")],
+                        args.frames, naive_us)
+            write(t1, args.out, f"{args.prefix}table1", f"Time per frame (Cano Table 1, Fig. 3): "
+                  f"CMA-ES, {args.cameras} cameras, milliseconds; naive extrapolated from Table 2")
+    finally:
+        for ev in evaluators.values():
+            ev.close()
+
+
+if __name__ == "__main__":
+    main()
