@@ -211,7 +211,6 @@ class OpenCLEvaluator(SilhouetteEvaluator):
 
     def _prepare(self) -> None:
         vertices, start = _vertex_arrays(self.body)
-        intrinsics = np.stack([np.r_[cam.K[0], cam.K[1]] for cam in self.cameras])
         # each mask with a spare word (see the kernel's stamp), padded to a multiple of 8
         words = max((cam.width + 31) // 32 * cam.height for cam in self.cameras)
         self._mask_words = (words + 1 + 7) // 8 * 8
@@ -222,7 +221,7 @@ class OpenCLEvaluator(SilhouetteEvaluator):
                 raise ConfigError(f"a {max(cam.width for cam in self.cameras)} px wide mask needs "
                                   f"{4 * self._mask_words} bytes of local memory; "
                                   f"{lane.device.name.strip()!r} has {lane.device.local_mem_size}")
-            lane.upload(vertices=vertices, start=start, intrinsics=intrinsics, shapes=shapes,
+            lane.upload(vertices=vertices, start=start, shapes=shapes,
                         fg=np.concatenate([_pack_bits(m, self._mask_words) for m in self.foreground]))
 
     def _counts(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -241,7 +240,7 @@ class OpenCLEvaluator(SilhouetteEvaluator):
         """Counts (n, C, 2) int32 and, with ``write_masks``, masks (n * C, mask_words) uint32."""
         M, side = view_geometry(self.body, self.cameras, X, self.patch_scale)
         n, C, J = side.shape
-        geometry = np.ascontiguousarray(M[..., :3, :].reshape(n * C, J * 12))
+        geometry = _projections(M, np.stack([cam.K for cam in self.cameras])).reshape(n * C, J * 16)
         sides = side.reshape(n * C, J).astype(np.int32)
         counts = np.empty((n * C, 2), np.int32)
         masks = np.empty((n * C if write_masks else 1, self._mask_words), np.uint32)
@@ -259,7 +258,7 @@ class OpenCLEvaluator(SilhouetteEvaluator):
             cl.enqueue_copy(lane.queue, geo, geometry[views], is_blocking=False)
             cl.enqueue_copy(lane.queue, sid, sides[views], is_blocking=False)
             f = lane.frame
-            lane.kernel.set_args(f["vertices"], f["start"], geo, sid, f["intrinsics"], f["shapes"],
+            lane.kernel.set_args(f["vertices"], f["start"], geo, sid, f["shapes"],
                                  f["fg"], np.int32(C), np.int32(J),
                                  cl.LocalMemory(4 * self._mask_words), out,
                                  np.int32(write_masks), np.int32(self._mask_words), img)
@@ -314,8 +313,8 @@ class MultiDeviceEvaluator(OpenCLEvaluator):
 
 
 def _vertex_arrays(body) -> tuple[np.ndarray, np.ndarray]:
-    """The body's vertices for the kernel: (6, N4) float64 rest x, y, z (mm) and normal,
-    sorted by joint, then by normal direction; each joint's run padded to a multiple of 4 with zero-normal vertices
+    """The body's vertices for the kernel: (7, N4) float64 rest x, y, z (mm), normal and
+    n . v, sorted by joint, then by normal direction; each joint's run padded to a multiple of 4 with zero-normal vertices
     (always culled); (J + 1,) int32 first vertex of each joint, then N4."""
     joint = np.asarray(body.vertex_joint)
     J = len(body.joint_rest_positions)
@@ -329,10 +328,25 @@ def _vertex_arrays(body) -> tuple[np.ndarray, np.ndarray]:
     padded = (sizes + 3) // 4 * 4
     start = np.r_[0, np.cumsum(padded)].astype(np.int32)
     slots = start[joint[order]] + (np.arange(len(order)) - np.r_[0, np.cumsum(sizes)][joint[order]])
-    vertices = np.zeros((6, start[-1]))
-    vertices[:3, slots] = np.asarray(body.rest_vertices, np.float64)[order].T
-    vertices[3:, slots] = normals[order].T
+    points = np.asarray(body.rest_vertices, np.float64)[order]
+    vertices = np.zeros((7, start[-1]))
+    vertices[:3, slots] = points.T
+    vertices[3:6, slots] = normals[order].T
+    vertices[6, slots] = np.einsum("na,na->n", normals[order], points)
     return vertices, start
+
+
+def _projections(M: np.ndarray, K: np.ndarray) -> np.ndarray:
+    """(n, C, J, 4, 4) ``E_c T_j`` and (C, 3, 3) K -> (n, C, J, 16) float64 per model-view
+    and joint: ``A = [K[0] M; K[1] M; M[2]]`` (3x4, row-major: ``u' v' z`` of a vertex),
+    then ``b = R^T t`` for ``M = [R t]`` and a 0 (culling: ``n' . p = n . v + n . b``)."""
+    n, C, J = M.shape[:3]
+    out = np.zeros((n, C, J, 16))
+    A = out[..., :12].reshape(n, C, J, 3, 4)
+    np.matmul(K[None, :, None, :2], M[..., :3, :], out=A[..., :2, :])
+    A[..., 2, :] = M[..., 2, :]
+    out[..., 12:15] = np.einsum("...ki,...k->...i", M[..., :3, :3], M[..., :3, 3])
+    return out
 
 
 def _pack_bits(mask: np.ndarray, size: int) -> np.ndarray:

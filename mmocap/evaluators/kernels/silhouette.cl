@@ -86,11 +86,11 @@ inline uint8 bit_count(uint8 v)
 
 __kernel __attribute__((reqd_work_group_size(LOCAL_SIZE, 1, 1)))
 void silhouette_counts(
-    __global const double *vertices,   // (6, N4) rest x, y, z (mm) and normal x, y, z
+    __global const double *vertices,   // (7, N4) rest x, y, z (mm), normal x, y, z, n . v
     __global const int *joint_start,   // (J + 1,) first vertex of each joint (multiples of 4)
-    __global const double *geometry,   // (nV, J, 12) rows 0-2 of E_c T_j, row-major
+    __global const double *geometry,   // (nV, J, 16) A = [K[0] M; K[1] M; M[2]] (3x4,
+                                       // row-major) and b = R^T t (3), 0, for M = [R t]
     __global const int *sides,         // (nV, J) patch side in px, 0 = joint dropped
-    __global const double *intrinsics, // (C, 6) K[0, :] and K[1, :]
     __global const int *shapes,        // (C, 3) width, height, first word of the mask in fg
     __global const uint *fg,           // foreground bit masks, bit x % 32 of word x / 32,
                                        // each camera's followed by zeros to mask_words
@@ -110,34 +110,29 @@ void silhouette_counts(
     if (lid == 0) { row_lo = height; row_hi = -1; model_px = 0; overlap_px = 0; }
     barrier(CLK_LOCAL_MEM_FENCE);
 
-    const double k00 = intrinsics[6 * c], k01 = intrinsics[6 * c + 1],
-                 k02 = intrinsics[6 * c + 2], k10 = intrinsics[6 * c + 3],
-                 k11 = intrinsics[6 * c + 4], k12 = intrinsics[6 * c + 5];
     int lo = height, hi = -1;
     for (int j = 0; j < J; ++j) {
         const int s = sides[g * J + j];
         if (s == 0) continue;
-        __global const double *m = geometry + (g * J + j) * 12;
-        const double r00 = m[0], r01 = m[1], r02 = m[2], t0 = m[3],
-                     r10 = m[4], r11 = m[5], r12 = m[6], t1 = m[7],
-                     r20 = m[8], r21 = m[9], r22 = m[10], t2 = m[11];
+        __global const double *m = geometry + (g * J + j) * 16;
+        const double a00 = m[0], a01 = m[1], a02 = m[2], a03 = m[3],
+                     a10 = m[4], a11 = m[5], a12 = m[6], a13 = m[7],
+                     a20 = m[8], a21 = m[9], a22 = m[10], a23 = m[11],
+                     b0 = m[12], b1 = m[13], b2 = m[14];
         const int before = (s - 1) / 2, after = s / 2;
         for (int v = joint_start[j] + 4 * lid; v < joint_start[j + 1]; v += 4 * LOCAL_SIZE) {
+            // culling first: n' . p = n . v + n . (R^T t), no projection for 4 rejects
+            const double4 nx = vload4(0, vertices + 3 * N4 + v),
+                          ny = vload4(0, vertices + 4 * N4 + v),
+                          nz = vload4(0, vertices + 5 * N4 + v),
+                          nv = vload4(0, vertices + 6 * N4 + v);
             const double4 x = vload4(0, vertices + v), y = vload4(0, vertices + N4 + v),
                           z = vload4(0, vertices + 2 * N4 + v);
-            const double4 pz = r20 * x + r21 * y + r22 * z + t2;
-            const double4 px = r00 * x + r01 * y + r02 * z + t0;
-            const double4 py = r10 * x + r11 * y + r12 * z + t1;
-            const double4 ax = vload4(0, vertices + 3 * N4 + v),
-                          ay = vload4(0, vertices + 4 * N4 + v),
-                          az = vload4(0, vertices + 5 * N4 + v);
-            const double4 nx = r00 * ax + r01 * ay + r02 * az;
-            const double4 ny = r10 * ax + r11 * ay + r12 * az;
-            const double4 nz = r20 * ax + r21 * ay + r22 * az;
-            const long4 keep = (pz > NEAR_MM) & (nx * px + ny * py + nz * pz < 0.0);
+            const double4 pz = a20 * x + a21 * y + a22 * z + a23;
+            const long4 keep = (pz > NEAR_MM) & (nv + (nx * b0 + ny * b1 + nz * b2) < 0.0);
             if (!any(keep)) continue;
-            const double4 u = (k00 * px + k01 * py + k02 * pz) / pz;
-            const double4 w = (k10 * px + k11 * py + k12 * pz) / pz;
+            const double4 u = (a00 * x + a01 * y + a02 * z + a03) / pz;
+            const double4 w = (a10 * x + a11 * y + a12 * z + a13) / pz;
             const int4 cx = floor_int(u + 0.5), cy = floor_int(w + 0.5);
 #define STAMP(i) if (keep.s##i) stamp(words, stride, width, height, cx.s##i, cy.s##i, before, after, &lo, &hi)
             STAMP(0); STAMP(1); STAMP(2); STAMP(3);
