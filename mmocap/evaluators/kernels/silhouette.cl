@@ -111,6 +111,7 @@ void silhouette_counts(
     barrier(CLK_LOCAL_MEM_FENCE);
 
     int lo = height, hi = -1;
+    int4 lo4 = height, hi4 = -1;
     for (int j = 0; j < J; ++j) {
         const int s = sides[g * J + j];
         if (s == 0) continue;
@@ -134,11 +135,34 @@ void silhouette_counts(
             const double4 u = (a00 * x + a01 * y + a02 * z + a03) / pz;
             const double4 w = (a10 * x + a11 * y + a12 * z + a13) / pz;
             const int4 cx = floor_int(u + 0.5), cy = floor_int(w + 0.5);
+            if (s > 32) {  // large patches (a body part close to the camera): one by one
 #define STAMP(i) if (keep.s##i) stamp(words, stride, width, height, cx.s##i, cy.s##i, before, after, &lo, &hi)
+                STAMP(0); STAMP(1); STAMP(2); STAMP(3);
+#undef STAMP
+                continue;
+            }
+            // the 4 at once: clipping in int4, no branch per vertex; a rejected or
+            // clipped-away vertex gets an empty range of words [first, last]
+            const int4 col0 = max(cx - before, 0), col1 = min(cx + after, width - 1);
+            const int4 row0 = max(cy - before, 0), row1 = min(cy + after, height - 1);
+            const int4 ok = convert_int4(keep) & (col0 <= col1) & (row0 <= row1);
+            lo4 = min(lo4, ok ? row0 : height);
+            hi4 = max(hi4, ok ? row1 : -1);
+            const uint4 len = convert_uint4(clamp(col1 - col0 + 1, 1, 32));
+            const uint4 shift = convert_uint4(col0) & 31u;
+            const uint4 low = ((uint4)(0xffffffffu) >> (32u - len)) << shift;
+            // bits of the patch past word w0: (ones(len) << shift) >> 32, 0 when shift 0
+            const uint4 high = shift == 0u ? 0u : ((uint4)(0xffffffffu) >> (32u - len)) >> (32u - shift);
+            const int4 first = ok ? row0 * stride + (col0 >> 5) : 0;
+            const int4 last = ok ? row1 * stride + (col0 >> 5) : -1;
+#define STAMP(i) for (int k = first.s##i; k <= last.s##i; k += stride) { \
+                     OR_WORD(words + k, low.s##i); OR_WORD(words + k + 1, high.s##i); }
             STAMP(0); STAMP(1); STAMP(2); STAMP(3);
 #undef STAMP
         }
     }
+    lo = min(min(min(lo, lo4.s0), lo4.s1), min(lo4.s2, lo4.s3));
+    hi = max(max(max(hi, hi4.s0), hi4.s1), max(hi4.s2, hi4.s3));
     MIN_INT(&row_lo, lo);
     MAX_INT(&row_hi, hi);
     barrier(CLK_LOCAL_MEM_FENCE);
