@@ -13,7 +13,10 @@ For every candidate ``i``, camera ``c`` and joint ``j``:
 1. ``M = E_c T_j`` (4x4), with ``E_c = camera.extrinsic`` and ``T_j = body.transforms(X)[i, j]``.
 2. Patch side in pixels: ``z_j = (M [p_j; 1]).z`` with ``p_j = body.joint_rest_positions[j]``;
    ``s = max(1, ceil(f * body.patch_mm[j] * patch_scale / z_j))`` with ``f = camera.focal``.
-   If ``z_j <= NEAR_MM`` the joint's vertices are all dropped.
+   If ``z_j <= NEAR_MM`` the joint's vertices are all dropped. This is Cano Eq. 4 with one
+   size per body part: ``body.patch_mm`` is its ``l_r`` (the side of a square of the mean
+   triangle's area) and ``z_j`` its distance ``d``; the paper prints ``p = f d / l_r``,
+   but the pin-hole model it invokes gives ``f l_r / d``, which is what is used.
 3. Each vertex ``v`` of joint ``j`` with rest normal ``n``: ``p = M [v; 1]`` (camera frame, mm)
    and ``n' = M[:3, :3] n``. The vertex is kept iff ``p.z > NEAR_MM`` and ``n' . p < 0`` (its
    normal faces the camera: back-face culling).
@@ -33,6 +36,11 @@ Backends may evaluate steps 3-4 in any algebraically equivalent order in float64
 results can then differ only for a value within rounding error of a decision boundary
 (``u + 0.5`` an integer, ``n' . p = 0``, ``p.z = NEAR_MM``), which real inputs do not hit.
 Steps 1-2 are computed once, by :func:`view_geometry`, for every backend.
+
+Every backend exposes the per-view counts through :meth:`SilhouetteEvaluator.counts`
+(``|M_c|`` and ``|M_c & F_c|``, (n, C) int64) besides the fitness, and one view's
+silhouette through :meth:`SilhouetteEvaluator.render`; the conformance suite
+:mod:`mmocap.testing.evaluators` holds every installed backend to naive's counts.
 """
 from __future__ import annotations
 
