@@ -1,8 +1,8 @@
 // The silhouette rule of mmocap/evaluators/silhouette.py, steps 3-6, in float64.
 // One work-group of LOCAL_SIZE work-items per model-view g = candidate * C + camera: the
 // work-items share the view's vertices, stamp their patches into a bit mask in local
-// memory (1 bit per pixel, rows padded to 32-bit words, cleared and counted 8 words at a time) and count |M| and |M & F| with
-// popcounts against the camera's foreground bit mask.
+// memory (1 bit per pixel, rows padded to 32-bit words) and count |M| and |M & F| with
+// popcounts against the camera's foreground bit mask, 8 words at a time.
 //
 // Compile-time constants: LOCAL_SIZE and NEAR_MM, so that a program is built once per
 // context. With LOCAL_SIZE 1 (CPU devices) a work-group is one work-item and plain
@@ -23,16 +23,16 @@
 #define ADD_INT(p, x) atomic_add((p), (x))
 #endif
 
-// Vertices are processed 4 at a time in double4 (one AVX2 register on a CPU; PoCL's
-// builtins are not built for AVX-512, so wider vectors would break their ABI): the
+// Vertices are processed 4 at a time in double4 (one AVX2 register on a CPU; PoCL warns
+// that double8 changes the ABI of its builtins on CPUs without AVX-512): the
 // vertex arrays are structures of arrays, each joint's run padded to a multiple of 4 with
 // zero-normal vertices, which the culling test always rejects.
 
 // (cx, cy) clamped to [-2^20, 2^20] before the conversion to int: far beyond any image.
 #define CLAMP_PX 1048576.0
 
-// floor(t) as int, t clamped to [-CLAMP_PX, CLAMP_PX]; exact, without calls to builtins
-// (which PoCL compiles for a generic x86-64 and which were most of the kernel's time).
+// floor(t) as int, t clamped to [-CLAMP_PX, CLAMP_PX]; exact, and on PoCL much faster
+// than the floor, clamp and convert builtins together (measured).
 inline int4 floor_int(double4 t)
 {
     t = t < -CLAMP_PX ? -CLAMP_PX : t;
@@ -75,7 +75,7 @@ inline void stamp(__local uint *mask, const int stride, const int width, const i
     }
 }
 
-// Set bits per 32-bit lane (SWAR; PoCL's popcount builtin is a call on generic x86-64).
+// Set bits per 32-bit lane, 8 lanes at once (SWAR).
 inline uint8 bit_count(uint8 v)
 {
     v = v - ((v >> 1) & 0x55555555u);
