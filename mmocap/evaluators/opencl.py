@@ -40,6 +40,7 @@ from mmocap.evaluators.silhouette import NEAR_MM, SilhouetteEvaluator, view_geom
 log = logging.getLogger(__name__)
 KERNEL = Path(__file__).with_name("kernels") / "silhouette.cl"
 _PID_VAR = "MMOCAP_POCL_CACHE_PID"
+_PAD = 16  # PAD of the kernel
 
 
 def _private_pocl_cache() -> None:
@@ -211,9 +212,12 @@ class OpenCLEvaluator(SilhouetteEvaluator):
 
     def _prepare(self) -> None:
         vertices, start = _vertex_arrays(self.body)
-        # each mask with a spare word (see the kernel's stamp), padded to a multiple of 8
-        words = max((cam.width + 31) // 32 * cam.height for cam in self.cameras)
-        self._mask_words = (words + 1 + 7) // 8 * 8
+        # a mask with a spare word (see the kernel's stamp) or a padded layer (see PAD),
+        # whichever is larger, rounded up to a multiple of 8
+        words = max(max((cam.width + 31) // 32 * cam.height + 1,
+                        ((cam.width + 31) // 32 + 2) * (cam.height + 2 * _PAD))
+                    for cam in self.cameras)
+        self._mask_words = (words + 7) // 8 * 8
         shapes = np.array([(cam.width, cam.height, c * self._mask_words)
                            for c, cam in enumerate(self.cameras)], np.int32)
         for lane in self._lanes:

@@ -28,6 +28,12 @@
 // vertex arrays are structures of arrays, each joint's run padded to a multiple of 4 with
 // zero-normal vertices, which the culling test always rejects.
 
+// Views whose joints all have one patch side s <= 32 (the usual case) take the layered
+// path: each vertex sets one bit, at its centre, in a layer padded by PAD px on every side
+// (a centre further out cannot reach the image); counting then dilates the layer by the
+// s x s patch with shifts and ORs on 64-bit windows, one output word at a time.
+#define PAD 16
+
 // (cx, cy) clamped to [-2^20, 2^20] before the conversion to int: far beyond any image.
 #define CLAMP_PX 1048576.0
 
@@ -95,23 +101,36 @@ void silhouette_counts(
     __global const uint *fg,           // foreground bit masks, bit x % 32 of word x / 32,
                                        // each camera's followed by zeros to mask_words
     const int C, const int J,          // cameras, joints
-    __local uint8 *mask,               // mask_words / 8: the largest camera's mask + 8 spare
+    __local uint8 *mask,               // mask_words / 8: the largest camera's mask + 1 spare
+                                       // word, or its padded layer (see PAD)
     __global int *counts,              // (nV, 2) |M|, |M & F|
     const int write_masks, const int mask_words, // mask_words: a multiple of 8
     __global uint *masks_out)          // (nV, mask_words) when write_masks != 0
 {
-    __local int row_lo, row_hi, model_px, overlap_px;
+    __local int row_lo, row_hi, col_lo, col_hi, model_px, overlap_px;
     const int g = get_group_id(0), lid = get_local_id(0), c = g % C;
     const int width = shapes[3 * c], height = shapes[3 * c + 1];
     const int stride = (width + 31) / 32;
     const int N4 = joint_start[J];
-    for (int k = lid; k < mask_words / 8; k += LOCAL_SIZE) mask[k] = (uint8)(0u);
+    int common = 0;  // the patch side of every joint of the view, -1 if they differ
+    for (int j = 0; j < J; ++j) {
+        const int s = sides[g * J + j];
+        if (s != 0) common = (common == 0 || common == s) ? s : -1;
+    }
+    const int layered = common > 0 && common <= 32;
+    const int pstride = stride + 2;  // padded layer: (height + 2 PAD) rows of pstride words
+    const int used = layered ? pstride * (height + 2 * PAD) : stride * height + 1;
+    for (int k = lid; k < (used + 7) / 8; k += LOCAL_SIZE) mask[k] = (uint8)(0u);
     __local uint *words = (__local uint *)mask;
-    if (lid == 0) { row_lo = height; row_hi = -1; model_px = 0; overlap_px = 0; }
+    if (lid == 0) {
+        row_lo = height + 2 * PAD; row_hi = -1; col_lo = width + 2 * PAD; col_hi = -1;
+        model_px = 0; overlap_px = 0;
+    }
     barrier(CLK_LOCAL_MEM_FENCE);
 
-    int lo = height, hi = -1;
-    int4 lo4 = height, hi4 = -1;
+    int lo = height + 2 * PAD, hi = -1;  // rows touched (padded rows when layered)
+    int4 lo4 = lo, hi4 = -1;
+    int4 left4 = width + 2 * PAD, right4 = -1;  // padded columns of the layer's centres
     for (int j = 0; j < J; ++j) {
         const int s = sides[g * J + j];
         if (s == 0) continue;
@@ -135,6 +154,20 @@ void silhouette_counts(
             const double4 u = (a00 * x + a01 * y + a02 * z + a03) / pz;
             const double4 w = (a10 * x + a11 * y + a12 * z + a13) / pz;
             const int4 cx = floor_int(u + 0.5), cy = floor_int(w + 0.5);
+            if (layered) {
+                const int4 px = cx + PAD, py = cy + PAD;
+                const int4 in = convert_int4(keep) & (px >= 0) & (px < width + 2 * PAD)
+                                & (py >= 0) & (py < height + 2 * PAD);
+                lo4 = min(lo4, in ? py : lo4);
+                hi4 = max(hi4, in ? py : -1);
+                left4 = min(left4, in ? px : left4);
+                right4 = max(right4, in ? px : -1);
+                const int4 k = in ? py * pstride + (px >> 5) : 0;
+                const uint4 bit = as_uint4(in) & ((uint4)(1u) << (convert_uint4(px) & 31u));
+                OR_WORD(words + k.s0, bit.s0); OR_WORD(words + k.s1, bit.s1);
+                OR_WORD(words + k.s2, bit.s2); OR_WORD(words + k.s3, bit.s3);
+                continue;
+            }
             if (s > 32) {  // large patches (a body part close to the camera): one by one
 #define STAMP(i) if (keep.s##i) stamp(words, stride, width, height, cx.s##i, cy.s##i, before, after, &lo, &hi)
                 STAMP(0); STAMP(1); STAMP(2); STAMP(3);
@@ -165,23 +198,59 @@ void silhouette_counts(
     hi = max(max(max(hi, hi4.s0), hi4.s1), max(hi4.s2, hi4.s3));
     MIN_INT(&row_lo, lo);
     MAX_INT(&row_hi, hi);
+    MIN_INT(&col_lo, min(min(left4.s0, left4.s1), min(left4.s2, left4.s3)));
+    MAX_INT(&col_hi, max(max(right4.s0, right4.s1), max(right4.s2, right4.s3)));
     barrier(CLK_LOCAL_MEM_FENCE);
 
-    __global const uint8 *f = (__global const uint8 *)(fg + shapes[3 * c + 2]);
-    uint8 model8 = 0u, overlap8 = 0u;
-    for (int k = row_lo * stride / 8 + lid; k < ((row_hi + 1) * stride + 7) / 8; k += LOCAL_SIZE) {
-        const uint8 bits = mask[k];
-        model8 += bit_count(bits);
-        overlap8 += bit_count(bits & f[k]);
+    int model = 0, overlap = 0;
+    if (layered) {
+        __global const uint *f = fg + shapes[3 * c + 2];
+        const int before = (common - 1) / 2, after = common / 2, shift = PAD - after;
+        const int r0 = max(row_lo - PAD - before, 0), r1 = min(row_hi - PAD + after, height - 1);
+        const uint edge = (width & 31) ? 0xffffffffu >> (32 - (width & 31)) : 0xffffffffu;
+        if (write_masks) {
+            for (int k = lid; k < stride * height; k += LOCAL_SIZE) masks_out[g * mask_words + k] = 0u;
+            barrier(CLK_GLOBAL_MEM_FENCE);
+        }
+        const int w0 = max(col_lo - PAD - before, 0) >> 5;
+        const int w1 = min(col_hi - PAD + after, width - 1) >> 5;
+        for (int r = r0 + lid; r <= r1; r += LOCAL_SIZE)
+        for (int w = w0; w <= w1; ++w) {
+            const int k = r * stride + w;
+            // output row r: padded rows r + shift .. r + shift + common - 1 (the centres
+            // whose patch rows reach r); bit j of acc: centre column 32 w + j - after
+            ulong acc = 0;
+            for (int t = 0; t < common; ++t) {
+                __local const uint *row = words + (r + shift + t) * pstride + w;
+                acc |= (ulong)row[0] | ((ulong)row[1] << 32);
+            }
+            acc >>= shift;
+            // output bit i: any of bits i .. i + common - 1 of acc
+            int cover = 1;
+            for (; 2 * cover <= common; cover *= 2) acc |= acc >> cover;
+            acc |= acc >> (common - cover);
+            const uint bits = (uint)acc & (w == stride - 1 ? edge : 0xffffffffu);
+            model += popcount(bits);
+            overlap += popcount(bits & f[k]);
+            if (write_masks) masks_out[g * mask_words + k] = bits;
+        }
+    } else {
+        __global const uint8 *f = (__global const uint8 *)(fg + shapes[3 * c + 2]);
+        uint8 model8 = 0u, overlap8 = 0u;
+        for (int k = row_lo * stride / 8 + lid; k < ((row_hi + 1) * stride + 7) / 8; k += LOCAL_SIZE) {
+            const uint8 bits = mask[k];
+            model8 += bit_count(bits);
+            overlap8 += bit_count(bits & f[k]);
+        }
+        model = model8.s0 + model8.s1 + model8.s2 + model8.s3 + model8.s4 + model8.s5
+                + model8.s6 + model8.s7;
+        overlap = overlap8.s0 + overlap8.s1 + overlap8.s2 + overlap8.s3 + overlap8.s4
+                  + overlap8.s5 + overlap8.s6 + overlap8.s7;
     }
-    const int model = model8.s0 + model8.s1 + model8.s2 + model8.s3 + model8.s4 + model8.s5
-                      + model8.s6 + model8.s7;
-    const int overlap = overlap8.s0 + overlap8.s1 + overlap8.s2 + overlap8.s3 + overlap8.s4
-                        + overlap8.s5 + overlap8.s6 + overlap8.s7;
     ADD_INT(&model_px, model);
     ADD_INT(&overlap_px, overlap);
     barrier(CLK_LOCAL_MEM_FENCE);
-    if (write_masks)
+    if (write_masks && !layered)
         for (int k = lid; k < stride * height; k += LOCAL_SIZE)
             masks_out[g * mask_words + k] = words[k];
     if (lid == 0) {
