@@ -141,15 +141,17 @@ void silhouette_counts(
                      b0 = m[12], b1 = m[13], b2 = m[14];
         const int before = (s - 1) / 2, after = s / 2;
         for (int v = joint_start[j] + 4 * lid; v < joint_start[j + 1]; v += 4 * LOCAL_SIZE) {
-            // culling first: n' . p = n . v + n . (R^T t), no projection for 4 rejects
+            // culling first: n' . p = n . v + n . (R^T t); 4 back faces: nothing else to do
             const double4 nx = vload4(0, vertices + 3 * N4 + v),
                           ny = vload4(0, vertices + 4 * N4 + v),
                           nz = vload4(0, vertices + 5 * N4 + v),
                           nv = vload4(0, vertices + 6 * N4 + v);
+            const long4 facing = nv + (nx * b0 + ny * b1 + nz * b2) < 0.0;
+            if (!any(facing)) continue;
             const double4 x = vload4(0, vertices + v), y = vload4(0, vertices + N4 + v),
                           z = vload4(0, vertices + 2 * N4 + v);
             const double4 pz = a20 * x + a21 * y + a22 * z + a23;
-            const long4 keep = (pz > NEAR_MM) & (nv + (nx * b0 + ny * b1 + nz * b2) < 0.0);
+            const long4 keep = facing & (pz > NEAR_MM);
             if (!any(keep)) continue;
             const double4 u = (a00 * x + a01 * y + a02 * z + a03) / pz;
             const double4 w = (a10 * x + a11 * y + a12 * z + a13) / pz;
