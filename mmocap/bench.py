@@ -182,7 +182,7 @@ def main(argv=None) -> None:
     parser.add_argument("--vertices", default="27393,20544,13695")
     parser.add_argument("--budgets", default="500,1500,3000,5000")
     parser.add_argument("--cameras", type=int, default=7)
-    parser.add_argument("--population", type=int, default=64, help="candidates per timing (table 2)")
+    parser.add_argument("--population", type=int, default=256, help="candidates per timing (table 2)")
     parser.add_argument("--repeats", type=int, default=3, help="timings per backend (table 2), best kept")
     parser.add_argument("--frames", type=int, default=1, help="frames per budget (table 1)")
     parser.add_argument("--out", type=Path, default=Path("outputs/tables"))
