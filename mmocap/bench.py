@@ -95,6 +95,8 @@ def frame_ms(ev, scene: Scene, budget: int, frames: int) -> tuple[float, float]:
     """Mean (frame, solutions) time in ms of CMA-ES on ``frames`` frames of ``budget``."""
     strategy, total, solutions = Holistic(), 0.0, 0.0
     rng = np.random.default_rng(budget)
+    ev.setup(scene.body, scene.cameras, scene.foreground)
+    ev(scene.candidates(2))  # warm-up: kernels, caches, workers
     for _ in range(frames):
         optimizer = registry.make_optimizer("cmaes")
         timed = _Timed(ev)
