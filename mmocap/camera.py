@@ -137,6 +137,45 @@ class Camera:
     def save(self, path: Path) -> None:
         Path(path).write_text(json.dumps(self.to_dict(), indent=2))
 
+    def save_cal(self, path: Path) -> None:
+        """Write a HumanEva-I ``.cal`` file: 22 numbers, one per line (see :meth:`load_cal`)."""
+        K = self.K
+        numbers = [K[0, 0], K[1, 1], K[0, 2], K[1, 2], K[0, 1] / K[0, 0], *self.dist,
+                   *self.R.ravel(), *self.t]
+        Path(path).write_text("".join(f"{v:.17g}\n" for v in numbers))
+
+    @staticmethod
+    def load_cal(path: Path, width: int, height: int, colour: bool = True,
+                 name: str | None = None) -> "Camera":
+        """Read a HumanEva-I ``.cal`` file (Bouguet's calibration toolbox parameters).
+
+        It holds 22 numbers separated by white space: fc (2, pixels), cc (2, pixels, the
+        centre of the top-left pixel being (0, 0) as in OpenCV), alpha_c (1, skew as a
+        fraction of fc[0]), kc (5, ``k1 k2 p1 p2 k3``), R (9, row-major) and T (3, mm), with
+        ``X_cam = R X + T``.  The file holds no image size: ``width`` and ``height`` come
+        from the images.  ``name`` defaults to the file's stem.
+        """
+        path = Path(path)
+        if not path.is_file():
+            raise DataError(f"calibration file not found: {path}")
+        tokens = path.read_text(errors="replace").split()
+        try:
+            v = np.array([float(t) for t in tokens])
+        except ValueError as exc:
+            raise DataError(f"calibration file {path}: non-numeric value ({exc})") from None
+        if v.size != 22:
+            raise DataError(f"calibration file {path} holds {v.size} numbers, a .cal file has 22 "
+                            "(fc 2, cc 2, alpha_c 1, kc 5, R 9, T 3)")
+        if not np.all(np.isfinite(v)):
+            raise DataError(f"calibration file {path}: values must be finite")
+        fc, cc, alpha, kc, R, T = v[0:2], v[2:4], v[4], v[5:10], v[10:19].reshape(3, 3), v[19:22]
+        if np.any(fc <= 0):
+            raise DataError(f"calibration file {path}: focal lengths {fc.tolist()} must be > 0")
+        if abs(np.linalg.det(R) - 1) > 1e-3 or not np.allclose(R @ R.T, np.eye(3), atol=1e-3):
+            raise DataError(f"calibration file {path}: R is not a rotation matrix")
+        K = np.array([[fc[0], alpha * fc[0], cc[0]], [0.0, fc[1], cc[1]], [0.0, 0.0, 1.0]])
+        return Camera(name or path.stem, K, kc, R, T, int(width), int(height), colour)
+
     @staticmethod
     def load(path: Path) -> "Camera":
         """Read a calibration JSON written by :meth:`save`; errors name the file and field."""

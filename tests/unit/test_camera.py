@@ -79,3 +79,49 @@ def test_bad_calibration_files_name_the_file(tmp_path, camera):
     bad.write_text(json.dumps(d))
     with pytest.raises(DataError, match="not a rotation"):
         Camera.load(bad)
+
+
+def test_cal_round_trip_projects_the_same(tmp_path, camera):
+    skewed = Camera(camera.name, camera.K + np.array([[0, 0.4, 0], [0, 0, 0], [0, 0, 0]]),
+                    camera.dist, camera.R, camera.t, 640, 480)
+    path = tmp_path / "C1.cal"
+    skewed.save_cal(path)
+    assert len(path.read_text().split()) == 22
+    loaded = Camera.load_cal(path, 640, 480)
+    points = np.random.default_rng(1).uniform([-800, 0, -800], [800, 1900, 800], size=(200, 3))
+    np.testing.assert_allclose(loaded.project(points), skewed.project(points), atol=1e-9)
+    assert (loaded.name, loaded.width, loaded.height, loaded.colour) == ("C1", 640, 480, True)
+    assert not Camera.load_cal(path, 640, 480, colour=False, name="BW1").colour
+
+
+def test_cal_layout_is_fc_cc_alpha_kc_r_t(tmp_path):
+    """The numbers of a hand-written file land where Bouguet's toolbox puts them."""
+    R = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    numbers = [600, 610, 320.5, 240.5, 0.001, -0.2, 0.1, 1e-3, -2e-3, 0.01, *R.ravel(), 10, -20, 4000]
+    path = tmp_path / "BW2.cal"
+    path.write_text("\n".join(map(str, numbers)) + "\n")
+    cam = Camera.load_cal(path, 640, 480)
+    np.testing.assert_allclose(cam.K, [[600, 0.6, 320.5], [0, 610, 240.5], [0, 0, 1]])
+    np.testing.assert_allclose(cam.dist, [-0.2, 0.1, 1e-3, -2e-3, 0.01])
+    np.testing.assert_allclose(cam.R, R)
+    np.testing.assert_allclose(cam.t, [10, -20, 4000])
+    assert cam.name == "BW2"
+
+
+@pytest.mark.parametrize("text, message", [
+    ("600 610 320 240 0 0 0 0 0 0 1 0 0 0 1 0 0 0 1 0 0", "holds 21 numbers.*22"),
+    ("600 610 320 240 0 0 0 0 0 0 1 0 0 0 1 0 0 0 1 0 0 abc", "non-numeric"),
+    ("600 610 320 240 0 0 0 0 0 0 2 0 0 0 1 0 0 0 1 0 0 0", "not a rotation"),
+    ("-600 610 320 240 0 0 0 0 0 0 1 0 0 0 1 0 0 0 1 0 0 0", "focal lengths"),
+    ("600 610 320 240 0 0 0 0 0 0 1 0 0 0 1 0 0 0 1 0 0 nan", "finite"),
+])
+def test_bad_cal_files_name_the_file(tmp_path, text, message):
+    path = tmp_path / "C2.cal"
+    path.write_text(text)
+    with pytest.raises(DataError, match=f"C2.cal.*{message}"):
+        Camera.load_cal(path, 640, 480)
+
+
+def test_missing_cal_file_names_it(tmp_path):
+    with pytest.raises(DataError, match="not found.*C3.cal"):
+        Camera.load_cal(tmp_path / "C3.cal", 640, 480)
