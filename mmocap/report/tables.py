@@ -1,0 +1,140 @@
+"""Write one table as CSV, Markdown and LaTeX, each with a provenance line.
+
+``write_table(df, "outputs/tables/table4", title=..., source=...)`` writes ``table4.csv``,
+``table4.md`` and ``table4.tex``, each to a temporary file renamed into place, so that a
+reader never sees half a table. The provenance line names the mmocap version, the git
+commit of the working tree (with ``+dirty`` when it has uncommitted changes), the date
+(UTC) and the source file:
+
+- CSV: a first line ``# <provenance>`` (read back with ``pd.read_csv(path, comment="#")``);
+- Markdown: the title as a heading, then the provenance in italics;
+- LaTeX: ``% <provenance>``, then a ``table`` float with a booktabs ``tabular``, every cell
+  escaped.
+"""
+from __future__ import annotations
+
+import datetime
+import os
+import subprocess
+from importlib import metadata
+from pathlib import Path
+from typing import Callable, Union
+
+import numpy as np
+import pandas as pd
+
+Format = Union[str, Callable[[float], str]]
+LATEX_SPECIALS = {"\\": r"\textbackslash{}", "&": r"\&", "%": r"\%", "$": r"\$", "#": r"\#",
+                  "_": r"\_", "{": r"\{", "}": r"\}", "~": r"\textasciitilde{}",
+                  "^": r"\textasciicircum{}"}
+
+
+def git_commit(folder: Path | None = None) -> str | None:
+    """Short commit hash of the repository holding ``folder`` (default: this package),
+    ``+dirty`` appended when tracked files have changed; None outside a repository."""
+    folder = Path(folder) if folder else Path(__file__).resolve().parent
+    try:
+        commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=folder, check=True,
+                                capture_output=True, text=True, timeout=10).stdout.strip()
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=folder,
+                               check=True, capture_output=True, text=True, timeout=10).stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return commit + ("+dirty" if dirty else "")
+
+
+def provenance(source: str | Path | None = None) -> str:
+    """'mmocap <version>, commit <hash>, <UTC date>, source <file>' (parts unknown left out)."""
+    try:
+        version = metadata.version("mmocap")
+    except metadata.PackageNotFoundError:
+        version = "unknown"
+    parts = [f"mmocap {version}"]
+    commit = git_commit()
+    if commit:
+        parts.append(f"commit {commit}")
+    parts.append(datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"))
+    if source is not None:
+        parts.append(f"source {source}")
+    return ", ".join(parts)
+
+
+def write_text_atomic(path: Path, text: str) -> None:
+    """Write ``text`` to a temporary file beside ``path`` and rename it into place."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    tmp.write_text(text)
+    os.replace(tmp, path)
+
+
+def format_cell(value, fmt: Format = ".3f") -> str:
+    """A cell as text: floats with ``fmt`` (a format spec or a function; '' for NaN), booleans
+    as yes/no, everything else with str()."""
+    if isinstance(value, (bool, np.bool_)):
+        return "yes" if value else "no"
+    if isinstance(value, (float, np.floating)):
+        if np.isnan(value):
+            return ""
+        return fmt(float(value)) if callable(fmt) else format(value, fmt)
+    return "" if value is None or value is pd.NA else str(value)
+
+
+def format_p(p: float) -> str:
+    """A p-value as the Yeguas tables print it: 0.043, or 7.57E-04 below 0.001."""
+    return f"{p:.3f}" if p >= 1e-3 else f"{p:.2E}"
+
+
+def _cells(df: pd.DataFrame, floatfmt: Format, formats: dict[str, Format] | None) -> pd.DataFrame:
+    formats = formats or {}
+    return pd.DataFrame({c: [format_cell(v, formats.get(c, floatfmt)) for v in df[c]]
+                         for c in df.columns}, columns=df.columns)
+
+
+def latex_escape(text: str) -> str:
+    """``text`` with LaTeX's special characters escaped."""
+    return "".join(LATEX_SPECIALS.get(ch, ch) for ch in text)
+
+
+def to_markdown(df: pd.DataFrame, title: str, note: str, floatfmt: Format = ".3f",
+                formats: dict[str, Format] | None = None) -> str:
+    """Markdown: '# title', the note in italics, the table (tabulate's pipe format)."""
+    cells = _cells(df, floatfmt, formats)
+    cells = cells.map(lambda text: text.replace("|", "\\|"))
+    body = cells.to_markdown(index=False, disable_numparse=True,
+                             colalign=[_align(df[c]) for c in df.columns])
+    return f"# {title}\n\n_{note}_\n\n{body}\n"
+
+
+def to_latex(df: pd.DataFrame, title: str, note: str, floatfmt: Format = ".3f",
+             formats: dict[str, Format] | None = None) -> str:
+    """LaTeX: '% note', then a table float (caption = title) with a booktabs tabular."""
+    spec = "".join("r" if _align(df[c]) == "right" else "l" for c in df.columns)
+    lines = [f"% {note}", r"\begin{table}[htbp]", r"\centering",
+             rf"\caption{{{latex_escape(title)}}}", rf"\begin{{tabular}}{{{spec}}}", r"\toprule",
+             " & ".join(latex_escape(str(c)) for c in df.columns) + r" \\", r"\midrule"]
+    for row in _cells(df, floatfmt, formats).itertuples(index=False):
+        lines.append(" & ".join(latex_escape(v) for v in row) + r" \\")
+    lines += [r"\bottomrule", r"\end{tabular}", r"\end{table}"]
+    return "\n".join(lines) + "\n"
+
+
+def _align(column: pd.Series) -> str:
+    numeric = pd.api.types.is_numeric_dtype(column) and not pd.api.types.is_bool_dtype(column)
+    return "right" if numeric else "left"
+
+
+def write_table(df: pd.DataFrame, stem: str | Path, *, title: str, source: str | Path | None = None,
+                floatfmt: Format = ".3f", formats: dict[str, Format] | None = None) -> list[Path]:
+    """Write ``df`` to ``stem``.csv, .md and .tex (see the module docstring); returns the paths.
+
+    Floats are written in full in the CSV; in Markdown and LaTeX with ``formats[column]`` or
+    else ``floatfmt`` (a format spec, or a function of the float returning the text).
+    """
+    stem = Path(stem)
+    note = provenance(source)
+    paths = [stem.with_name(stem.name + ext) for ext in (".csv", ".md", ".tex")]
+    write_text_atomic(paths[0], f"# {note}\n" + df.to_csv(index=False))
+    write_text_atomic(paths[1], to_markdown(df, title, note, floatfmt, formats))
+    write_text_atomic(paths[2], to_latex(df, title, note, floatfmt, formats))
+    return paths

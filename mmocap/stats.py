@@ -1,0 +1,79 @@
+"""Friedman test and Holm's comparisons against the best-ranked algorithm, on any long table.
+
+``python -m mmocap.stats results.csv --block sequence,seed --algorithm algorithm
+--value mean_marker_error_mm [--out outputs/tables/stem]`` prints the test and the table of
+comparisons (rank, z, p, Holm's alpha / (k - j), Holm-adjusted p, significant) and, with
+``--out``, writes it as stem.csv, stem.md and stem.tex. The method and the handling of bad
+input are described in :mod:`mmocap.stages.statistics`. Errors print one line and exit 2.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+import warnings
+from pathlib import Path
+
+import pandas as pd
+
+from mmocap.errors import MmocapError
+from mmocap.report.tables import format_p, to_markdown, write_table
+from mmocap.stages.statistics import FriedmanHolm, friedman_holm, read_table
+
+COLUMN_NAMES = {"algorithm": "Algorithm", "rank": "Rank", "z": "z", "p": "p-value",
+                "holm_alpha": "Holm alpha", "holm_p": "Holm p", "significant": "Significant"}
+P_FORMATS = {"p-value": format_p, "Holm p": format_p, "Holm alpha": ".4f"}
+
+
+def comparisons_table(result: FriedmanHolm) -> pd.DataFrame:
+    """The comparisons with readable column names, ready for :func:`write_table`."""
+    return result.comparisons.rename(columns=COLUMN_NAMES)
+
+
+def parse_args(argv):
+    parser = argparse.ArgumentParser(prog="python -m mmocap.stats",
+                                     description=__doc__.split("\n\n")[0])
+    parser.add_argument("table", type=Path, help="CSV or Parquet file, one row per measurement")
+    parser.add_argument("--block", default="sequence,seed",
+                        help="comma-separated columns that together name a block (default: %(default)s)")
+    parser.add_argument("--algorithm", default="algorithm", help="column naming the algorithm")
+    parser.add_argument("--value", default="mean_marker_error_mm", help="numeric column compared")
+    parser.add_argument("--higher-is-better", action="store_true",
+                        help="rank the highest value first (default: the lowest, as for an error)")
+    parser.add_argument("--control", help="control algorithm (default: the best-ranked)")
+    parser.add_argument("--alpha", type=float, default=0.05, help="significance level")
+    parser.add_argument("--out", type=Path, help="write OUT.csv, OUT.md and OUT.tex")
+    return parser.parse_args(argv)
+
+
+def run(args) -> FriedmanHolm:
+    table = read_table(args.table)
+    blocks = [c.strip() for c in args.block.split(",") if c.strip()]
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        result = friedman_holm(table, blocks, args.algorithm, args.value,
+                               higher_is_better=args.higher_is_better, control=args.control,
+                               alpha=args.alpha, source=str(args.table))
+    for warning in caught:
+        print(f"mmocap: warning: {warning.message}", file=sys.stderr)
+    title = f"Friedman ranks of {args.value} by {args.algorithm}, Holm vs {result.control}"
+    shown = comparisons_table(result)
+    print(to_markdown(shown, title, result.summary(), formats=P_FORMATS))
+    if args.out:
+        paths = write_table(shown, args.out, title=f"{title}. {result.summary()}",
+                            source=args.table, formats=P_FORMATS)
+        print("written: " + ", ".join(map(str, paths)))
+    return result
+
+
+def main(argv=None) -> int:
+    args = parse_args(argv)
+    try:
+        run(args)
+    except MmocapError as err:
+        print(f"mmocap: error: {err}", file=sys.stderr)
+        return 2
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
