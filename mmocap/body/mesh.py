@@ -163,10 +163,13 @@ class SubjectDimensions:
             raise ConfigError(f"subject {self.name}: girth must be in [0.6, 1.6], got {self.girth}")
 
 
+# S1-S3 are the synthetic generator's subjects; S4 completes HumanEva-I's four with a
+# nominal build (S1's height, a little broader).  None is measured from the dataset.
 SUBJECTS = {
     "S1": SubjectDimensions("S1", 1780.0, 1.00),
     "S2": SubjectDimensions("S2", 1720.0, 1.12),
     "S3": SubjectDimensions("S3", 1640.0, 0.90),
+    "S4": SubjectDimensions("S4", 1780.0, 1.06),
 }
 
 

@@ -13,10 +13,14 @@ A sequence folder holds::
 
 ``x0`` in ``sequence.json`` is the first frame's pose (51 numbers, mm and rad): the
 initialisation the tracker is given, as the papers initialise by hand.
+
+:class:`SequenceBase` is what the pipeline reads from any dataset; :class:`Sequence` reads
+this folder layout and :class:`mmocap.data.humaneva.HumanEvaSequence` the HumanEva-I one.
 """
 from __future__ import annotations
 
 import json
+from abc import ABC, abstractmethod
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -44,12 +48,56 @@ def read_image(path: Path, camera: Camera) -> np.ndarray:
 
 
 @dataclass
-class Sequence:
-    """A sequence folder opened for reading, restricted to ``cameras`` (default: all)."""
+class SequenceBase(ABC):
+    """An opened multi-camera sequence, as the pipeline reads it.
+
+    ``meta`` holds at least ``subject``, ``action``, ``fps``, ``frames``, ``marker_names``
+    and ``x0`` (51 numbers, mm and rad); ``cameras`` are the selected cameras, in the order
+    of the images that :meth:`images` returns.
+    """
 
     root: Path
     meta: dict
     cameras: list[Camera]
+
+    @property
+    def n_frames(self) -> int:
+        return int(self.meta["frames"])
+
+    @property
+    def fps(self) -> float:
+        return float(self.meta["fps"])
+
+    @property
+    def subject(self) -> str:
+        return str(self.meta["subject"])
+
+    @property
+    def x0(self) -> np.ndarray:
+        """(51,) first-frame pose (mm, rad)."""
+        return np.asarray(self.meta["x0"], dtype=np.float64)
+
+    def check_frame(self, frame: int) -> None:
+        if not 0 <= frame < self.n_frames:
+            raise DataError(f"frame {frame} outside sequence {self.root} of {self.n_frames} frames")
+
+    @abstractmethod
+    def images(self, frame: int) -> list[np.ndarray]:
+        """One image per selected camera for ``frame`` (0-based): (H, W, 3) BGR or (H, W)."""
+
+    @abstractmethod
+    def background(self, camera: Camera) -> list[np.ndarray]:
+        """Frames of the empty scene seen by ``camera``, like its images."""
+
+    @abstractmethod
+    def markers(self) -> np.ndarray:
+        """(frames, M, 3) ground-truth marker positions in mm, M = len(meta['marker_names']),
+        NaN where missing."""
+
+
+@dataclass
+class Sequence(SequenceBase):
+    """A sequence folder opened for reading, restricted to ``cameras`` (default: all)."""
 
     @staticmethod
     def open(root, cameras: list[str] | None = None) -> "Sequence":
@@ -78,31 +126,11 @@ class Sequence:
             cams.append(Camera.load(root / "calibration" / f"{name}.json"))
         return Sequence(root, meta, cams)
 
-    @property
-    def n_frames(self) -> int:
-        return int(self.meta["frames"])
-
-    @property
-    def fps(self) -> float:
-        return float(self.meta["fps"])
-
-    @property
-    def subject(self) -> str:
-        return str(self.meta["subject"])
-
-    @property
-    def x0(self) -> np.ndarray:
-        """(51,) first-frame pose (mm, rad)."""
-        return np.asarray(self.meta["x0"], dtype=np.float64)
-
     def images(self, frame: int) -> list[np.ndarray]:
-        """One image per selected camera for ``frame`` (0-based)."""
-        if not 0 <= frame < self.n_frames:
-            raise DataError(f"frame {frame} outside sequence {self.root} of {self.n_frames} frames")
+        self.check_frame(frame)
         return [read_image(self.root / "images" / c.name / f"{frame:06d}.png", c) for c in self.cameras]
 
     def background(self, camera: Camera) -> list[np.ndarray]:
-        """All background frames of one camera."""
         folder = self.root / "background" / camera.name
         paths = sorted(folder.glob("*.png"))
         if not paths:
@@ -118,7 +146,6 @@ class Sequence:
         return mask > 127
 
     def markers(self) -> np.ndarray:
-        """(frames, M, 3) ground-truth marker positions in mm (NaN where missing)."""
         path = self.root / "markers_mm.csv"
         if not path.is_file():
             raise DataError(f"ground-truth markers not found: {path}")

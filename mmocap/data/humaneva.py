@@ -1,0 +1,621 @@
+"""HumanEva-I (Sigal et al. 2010): a reader of the dataset's own layout, and an exporter that
+writes a synthetic sequence in that layout.
+
+Layout under ``root``, as the dataset is distributed::
+
+    S1..S4/Calibration_Data/<cam>.cal              C1, C2, C3 (colour), BW1..BW4 (greyscale)
+    S*/Image_Data/<Action>_<Trial>_(<cam>).avi     60 Hz video, or a folder of that name
+                                                   holding numbered image files
+    S*/Sync_Data/<Action>_<Trial>_(<cam>).ofs      IM_ST MC_ST MC_SC
+    S*/Mocap_Data/<Action>_<Trial>.mat             120 Hz markers (withheld for trial 2)
+    Background/Background_<k>_(<cam>).avi          empty-scene videos, k = 1, 2, ...
+
+Actions: Walking, Jog, ThrowCatch, Gestures, Box, Combo; trials 1..3 (trial 3 has no video).
+
+Time: the ``.ofs`` indices are 1-based, as in the dataset's MATLAB toolbox, and the mocap
+index of image ``i`` is ``MC_ST + (i - IM_ST) * MC_SC`` (MC_SC is about 2: 120 Hz mocap, 60 Hz
+video).  Markers at a fractional mocap index are interpolated linearly between the two
+nearest mocap frames (NaN if either is missing).  The first selected camera is the
+reference: frame k of the opened sequence is its image ``start + k``; every other camera
+shows its image nearest the same mocap time, through its own ``.ofs``.
+
+Ground truth: the ``.mat`` file holds ``Markers`` (mocap frames, labels, 3) in mm, missing
+markers being stored as zeros (read as NaN), and the labels under ``ParameterGroup``
+POINT/LABELS.  ``marker_map`` (data in ``conf/dataset/humaneva.yaml``) gives, for each of the
+body model's markers (:data:`mmocap.body.model.MARKER_NAMES`), the mocap labels whose
+centroid stands for it.  The marker error then measures the distance between the model's
+skin points and those physical markers: a systematic placement offset (the model's point
+is not where the marker was stuck) adds to the tracking error, so figures are comparable
+between runs on HumanEva-I, not equal to those of methods scored on HumanEva's virtual
+joint centres.
+
+Initialisation (``x0``): either read from a file of 51 numbers (mm, rad), or fitted to the
+first frame's markers by :func:`fit_pose` (rigid alignment of the torso markers, then
+bounded least squares over the joint angles with a small pull towards the rest pose).
+"""
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import cv2
+import numpy as np
+import scipy.io
+from omegaconf import OmegaConf
+from scipy.optimize import least_squares
+from tqdm.auto import tqdm
+
+from mmocap.body.model import MARKER_NAMES, BodyModel
+from mmocap.body.skeleton import dof_mask
+from mmocap.camera import Camera
+from mmocap.data.sequence import Sequence, SequenceBase, read_image
+from mmocap.errors import ConfigError, DataError
+
+SUBJECTS = ("S1", "S2", "S3", "S4")
+ACTIONS = ("Walking", "Jog", "ThrowCatch", "Gestures", "Box", "Combo")
+TRIALS = (1, 2, 3)
+CAMERAS = ("C1", "C2", "C3", "BW1", "BW2", "BW3", "BW4")
+IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".pgm", ".ppm")
+MOCAP_RATE_HZ = 120.0
+# The synthetic generator's actions under their HumanEva-I names.
+SYNTHETIC_ACTIONS = {"walking": "Walking", "gestures": "Gestures", "boxing": "Box"}
+# Markers on the rigid torso, aligned first when fitting x0.
+TORSO_MARKERS = ("head", "neck", "pelvis", "l_shoulder", "r_shoulder", "l_hip", "r_hip")
+# Pull of every joint angle towards the rest pose in the x0 fit: residual mm per rad.
+REST_PULL_MM_PER_RAD = 20.0
+CONFIG_FILE = Path(__file__).resolve().parents[2] / "conf" / "dataset" / "humaneva.yaml"
+
+
+def is_colour(camera: str) -> bool:
+    """HumanEva-I's C cameras are colour, its BW cameras greyscale."""
+    return not camera.upper().startswith("BW")
+
+
+def default_marker_map() -> dict[str, list[str]]:
+    """The marker map of ``conf/dataset/humaneva.yaml``."""
+    return OmegaConf.to_container(OmegaConf.load(CONFIG_FILE).marker_map)
+
+
+# --- synchronisation ----------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class SyncOffsets:
+    """Contents of an ``.ofs`` file: ``IM_ST MC_ST MC_SC`` (1-based image and mocap indices)."""
+
+    image_start: float
+    mocap_start: float
+    mocap_scale: float
+
+    def mocap_index(self, image_index):
+        """1-based image index (scalar or array) -> 1-based, possibly fractional, mocap index."""
+        return self.mocap_start + (np.asarray(image_index, float) - self.image_start) * self.mocap_scale
+
+    def image_index(self, mocap_index):
+        """Inverse of :meth:`mocap_index`."""
+        return self.image_start + (np.asarray(mocap_index, float) - self.mocap_start) / self.mocap_scale
+
+    @staticmethod
+    def load(path: Path) -> "SyncOffsets":
+        path = Path(path)
+        if not path.is_file():
+            raise DataError(f"sync file not found: {path}")
+        tokens = path.read_text(errors="replace").split()
+        try:
+            values = [float(t) for t in tokens]
+        except ValueError as exc:
+            raise DataError(f"sync file {path}: non-numeric value ({exc})") from None
+        if len(values) != 3 or not np.all(np.isfinite(values)):
+            raise DataError(f"sync file {path} must hold 3 finite numbers (IM_ST MC_ST MC_SC), "
+                            f"got {len(values)}")
+        if values[2] <= 0:
+            raise DataError(f"sync file {path}: MC_SC must be > 0, got {values[2]}")
+        return SyncOffsets(*values)
+
+    def save(self, path: Path) -> None:
+        Path(path).write_text(f"{self.image_start:.17g}\n{self.mocap_start:.17g}\n{self.mocap_scale:.17g}\n")
+
+
+# --- images --------------------------------------------------------------------------------
+
+class FrameSource:
+    """The images of one camera: a video read with OpenCV, or a folder of numbered images
+    (the k-th file in numerical order being image k).  Indices are 1-based.
+
+    Images come out as (H, W, 3) BGR for a colour camera and (H, W) for a greyscale one.
+    """
+
+    def __init__(self, path: Path, camera: str, colour: bool):
+        self.path, self.camera, self.colour = Path(path), camera, colour
+        self._capture = None
+        self._next = None
+        if self.path.is_dir():
+            files = [p for p in self.path.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES]
+            self.files = sorted(files, key=_frame_number)
+            if not self.files:
+                raise DataError(f"camera {camera}: no image files in {self.path}")
+            self.count = len(self.files)
+        else:
+            self.files = None
+            self._capture = cv2.VideoCapture(str(self.path))
+            self.count = int(self._capture.get(cv2.CAP_PROP_FRAME_COUNT))
+            if not self._capture.isOpened() or self.count < 1:
+                raise DataError(f"camera {camera}: cannot read video {self.path}")
+            self._next = 1
+        self.height, self.width = self.read(1).shape[:2]
+
+    def read(self, index: int) -> np.ndarray:
+        """Image ``index`` (1-based)."""
+        if not 1 <= index <= self.count:
+            raise DataError(f"camera {self.camera}: image {index} outside {self.path} "
+                            f"({self.count} images)")
+        if self.files is not None:
+            image = cv2.imread(str(self.files[index - 1]), cv2.IMREAD_COLOR)
+            where = self.files[index - 1]
+        else:
+            if index != self._next:
+                self._capture.set(cv2.CAP_PROP_POS_FRAMES, index - 1)
+            ok, image = self._capture.read()
+            self._next = index + 1 if ok else None
+            where = f"{self.path} (image {index})"
+        if image is None:
+            raise DataError(f"camera {self.camera}: cannot read {where}")
+        return image if self.colour else cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
+
+    def close(self) -> None:
+        if self._capture is not None:
+            self._capture.release()
+
+
+def _frame_number(path: Path) -> tuple[int, str]:
+    digits = re.findall(r"\d+", path.stem)
+    return (int(digits[-1]) if digits else -1, path.name)
+
+
+def open_frames(folder: Path, stem: str, camera: str) -> FrameSource:
+    """``<folder>/<stem>.avi`` or, failing that, the image folder ``<folder>/<stem>``."""
+    video, images = folder / f"{stem}.avi", folder / stem
+    if video.is_file():
+        return FrameSource(video, camera, is_colour(camera))
+    if images.is_dir():
+        return FrameSource(images, camera, is_colour(camera))
+    raise DataError(f"camera {camera}: image data not found: {video} (nor a folder {images})")
+
+
+def write_video(path: Path, images, fps: float) -> None:
+    """Write 8-bit images ((H, W) or (H, W, 3) BGR) losslessly (FFV1) into an .avi file."""
+    writer = None
+    for image in images:
+        if image.ndim == 2:
+            image = cv2.cvtColor(image, cv2.COLOR_GRAY2BGR)
+        if writer is None:
+            writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"FFV1"), fps,
+                                     (image.shape[1], image.shape[0]), True)
+            if not writer.isOpened():
+                raise DataError(f"cannot write video {path}")
+        writer.write(image)
+    if writer is not None:
+        writer.release()
+
+
+# --- motion capture ------------------------------------------------------------------------
+
+def _as_list(x) -> list:
+    """A value of ``loadmat(simplify_cells=True)`` as a list (single items come unwrapped)."""
+    if isinstance(x, list):
+        return x
+    if isinstance(x, np.ndarray):
+        return list(x.ravel())
+    return [x]
+
+
+def read_mocap(path: Path) -> tuple[list[str], np.ndarray]:
+    """A HumanEva ``.mat`` marker file -> labels (L,) and (mocap frames, L, 3) mm, NaN = missing.
+
+    Labels lose any ``subject:`` prefix; a marker stored as (0, 0, 0) is missing.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise DataError(f"mocap file not found: {path}")
+    try:
+        mat = scipy.io.loadmat(str(path), simplify_cells=True)
+    except Exception as exc:  # scipy raises many types for a damaged file
+        raise DataError(f"cannot read mocap file {path}: {exc}") from None
+    markers = np.asarray(mat.get("Markers", np.empty(0)), dtype=np.float64)
+    if markers.ndim == 2 and markers.shape[1] == 3:  # a single label comes squeezed
+        markers = markers[:, None, :]
+    if markers.ndim != 3 or markers.shape[2] != 3 or markers.shape[0] < 1:
+        raise DataError(f"mocap file {path}: 'Markers' must be (frames, markers, 3), "
+                        f"got shape {markers.shape}")
+    labels = None
+    for group in _as_list(mat.get("ParameterGroup", [])):
+        if isinstance(group, dict) and group.get("name") == "POINT":
+            for param in _as_list(group.get("Parameter", [])):
+                if isinstance(param, dict) and param.get("name") == "LABELS":
+                    labels = [str(x).split(":")[-1].strip() for x in _as_list(param.get("data"))]
+    if labels is None:
+        raise DataError(f"mocap file {path} has no ParameterGroup POINT/LABELS")
+    if len(labels) != markers.shape[1]:
+        raise DataError(f"mocap file {path}: {len(labels)} labels for {markers.shape[1]} markers")
+    markers[np.all(markers == 0, axis=2)] = np.nan
+    return labels, markers
+
+
+def _cell(items) -> np.ndarray:
+    cell = np.empty((1, len(items)), dtype=object)
+    for k, item in enumerate(items):
+        cell[0, k] = item
+    return cell
+
+
+def _struct_array(records: list[dict]) -> np.ndarray:
+    array = np.empty((1, len(records)), dtype=[(key, object) for key in records[0]])
+    for k, record in enumerate(records):
+        for key, value in record.items():
+            array[0, k][key] = value
+    return array
+
+
+def write_mocap(path: Path, labels, markers: np.ndarray, rate_hz: float = MOCAP_RATE_HZ) -> None:
+    """(mocap frames, L, 3) mm -> a ``.mat`` file in the structure of HumanEva's: ``Markers``
+    with missing (NaN) markers as zeros, and ``ParameterGroup`` POINT with LABELS, RATE,
+    UNITS and USED."""
+    point = [{"name": _cell(["LABELS"]), "data": _cell(list(labels))},
+             {"name": _cell(["RATE"]), "data": float(rate_hz)},
+             {"name": _cell(["UNITS"]), "data": _cell(["mm"])},
+             {"name": _cell(["USED"]), "data": float(len(labels))}]
+    groups = _struct_array([{"name": _cell(["POINT"]), "Parameter": _struct_array(point)}])
+    scipy.io.savemat(str(path), {"Markers": np.nan_to_num(markers, nan=0.0), "ParameterGroup": groups})
+
+
+def check_marker_map(marker_map: dict) -> dict[str, list[str]]:
+    """Every model marker mapped to a non-empty list of labels, no label used twice."""
+    marker_map = {str(k): [str(v)] if isinstance(v, str) else [str(x) for x in v]
+                  for k, v in dict(marker_map).items()}
+    unknown = sorted(set(marker_map) - set(MARKER_NAMES))
+    missing = [m for m in MARKER_NAMES if not marker_map.get(m)]
+    if unknown or missing:
+        raise ConfigError(f"dataset.marker_map must give labels for exactly the markers "
+                          f"{', '.join(MARKER_NAMES)}; unknown: {unknown}, without labels: {missing}")
+    labels = [label for names in marker_map.values() for label in names]
+    if len(labels) != len(set(labels)):
+        raise ConfigError("dataset.marker_map uses a mocap label for two markers")
+    return marker_map
+
+
+def model_markers(labels: list[str], markers: np.ndarray, marker_map: dict, path: Path) -> np.ndarray:
+    """(mocap frames, L, 3) labelled markers -> (mocap frames, 15, 3) body-model markers, each
+    the centroid of its mapped labels (NaN where any of them is missing)."""
+    column = {label: k for k, label in enumerate(labels)}
+    out = np.empty((markers.shape[0], len(MARKER_NAMES), 3))
+    for m, name in enumerate(MARKER_NAMES):
+        absent = [label for label in marker_map[name] if label not in column]
+        if absent:
+            raise DataError(f"mocap file {path} has no marker labelled {', '.join(absent)} "
+                            f"(mapped to '{name}' by dataset.marker_map)")
+        out[:, m] = markers[:, [column[label] for label in marker_map[name]]].mean(axis=1)
+    return out
+
+
+def sample_mocap(markers: np.ndarray, mocap_index) -> np.ndarray:
+    """(mocap frames, M, 3) at 1-based fractional indices (n,) -> (n, M, 3), interpolated
+    linearly; NaN outside the recording or where a neighbour is missing."""
+    position = np.asarray(mocap_index, float) - 1.0
+    low = np.floor(position).astype(int)
+    weight = position - low
+    high = low + (weight > 0)
+    inside = (low >= 0) & (high < len(markers))
+    out = np.full((len(position),) + markers.shape[1:], np.nan)
+    w = weight[inside, None, None]
+    out[inside] = (1 - w) * markers[low[inside]] + w * markers[high[inside]]
+    return out
+
+
+# --- initial pose --------------------------------------------------------------------------
+
+def _rigid_fit(source: np.ndarray, target: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Rotation R and translation t minimising |R source + t - target| over (N, 3) points."""
+    cs, ct = source.mean(axis=0), target.mean(axis=0)
+    U, _, Vt = np.linalg.svd((source - cs).T @ (target - ct))
+    d = np.sign(np.linalg.det(Vt.T @ U.T))
+    R = Vt.T @ np.diag([1.0, 1.0, d]) @ U.T
+    return R, ct - R @ cs
+
+
+def _euler_of(R: np.ndarray) -> np.ndarray:
+    """Angles (a, b, c) in rad with ``Rx(a) @ Ry(b) @ Rz(c) = R``."""
+    return np.array([np.arctan2(-R[1, 2], R[2, 2]), np.arcsin(np.clip(R[0, 2], -1, 1)),
+                     np.arctan2(-R[0, 1], R[0, 0])])
+
+
+def fit_pose(body: BodyModel, target: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    """The pose (51,) whose model markers best match ``target`` (15, 3) mm (NaN = missing).
+
+    Aligns the rest pose's torso markers rigidly to the target's, then solves bounded least
+    squares over the ``mask`` entries within the joint limits, each joint angle pulled
+    towards the rest pose by :data:`REST_PULL_MM_PER_RAD`.
+    """
+    present = ~np.isnan(target).any(axis=1)
+    anchors = present & np.isin(body.marker_names, TORSO_MARKERS)
+    if anchors.sum() < 3:
+        raise DataError(f"{anchors.sum()} torso markers present, at least 3 are needed to fit x0")
+    x = np.zeros(len(mask))
+    R, t = _rigid_fit(body.markers(x[None])[0][anchors], target[anchors])
+    x[:3], x[3:6] = t, _euler_of(R)
+    free = mask & (body.lower < body.upper)
+    angle = free.copy()
+    angle[:6] = False
+
+    def residual(v):
+        x[free] = v
+        return np.r_[(body.markers(x[None])[0] - target)[present].ravel(), REST_PULL_MM_PER_RAD * x[angle]]
+
+    start = np.clip(x[free], body.lower[free], body.upper[free])
+    result = least_squares(residual, start, bounds=(body.lower[free], body.upper[free]), x_scale="jac")
+    x[free] = result.x
+    return x
+
+
+def read_pose_file(path: Path) -> np.ndarray:
+    """(51,) pose (mm, rad) from a .npy file or a text file of 51 numbers."""
+    path = Path(path)
+    if not path.is_file():
+        raise DataError(f"x0 file not found: {path}")
+    try:
+        x = np.load(path) if path.suffix == ".npy" else np.loadtxt(path, delimiter=None, ndmin=1)
+    except ValueError as exc:
+        raise DataError(f"x0 file {path} is not a list of numbers: {exc}") from None
+    x = np.asarray(x, dtype=np.float64).ravel()
+    if x.shape != (51,) or not np.all(np.isfinite(x)):
+        raise DataError(f"x0 file {path} must hold 51 finite numbers (mm, rad), got {x.size}")
+    return x
+
+
+# --- the sequence and the Hydra component --------------------------------------------------
+
+@dataclass
+class HumanEvaSequence(SequenceBase):
+    """One HumanEva-I trial opened for reading (see the module docstring for frame timing).
+
+    Extra attributes: ``sources`` (one :class:`FrameSource` per camera), ``image_index``
+    (frames, cameras) 1-based image per frame and camera, ``truth`` (frames, 15, 3) mm,
+    ``background_sources`` per camera name and ``background_frames`` taken from them.
+    """
+
+    sources: list[FrameSource] = field(default_factory=list)
+    image_index: np.ndarray = field(default_factory=lambda: np.empty((0, 0), int))
+    truth: np.ndarray = field(default_factory=lambda: np.empty((0, 15, 3)))
+    background_sources: dict = field(default_factory=dict)
+    background_frames: int = 50
+
+    def images(self, frame: int) -> list[np.ndarray]:
+        self.check_frame(frame)
+        return [src.read(int(i)) for src, i in zip(self.sources, self.image_index[frame])]
+
+    def background(self, camera: Camera) -> list[np.ndarray]:
+        sources = self.background_sources[camera.name]
+        total = sum(s.count for s in sources)
+        picks = np.unique(np.linspace(0, total - 1, min(total, self.background_frames)).round().astype(int))
+        starts = np.cumsum([0] + [s.count for s in sources])
+        frames = []
+        for p in picks:
+            k = int(np.searchsorted(starts, p, side="right") - 1)
+            frames.append(sources[k].read(int(p - starts[k]) + 1))
+        return frames
+
+    def markers(self) -> np.ndarray:
+        return self.truth.copy()
+
+
+class HumanEvaDataset:
+    """Hydra component: one trial of HumanEva-I under ``root``.
+
+    Args:
+        root: the folder holding ``S1``..``S4`` and ``Background``.
+        subject, action, trial: e.g. ``"S1"``, ``"Walking"``, 1.
+        cameras: camera names; the first is the timing reference.
+        marker_map: body-model marker name -> mocap labels (their centroid is the marker).
+        start_frame: 1-based image of the first camera to start at; None = the first image
+            at which every mapped marker is present (the first synchronised one without mocap).
+        frames: frames to read at most; None = up to the end of the shortest video.
+        fps: video frame rate (HumanEva-I: 60).
+        background_frames: frames taken, evenly spaced, from each camera's background videos.
+        min_background_frames: fewer background frames than this is an error.
+        x0: file with the first frame's pose (51 numbers, mm and rad); None = fit it to the
+            first frame's markers (:func:`fit_pose`) with the ``x0_dof`` model.
+        x0_dof: degrees of freedom of the model fitted for x0 (28, 39 or 51).
+    """
+
+    def __init__(self, root=None, subject: str = "S1", action: str = "Walking", trial: int = 1,
+                 cameras=("C1", "C2", "C3", "BW1"), marker_map: dict | None = None,
+                 start_frame: int | None = None, frames: int | None = None, fps: float = 60.0,
+                 background_frames: int = 50, min_background_frames: int = 2, x0=None, x0_dof: int = 39):
+        if root is None:
+            raise ConfigError("dataset.root must be set to the HumanEva-I folder (the one holding S1..S4)")
+        checks = (("subject", subject, SUBJECTS), ("action", action, ACTIONS), ("trial", trial, TRIALS))
+        for name, value, known in checks:
+            if value not in known:
+                raise ConfigError(f"unknown HumanEva-I {name} {value!r}; known: {', '.join(map(str, known))}")
+        cameras = list(cameras)
+        unknown = [c for c in cameras if c not in CAMERAS]
+        if unknown or not cameras:
+            raise ConfigError(f"dataset.cameras must name HumanEva-I cameras ({', '.join(CAMERAS)}), "
+                              f"got {cameras}")
+        if start_frame is not None and start_frame < 1:
+            raise ConfigError(f"dataset.start_frame must be >= 1 (1-based), got {start_frame}")
+        if frames is not None and frames < 1:
+            raise ConfigError(f"dataset.frames must be >= 1, got {frames}")
+        if min_background_frames < 2 or background_frames < min_background_frames:
+            raise ConfigError("dataset.background_frames must be >= dataset.min_background_frames >= 2, "
+                              f"got {background_frames} and {min_background_frames}")
+        self.root, self.subject, self.action, self.trial = Path(root), subject, action, int(trial)
+        self.cameras = cameras
+        self.marker_map = check_marker_map(default_marker_map() if marker_map is None else marker_map)
+        self.start_frame, self.frames, self.fps = start_frame, frames, float(fps)
+        self.background_frames, self.min_background_frames = int(background_frames), int(min_background_frames)
+        self.x0, self.x0_mask = x0, dof_mask(int(x0_dof))
+
+    @property
+    def stem(self) -> str:
+        return f"{self.action}_{self.trial}"
+
+    def open(self, progress: bool = True) -> HumanEvaSequence:
+        folder = self.root / self.subject
+        if not folder.is_dir():
+            raise DataError(f"HumanEva-I subject folder not found: {folder}")
+        sources, syncs, cams = [], [], []
+        for name in tqdm(self.cameras, desc=f"open {self.subject} {self.stem}", unit="camera",
+                         disable=not progress):
+            source = open_frames(folder / "Image_Data", f"{self.stem}_({name})", name)
+            sources.append(source)
+            syncs.append(SyncOffsets.load(folder / "Sync_Data" / f"{self.stem}_({name}).ofs"))
+            cams.append(Camera.load_cal(folder / "Calibration_Data" / f"{name}.cal", source.width,
+                                        source.height, source.colour))
+        for name, source, sync in zip(self.cameras, sources, syncs):
+            if sync.image_start > source.count:
+                raise DataError(f"sync file {folder / 'Sync_Data' / f'{self.stem}_({name}).ofs'} starts at "
+                                f"image {sync.image_start:g}, past the end of {source.path} "
+                                f"({source.count} images)")
+        mocap = self._mocap(folder)
+        index, truth = self._timing(folder, sources, syncs, mocap)
+        x0 = self._initial_pose(truth[0], folder)
+        backgrounds = {c.name: self._background_sources(c.name) for c in cams}
+        meta = {
+            "format": "humaneva-i", "subject": self.subject, "action": self.action, "trial": self.trial,
+            "fps": self.fps, "frames": len(index), "cameras": self.cameras,
+            "marker_names": list(MARKER_NAMES), "x0": x0.tolist(),
+            "first_image": int(index[0, 0]), "marker_map": self.marker_map,
+            "units": {"length": "mm", "angle": "rad"},
+        }
+        return HumanEvaSequence(folder, meta, cams, sources=sources, image_index=index, truth=truth,
+                                background_sources=backgrounds, background_frames=self.background_frames)
+
+    def _mocap(self, folder: Path) -> np.ndarray | None:
+        """(mocap frames, 15, 3) mm model markers, or None when the trial has no mocap file."""
+        path = folder / "Mocap_Data" / f"{self.stem}.mat"
+        if not path.is_file():
+            return None
+        labels, markers = read_mocap(path)
+        return model_markers(labels, markers, self.marker_map, path)
+
+    def _timing(self, folder, sources, syncs, mocap):
+        """(frames, cameras) 1-based image indices and (frames, 15, 3) mm truth."""
+        ref = sources[0]
+        candidates = np.arange(1, ref.count + 1)
+        mocap_index = syncs[0].mocap_index(candidates)
+        per_camera = np.stack([np.rint(s.image_index(mocap_index)).astype(int) for s in syncs], axis=1)
+        counts = np.array([s.count for s in sources])
+        in_videos = np.all((per_camera >= 1) & (per_camera <= counts), axis=1)
+        for c, name in enumerate(self.cameras):
+            if not np.any((per_camera[:, c] >= 1) & (per_camera[:, c] <= counts[c])):
+                raise DataError(f"sync file {folder / 'Sync_Data' / f'{self.stem}_({name}).ofs'}: no image "
+                                f"of {sources[c].path} falls within the reference camera's video")
+        if self.start_frame is not None:
+            start = self.start_frame
+            if start > ref.count or not in_videos[start - 1]:
+                raise DataError(f"dataset.start_frame {start} is not an image of every camera "
+                                f"(the {self.cameras[0]} video {ref.path} has {ref.count})")
+        else:
+            usable = in_videos.copy()
+            if mocap is not None:
+                usable &= ~np.isnan(sample_mocap(mocap, mocap_index)).any(axis=(1, 2))
+            elif self.x0 is None:
+                raise DataError(f"no mocap file {folder / 'Mocap_Data' / f'{self.stem}.mat'} (HumanEva-I "
+                                "withholds trial 2's): give the first frame's pose in dataset.x0")
+            if not usable.any():
+                raise DataError(f"no image of {ref.path} has every mapped marker present in "
+                                f"{folder / 'Mocap_Data' / f'{self.stem}.mat'}")
+            start = int(candidates[np.argmax(usable)])
+        run = in_videos[start - 1:]
+        n = int(np.argmin(run)) if not run.all() else len(run)
+        if self.frames is not None:
+            n = min(n, self.frames)
+        rows = slice(start - 1, start - 1 + n)
+        truth = (np.full((n, len(MARKER_NAMES), 3), np.nan) if mocap is None
+                 else sample_mocap(mocap, mocap_index[rows]))
+        return per_camera[rows], truth
+
+    def _initial_pose(self, first_markers: np.ndarray, folder: Path) -> np.ndarray:
+        if self.x0 is not None:
+            return read_pose_file(self.x0)
+        if np.isnan(first_markers).any():
+            missing = [n for n, row in zip(MARKER_NAMES, first_markers) if np.isnan(row).any()]
+            raise DataError(f"{folder / 'Mocap_Data' / f'{self.stem}.mat'}: markers {', '.join(missing)} are "
+                            "missing at the first frame; choose another dataset.start_frame or give dataset.x0")
+        body = BodyModel(self.subject, dof=int(self.x0_mask.sum()), vertices=None)
+        return fit_pose(body, first_markers, self.x0_mask)
+
+    def _background_sources(self, camera: str) -> list[FrameSource]:
+        folder = self.root / "Background"
+        pattern = re.compile(rf"Background_(\d+)_\({camera}\)(\.avi)?$", re.IGNORECASE)
+        found = {p: pattern.match(p.name) for p in folder.glob("Background_*")} if folder.is_dir() else {}
+        paths = sorted((p for p, m in found.items() if m and (m.group(2) or p.is_dir())),
+                       key=lambda p: int(found[p].group(1)))
+        if not paths:
+            raise DataError(f"camera {camera}: no background video {folder / f'Background_<k>_({camera}).avi'}")
+        sources = [FrameSource(p, camera, is_colour(camera)) for p in paths]
+        total = sum(s.count for s in sources)
+        if total < self.min_background_frames:
+            raise DataError(f"camera {camera}: background {', '.join(str(p) for p in paths)} holds {total} "
+                            f"frames, the background model needs at least {self.min_background_frames}")
+        return sources
+
+
+# --- exporter ------------------------------------------------------------------------------
+
+def upsample(markers: np.ndarray, factor: int) -> np.ndarray:
+    """(F, M, 3) at the video rate -> ((F - 1) * factor + 1, M, 3), linearly interpolated."""
+    return sample_mocap(markers, 1 + np.arange((len(markers) - 1) * factor + 1) / factor)
+
+
+def export(sequence_root, out, marker_map: dict | None = None, trial: int = 1, images: str = "avi",
+           mocap_lead: int = 4, progress: bool = True) -> Path:
+    """Write a synthetic sequence folder (:mod:`mmocap.data.sequence`) in the HumanEva-I layout.
+
+    Under ``out``: ``<subject>/Calibration_Data``, ``Image_Data`` (lossless FFV1 .avi, or PNG
+    folders for ``images="png"``), ``Sync_Data`` (IM_ST = 1, MC_ST = 1 + mocap_lead,
+    MC_SC = 2), ``Mocap_Data/<Action>_<trial>.mat`` (markers at 120 Hz, interpolated from the
+    video rate, after ``mocap_lead`` frames with every marker missing; each label of
+    ``marker_map`` at its marker's position) and ``Background/Background_1_(<cam>).avi``.
+    Returns ``out``.
+    """
+    if images not in ("avi", "png"):
+        raise ConfigError(f"images must be 'avi' or 'png', got {images!r}")
+    if mocap_lead < 0:
+        raise ConfigError(f"mocap_lead must be >= 0, got {mocap_lead}")
+    if trial not in TRIALS:
+        raise ConfigError(f"unknown HumanEva-I trial {trial!r}; known: {', '.join(map(str, TRIALS))}")
+    seq = Sequence.open(sequence_root)
+    action = SYNTHETIC_ACTIONS.get(seq.meta["action"])
+    if action is None:
+        raise ConfigError(f"action '{seq.meta['action']}' of {seq.root} has no HumanEva-I name "
+                          f"(known: {', '.join(SYNTHETIC_ACTIONS)})")
+    unknown = [c.name for c in seq.cameras if c.name not in CAMERAS]
+    if unknown:
+        raise ConfigError(f"cameras {', '.join(unknown)} of {seq.root} are not HumanEva-I cameras")
+    marker_map = check_marker_map(default_marker_map() if marker_map is None else marker_map)
+    out = Path(out)
+    folder = out / seq.subject
+    for sub in ("Calibration_Data", "Image_Data", "Sync_Data", "Mocap_Data"):
+        (folder / sub).mkdir(parents=True, exist_ok=True)
+    (out / "Background").mkdir(parents=True, exist_ok=True)
+    stem = f"{action}_{trial}"
+    sync = SyncOffsets(1.0, 1.0 + mocap_lead, 2.0)
+    for cam in tqdm(seq.cameras, desc=f"export {seq.subject} {stem}", unit="camera", disable=not progress):
+        cam.save_cal(folder / "Calibration_Data" / f"{cam.name}.cal")
+        sync.save(folder / "Sync_Data" / f"{stem}_({cam.name}).ofs")
+        frames = (read_image(seq.root / "images" / cam.name / f"{f:06d}.png", cam) for f in range(seq.n_frames))
+        target = folder / "Image_Data" / f"{stem}_({cam.name})"
+        if images == "avi":
+            write_video(target.with_name(target.name + ".avi"), frames, seq.fps)
+        else:
+            target.mkdir(exist_ok=True)
+            for f, image in enumerate(frames):
+                cv2.imwrite(str(target / f"{f + 1:06d}.png"), image)
+        write_video(out / "Background" / f"Background_1_({cam.name}).avi", seq.background(cam), seq.fps)
+    truth = upsample(seq.markers(), int(sync.mocap_scale))
+    truth = np.concatenate([np.full((mocap_lead,) + truth.shape[1:], np.nan), truth])
+    labels = [label for name in MARKER_NAMES for label in marker_map[name]]
+    columns = [m for m, name in enumerate(MARKER_NAMES) for _ in marker_map[name]]
+    write_mocap(folder / "Mocap_Data" / f"{stem}.mat", labels, truth[:, columns])
+    return out
