@@ -1,5 +1,6 @@
 """Command line: ``mmocap [hydra overrides]`` tracks; ``mmocap list`` shows plugins;
-``mmocap generate [overrides]`` only renders the configured synthetic sequence.
+``mmocap generate [overrides]`` only renders the configured synthetic sequence;
+``mmocap export-humaneva SEQUENCE OUT`` writes a sequence folder in the HumanEva-I layout.
 
 Errors the user can fix (:class:`mmocap.errors.MmocapError`) print one line naming the
 culprit and exit with status 2, without a traceback.
@@ -12,6 +13,7 @@ import os
 # (and fight with process-level parallelism), so default to one unless the user says.
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
+import argparse  # noqa: E402
 import sys  # noqa: E402
 from pathlib import Path  # noqa: E402
 
@@ -66,6 +68,26 @@ def generate_app(cfg: DictConfig) -> None:
           f"cameras {', '.join(c.name for c in sequence.cameras)})")
 
 
+def export_humaneva(args: list[str]) -> None:
+    from mmocap.data.humaneva import TRIALS, export
+
+    parser = argparse.ArgumentParser(
+        prog="mmocap export-humaneva",
+        description="Write a synthetic sequence folder in the HumanEva-I layout (S*/Calibration_Data, "
+                    "Image_Data, Sync_Data, Mocap_Data at 120 Hz, Background).")
+    parser.add_argument("sequence", help="a sequence folder (the one holding sequence.json)")
+    parser.add_argument("out", help="the HumanEva-I folder to write into")
+    parser.add_argument("--trial", type=int, default=1, choices=TRIALS)
+    parser.add_argument("--images", choices=("avi", "png"), default="avi",
+                        help="lossless FFV1 videos (default) or folders of numbered PNG frames")
+    parser.add_argument("--mocap-lead", type=int, default=4,
+                        help="mocap frames, all markers missing, before the video starts (default 4)")
+    options = parser.parse_args(args)
+    out = _guarded(lambda: export(options.sequence, options.out, trial=options.trial, images=options.images,
+                                  mocap_lead=options.mocap_lead))
+    print(f"HumanEva-I layout written to {out}")
+
+
 def main() -> None:
     args = sys.argv[1:]
     if args and args[0] == "list":
@@ -74,6 +96,9 @@ def main() -> None:
     if args and args[0] == "generate":
         sys.argv = [sys.argv[0]] + args[1:]
         generate_app()
+        return
+    if args and args[0] == "export-humaneva":
+        export_humaneva(args[1:])
         return
     track_app()
 
