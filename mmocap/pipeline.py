@@ -1,16 +1,22 @@
 """The main job: build every stage from the config, track a sequence, write the results.
 
 Outputs in ``output_dir``: ``frames.csv`` (one row per frame, written as it goes),
-``summary.json``, ``error_per_frame.png`` and ``overlays/*.png``.
+``summary.json``, ``error_per_frame.png`` and ``overlays/*.png``; and the run's record in
+the results store (:mod:`mmocap.stages.results`). A run whose record is already in the
+store, or in one of ``results.reuse``, is not run again.
 """
 from __future__ import annotations
 
-import platform
+import fcntl
+import logging
 import time
+from contextlib import contextmanager
 from pathlib import Path
 
 import cv2
 import numpy as np
+from hydra.core.hydra_config import HydraConfig
+from hydra.types import RunMode
 from hydra.utils import instantiate
 from omegaconf import DictConfig, OmegaConf
 from tqdm.auto import tqdm
@@ -19,24 +25,37 @@ from mmocap.errors import ConfigError, DataError
 from mmocap.report.figures import overlay, plot_error_per_frame
 from mmocap.stages.evaluation import FrameLog, marker_error, write_json_atomic
 from mmocap.stages.foreground import Foreground
+from mmocap.stages.results import ResultsStore, make_record, now, provenance, run_key, store_folder
 from mmocap.stages.tracking import check_budget, track
+
+log = logging.getLogger(__name__)
 
 
 def run(cfg: DictConfig, output_dir: Path) -> dict:
-    """Run the configured tracking job; returns the summary written to summary.json."""
+    """Run the configured tracking job; returns the summary written to summary.json (or,
+    for a run already in the results store, the summary of its record)."""
     output_dir = Path(output_dir)
     output_dir.mkdir(parents=True, exist_ok=True)
     if cfg.overlays < 0:
         raise ConfigError(f"overlays must be >= 0, got {cfg.overlays}")
+    store = ResultsStore(store_folder(cfg, sweep_folder() or output_dir))
+    run_id = run_key(cfg)
+    done = store.get(run_id) or store.adopt(run_id, cfg.results.reuse)
+    if done is not None:
+        log.info("run %s already finished (record %s): skipped", run_id, store.path(run_id))
+        return done["summary"]
+    started = now()
 
     check_budget(cfg.tracking.evaluations)
     # Components first: a bad value fails before any data is rendered or read.
     optimizer = instantiate(cfg.optimizer)
     strategy = instantiate(cfg.strategy)
-    evaluator = instantiate(cfg.evaluator)
+    evaluator = TimedEvaluator(instantiate(cfg.evaluator))
     body = instantiate(cfg.body)
     strategy.check(body, optimizer, int(cfg.tracking.evaluations))
-    sequence = instantiate(cfg.dataset).open(progress=cfg.progress)
+    dataset = instantiate(cfg.dataset)
+    with exclusive(getattr(dataset, "path", None)):  # parallel jobs render a sequence once
+        sequence = dataset.open(progress=cfg.progress)
     if body.subject.name != sequence.subject:
         raise ConfigError(f"body.subject is {body.subject.name} but the sequence shows {sequence.subject}")
     foreground = Foreground(sequence, instantiate(cfg.background))
@@ -44,12 +63,14 @@ def run(cfg: DictConfig, output_dir: Path) -> dict:
     n_frames = sequence.n_frames if cfg.tracking.frames is None else int(cfg.tracking.frames)
 
     frame_log = FrameLog(output_dir / "frames.csv")
-    errors = []
+    errors, frame_rows = [], []
     bar = tqdm(total=n_frames, desc=f"track {cfg.optimizer.name}", unit="frame", disable=not cfg.progress)
 
     def on_frame(result):
         err = float(marker_error(body.markers(result.pose[None]), truth[result.frame][None])[0])
         errors.append(err)
+        frame_rows.append({"frame": int(result.frame), "marker_error_mm": err, "fitness": float(result.fitness),
+                           "evaluations": int(result.evaluations), "seconds": float(result.seconds)})
         frame_log.write(result.frame, err, result.fitness, result.evaluations, result.seconds, result.pose)
         bar.set_postfix(error_mm=f"{err:.1f}", mean_mm=f"{np.nanmean(errors):.1f}")
         bar.update()
@@ -83,7 +104,8 @@ def run(cfg: DictConfig, output_dir: Path) -> dict:
         "cameras": [c.name for c in sequence.cameras],
         "sequence": str(sequence.root),
         "seed": int(cfg.seed),
-        "python": platform.python_version(),
+        "run_id": run_id,
+        "provenance": provenance(),
         "config": OmegaConf.to_container(cfg, resolve=True),
     }
     write_json_atomic(output_dir / "summary.json", summary)
@@ -93,7 +115,51 @@ def run(cfg: DictConfig, output_dir: Path) -> dict:
     write_overlays(output_dir / "overlays", sequence, foreground, evaluator, body, results, truth,
                    int(cfg.overlays))
     evaluator.close()
+    path = store.put(make_record(cfg, summary, frame_rows, wall, evaluator.seconds, started, output_dir))
+    log.info("run %s recorded in %s", run_id, path)
     return summary
+
+
+def sweep_folder() -> Path | None:
+    """The folder of the Hydra multirun this job belongs to, or None."""
+    if HydraConfig.initialized() and HydraConfig.get().mode == RunMode.MULTIRUN:
+        return Path(HydraConfig.get().sweep.dir)
+    return None
+
+
+class TimedEvaluator:
+    """An evaluator that adds up the wall time spent evaluating candidates (``seconds``)."""
+
+    def __init__(self, evaluator):
+        self.evaluator = evaluator
+        self.seconds = 0.0
+
+    def __call__(self, X: np.ndarray) -> np.ndarray:
+        start = time.perf_counter()
+        try:
+            return self.evaluator(X)
+        finally:
+            self.seconds += time.perf_counter() - start
+
+    def __getattr__(self, name):
+        return getattr(self.evaluator, name)
+
+
+@contextmanager
+def exclusive(path: Path | None):
+    """Hold an exclusive lock on ``<path>.lock`` (nothing when ``path`` is None), so that
+    parallel jobs of a sweep do not render the same sequence at once."""
+    if path is None:
+        yield
+        return
+    lock = Path(path).with_name(Path(path).name + ".lock")
+    lock.parent.mkdir(parents=True, exist_ok=True)
+    with open(lock, "w") as handle:
+        fcntl.flock(handle, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(handle, fcntl.LOCK_UN)
 
 
 def write_overlays(folder: Path, sequence, foreground, evaluator, body, results, truth, count: int) -> None:

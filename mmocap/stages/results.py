@@ -1,0 +1,226 @@
+"""Stage "results": one record per finished run, kept in a store that makes sweeps resumable.
+
+A store is a folder (a sweep's folder, or a single run's) holding ``records/<run_id>.json``.
+A record is written once, atomically (temporary file then ``os.replace``), when its run
+finishes: a run killed midway leaves no record and is run again by the next sweep, a
+finished run is never run twice. ``run_id`` is a digest of the run's resolved config
+without what does not change its result (output paths, progress bars, overlays, the
+``scale`` presets, Hydra's own settings).
+
+``load_runs(folder)`` gives the two tables the statistics and reports read:
+
+- ``runs``: one row per run: run_id, subject, action, sequence, seed, optimizer, strategy,
+  algorithm (``"<optimizer>-<strategy>"``), dof, evaluations (per frame), vertices,
+  backend, frames, mean_marker_error_mm, seconds_per_frame (wall time of tracking),
+  evaluation_seconds_per_frame (time inside the evaluator), git_commit, host;
+- ``frames``: one row per tracked frame: run_id, frame, marker_error_mm.
+
+``python -m mmocap.stages.results FOLDER`` writes them as ``runs.csv`` and ``frames.csv``.
+"""
+from __future__ import annotations
+
+import argparse
+import datetime
+import hashlib
+import importlib.metadata
+import json
+import logging
+import platform
+import socket
+import subprocess
+import sys
+from functools import lru_cache
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from omegaconf import DictConfig, OmegaConf
+
+from mmocap.errors import DataError
+from mmocap.stages.evaluation import write_json_atomic
+
+log = logging.getLogger(__name__)
+
+# Top-level config keys that do not change a run's result.
+NOT_IN_KEY = ("hydra", "progress", "overlays", "results", "scale")
+
+RUN_COLUMNS = ["run_id", "subject", "action", "sequence", "seed", "optimizer", "strategy",
+               "algorithm", "dof", "evaluations", "vertices", "backend", "frames",
+               "mean_marker_error_mm", "seconds_per_frame", "evaluation_seconds_per_frame",
+               "git_commit", "host"]
+FRAME_COLUMNS = ["run_id", "frame", "marker_error_mm"]
+
+
+def key_config(cfg: DictConfig) -> dict:
+    """The resolved config that identifies a run: everything but ``NOT_IN_KEY``."""
+    resolved = OmegaConf.to_container(cfg, resolve=True)
+    return {k: v for k, v in resolved.items() if k not in NOT_IN_KEY}
+
+
+def run_key(cfg: DictConfig) -> str:
+    """16 hex digits identifying the run ``cfg`` describes (same config, same key)."""
+    text = json.dumps(key_config(cfg), sort_keys=True, separators=(",", ":"))
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def store_folder(cfg: DictConfig, fallback: Path) -> Path:
+    """The results store of a run: ``results.store`` if set, else ``fallback`` (the
+    sweep folder in a multirun, the run's own folder otherwise)."""
+    return Path(cfg.results.store if cfg.results.store is not None else fallback)
+
+
+@lru_cache(maxsize=1)
+def provenance() -> dict:
+    """What produced a result: git commit of the source tree (and whether it had
+    uncommitted changes), package versions, Python, host."""
+    source = Path(__file__).resolve().parent.parent.parent
+
+    def git(*args):
+        try:
+            out = subprocess.run(["git", *args], cwd=source, capture_output=True, text=True, timeout=10)
+        except (OSError, subprocess.TimeoutExpired):
+            return None
+        return out.stdout.strip() if out.returncode == 0 else None
+
+    commit = git("rev-parse", "HEAD")
+    dirty = git("status", "--porcelain", "--untracked-files=no")
+    versions = {}
+    for package in ("mmocap", "numpy", "scipy", "opencv-python-headless", "hydra-core", "pandas"):
+        try:
+            versions[package] = importlib.metadata.version(package)
+        except importlib.metadata.PackageNotFoundError:
+            versions[package] = None
+    return {"git_commit": commit, "git_dirty": None if dirty is None else bool(dirty),
+            "versions": versions, "python": platform.python_version(),
+            "host": socket.gethostname(), "platform": platform.platform()}
+
+
+def now() -> str:
+    """The current UTC time, ISO 8601."""
+    return datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
+
+
+class ResultsStore:
+    """The records of finished runs under ``folder/records/``."""
+
+    def __init__(self, folder):
+        self.folder = Path(folder)
+        self.records_dir = self.folder / "records"
+
+    def path(self, run_id: str) -> Path:
+        return self.records_dir / f"{run_id}.json"
+
+    def get(self, run_id: str) -> dict | None:
+        """The record of ``run_id``, or None if that run has not finished here."""
+        path = self.path(run_id)
+        if not path.is_file():
+            return None
+        try:
+            return json.loads(path.read_text())
+        except json.JSONDecodeError as exc:
+            raise DataError(f"run record {path} is not valid JSON ({exc}); delete it to run again") from None
+
+    def put(self, record: dict) -> Path:
+        """Write ``record`` atomically; returns its path."""
+        self.records_dir.mkdir(parents=True, exist_ok=True)
+        path = self.path(record["run_id"])
+        write_json_atomic(path, record)
+        return path
+
+    def adopt(self, run_id: str, others) -> dict | None:
+        """Copy the record of ``run_id`` from the first of the stores ``others`` that has
+        it into this one; returns it, or None if none has it."""
+        for folder in others:
+            record = ResultsStore(folder).get(run_id)
+            if record is not None and Path(folder).resolve() != self.folder.resolve():
+                self.put(record)
+                return record
+        return None
+
+    def records(self) -> list[dict]:
+        """Every record, in run_id order."""
+        paths = sorted(self.records_dir.glob("*.json")) if self.records_dir.is_dir() else []
+        return [self.get(p.stem) for p in paths]
+
+
+def make_record(cfg: DictConfig, summary: dict, frames: list[dict], wall_seconds: float,
+                evaluation_seconds: float, started: str, output_dir: Path) -> dict:
+    """The record of a finished run: identity, config, per-frame results, timings, provenance.
+
+    ``frames``: one dict per tracked frame with frame, marker_error_mm, fitness,
+    evaluations, seconds. Times in seconds.
+    """
+    n = max(len(frames), 1)
+    return {
+        "run_id": run_key(cfg),
+        "summary": {k: v for k, v in summary.items() if k not in ("config", "provenance")},
+        "frames": frames,
+        "timings": {"wall_seconds": wall_seconds, "seconds_per_frame": wall_seconds / n,
+                    "evaluation_seconds": evaluation_seconds,
+                    "evaluation_seconds_per_frame": evaluation_seconds / n},
+        "seed": int(cfg.seed),
+        "config": OmegaConf.to_container(cfg, resolve=True),
+        "key_config": key_config(cfg),
+        "provenance": provenance(),
+        "started": started,
+        "finished": now(),
+        "output_dir": str(output_dir),
+    }
+
+
+def run_row(record: dict) -> dict:
+    """One row of the ``runs`` table from a record."""
+    s, t, p = record["summary"], record["timings"], record["provenance"]
+    return {
+        "run_id": record["run_id"], "subject": s["subject"], "action": s["action"],
+        "sequence": f"{s['subject']}_{s['action']}", "seed": int(record["seed"]),
+        "optimizer": s["optimizer"], "strategy": s["strategy"],
+        "algorithm": f"{s['optimizer']}-{s['strategy']}", "dof": int(s["dof"]),
+        "evaluations": int(s["evaluations_per_frame"]), "vertices": int(s["vertices"]),
+        "backend": s["backend"], "frames": int(s["frames"]),
+        "mean_marker_error_mm": float(s["mean_marker_error_mm"]),
+        "seconds_per_frame": float(t["seconds_per_frame"]),
+        "evaluation_seconds_per_frame": float(t.get("evaluation_seconds_per_frame", np.nan)),
+        "git_commit": p.get("git_commit"), "host": p.get("host"),
+    }
+
+
+def load_runs(folder) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """``(runs, frames)`` tables of every record in the store ``folder`` (see module doc)."""
+    store = ResultsStore(folder)
+    records = store.records()
+    if not records:
+        raise DataError(f"no run records in {store.records_dir}: has a sweep run into {store.folder}?")
+    runs = pd.DataFrame([run_row(r) for r in records], columns=RUN_COLUMNS)
+    frames = pd.DataFrame([(r["run_id"], int(f["frame"]), float(f["marker_error_mm"]))
+                           for r in records for f in r["frames"]], columns=FRAME_COLUMNS)
+    return runs, frames
+
+
+def export(folder) -> tuple[Path, Path]:
+    """Write ``runs.csv`` and ``frames.csv`` into the store ``folder``; returns their paths."""
+    folder = Path(folder)
+    runs, frames = load_runs(folder)
+    paths = folder / "runs.csv", folder / "frames.csv"
+    for table, path in zip((runs, frames), paths):
+        tmp = path.with_suffix(".csv.tmp")
+        table.to_csv(tmp, index=False)
+        tmp.replace(path)
+    return paths
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description="Write runs.csv and frames.csv of a results store.")
+    parser.add_argument("folder", type=Path, help="a sweep folder (holding records/)")
+    args = parser.parse_args(argv)
+    try:
+        runs_csv, frames_csv = export(args.folder)
+    except DataError as exc:
+        print(f"mmocap: error: {exc}", file=sys.stderr)
+        return 2
+    print(f"{runs_csv} ({len(pd.read_csv(runs_csv))} runs), {frames_csv}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

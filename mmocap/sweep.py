@@ -1,0 +1,129 @@
+"""Hydra callback for multirun sweeps: checks, provenance, progress, export.
+
+Configured in ``conf/config.yaml`` under ``hydra.callbacks``. For a multirun it
+
+- checks, before any job starts, that every optimiser and evaluator named in the sweep is
+  installed, and that the sweep folder is not a single run's;
+- writes ``sweep.json`` into the sweep folder: the number of jobs, the command-line
+  overrides, the sweeper's parameters, the launcher, git commit, package versions, host;
+- logs after each job how many runs of the sweep are done and about how long is left
+  (jobs append a line to ``progress.jsonl``, so this works across processes and machines);
+- writes ``runs.csv`` and ``frames.csv`` (:func:`mmocap.stages.results.export`) at the end.
+"""
+from __future__ import annotations
+
+import json
+import logging
+import math
+import os
+import time
+from pathlib import Path
+
+from hydra.core.hydra_config import HydraConfig
+from hydra.core.override_parser.overrides_parser import OverridesParser
+from hydra.core.utils import JobReturn
+from hydra.experimental.callback import Callback
+from hydra.types import RunMode
+from omegaconf import DictConfig
+
+from mmocap import registry
+from mmocap.cli import _guarded
+from mmocap.stages.results import ResultsStore, export, now, provenance, run_key, store_folder
+
+log = logging.getLogger(__name__)
+
+def sweep_overrides(config: DictConfig) -> dict[str, list[str]]:
+    """The values each key of the sweep takes, as the basic sweeper combines them: the
+    sweeper's ``params``, then the command-line overrides (later ones win)."""
+    params = [f"{k}={v}" for k, v in (config.hydra.sweeper.get("params") or {}).items()]
+    parsed = OverridesParser.create().parse_overrides(params + list(config.hydra.overrides.task))
+    values = {}
+    for override in parsed:
+        key = override.get_key_element()
+        if override.is_sweep_override():
+            values[key] = list(override.sweep_string_iterator())
+        else:
+            values[key] = [override.get_value_element_as_str()]
+    return values
+
+
+def check_plugins(values: dict[str, list[str]]) -> None:
+    """ConfigError naming the first optimiser or evaluator name in the sweep
+    (``optimizer.name=...``, ``evaluator.name=...``) that is not installed. Config-group
+    choices (``optimizer=nope``) Hydra checks itself when it composes the jobs."""
+    for kind in ("optimizer", "evaluator"):
+        for name in values.get(f"{kind}.name", []):
+            registry.load(kind, name)
+
+
+class SweepProgress(Callback):
+    """Provenance, progress and export of a multirun sweep (see module doc)."""
+
+    def on_multirun_start(self, config: DictConfig, **kwargs) -> None:
+        sweep_dir = Path(config.hydra.sweep.dir)
+        values = _guarded(lambda: sweep_overrides(config))
+        _guarded(lambda: check_plugins(values))
+        total = math.prod(len(v) for v in values.values())
+        sweep_dir.mkdir(parents=True, exist_ok=True)
+        store = ResultsStore(store_folder(config, sweep_dir))
+        already = len(list(store.records_dir.glob("*.json"))) if store.records_dir.is_dir() else 0
+        info = {
+            "session": f"{now()}-{os.getpid()}",
+            "started": time.time(),
+            "started_utc": now(),
+            "jobs": total,
+            "store": str(store.folder),
+            "overrides": list(config.hydra.overrides.task),
+            "sweeper_params": {k: str(v) for k, v in (config.hydra.sweeper.get("params") or {}).items()},
+            "launcher": config.hydra.launcher.get("_target_"),
+            "provenance": provenance(),
+        }
+        (sweep_dir / "sweep.json.tmp").write_text(json.dumps(info, indent=2))
+        os.replace(sweep_dir / "sweep.json.tmp", sweep_dir / "sweep.json")
+        log.info("sweep of %d runs into %s (%d records already in the store)", total, sweep_dir, already)
+
+    def on_job_end(self, config: DictConfig, job_return: JobReturn, **kwargs) -> None:
+        if HydraConfig.get().mode != RunMode.MULTIRUN:
+            return
+        sweep_dir = Path(HydraConfig.get().sweep.dir)
+        info_path = sweep_dir / "sweep.json"
+        if not info_path.is_file():
+            return
+        info = json.loads(info_path.read_text())
+        record = ResultsStore(store_folder(config, sweep_dir)).get(run_key(config))
+        ran = record is not None and record["finished"] >= info["started_utc"]
+        line = {"session": info["session"], "job": HydraConfig.get().job.num,
+                "status": job_return.status.name, "ran": ran}
+        with open(sweep_dir / "progress.jsonl", "a") as handle:
+            handle.write(json.dumps(line) + "\n")
+        log.info(progress_line(sweep_dir / "progress.jsonl", info))
+
+    def on_multirun_end(self, config: DictConfig, **kwargs) -> None:
+        folder = store_folder(config, config.hydra.sweep.dir)
+        if ResultsStore(folder).records():
+            runs_csv, frames_csv = export(folder)
+            log.info("sweep done: %s, %s", runs_csv, frames_csv)
+
+
+def progress_line(progress_file: Path, info: dict) -> str:
+    """"k/N runs done, about T left" for the sweep session ``info``."""
+    lines = [json.loads(line) for line in progress_file.read_text().splitlines() if line.strip()]
+    mine = [line for line in lines if line["session"] == info["session"]]
+    done = len({line["job"] for line in mine})
+    ran = sum(line["ran"] for line in mine)
+    total = info["jobs"]
+    elapsed = time.time() - info["started"]
+    text = f"sweep: {done}/{total} runs done ({done - ran} found in the store)"
+    if ran and done < total:
+        text += f", about {format_seconds(elapsed / ran * (total - done))} left"
+    return text + f", {format_seconds(elapsed)} elapsed"
+
+
+def format_seconds(seconds: float) -> str:
+    """3725 -> '1 h 02 min', 125 -> '2 min 05 s', 7 -> '7 s'."""
+    seconds = int(round(seconds))
+    if seconds >= 3600:
+        return f"{seconds // 3600} h {seconds % 3600 // 60:02d} min"
+    if seconds >= 60:
+        return f"{seconds // 60} min {seconds % 60:02d} s"
+    return f"{seconds} s"
