@@ -14,6 +14,11 @@ about its exact area).  Back faces (seen from the camera) are culled for the ima
 each pixel shows the nearest front face by interpolated depth, which unlike a painter's
 sort by mean depth also resolves interpenetrating limbs; the silhouette is the union of
 all projected triangles, front and back, under the same rule.
+
+The sensor model: the scene is multiplied by the light's gain of the frame (flicker),
+converted to grey for a greyscale camera, and recorded with read and shot noise. The person
+casts a soft shadow on the floor plane (:func:`floor_shadow`), which darkens the background
+but not the person.
 """
 from __future__ import annotations
 
@@ -27,6 +32,7 @@ MIN_DEPTH_MM = 1.0      # triangles with a vertex closer than this (or behind) a
 MAX_PIXEL = 2.0 ** 24   # projected coordinates are clipped to this, keeping int64 exact
 SHADE_JITTER = 0.03     # relative standard deviation of the per-face shade jitter
 CHUNK = 1 << 22         # candidate pixels rasterised at once
+LIGHT_DIR = (0.3, -1.0, 0.5)  # world direction the key light travels (y up: from above)
 
 # RGB in [0, 1]: skin, hair and clothing tones for clutter that resembles a person.
 _BODY_LIKE = np.array([
@@ -98,32 +104,99 @@ def make_background(camera: Camera, rng: np.random.Generator) -> np.ndarray:
     return np.clip(texture, 0, 255).astype(np.uint8)
 
 
-def _add_noise(image: np.ndarray, rng: np.random.Generator, sigma: float) -> np.ndarray:
-    """uint8 image plus Gaussian noise of standard deviation ``sigma``, rounded and clipped."""
-    if sigma <= 0:
-        return image.copy()
-    noisy = rng.standard_normal(image.shape, dtype=np.float32)
-    noisy *= sigma
-    noisy += image
-    noisy += 0.5
-    return np.clip(noisy, 0, 255).astype(np.uint8)
+def _add_noise(image: np.ndarray, rng: np.random.Generator, sigma: float,
+               shot_noise: float = 0.0) -> np.ndarray:
+    """Image (grey levels, any dtype) plus sensor noise, rounded and clipped to uint8.
+
+    The noise is Gaussian with variance ``sigma**2 + shot_noise * I`` at grey level ``I``:
+    read noise plus photon shot noise, whose variance grows with the signal.
+    """
+    noisy = np.asarray(image, dtype=np.float32)
+    if sigma > 0 or shot_noise > 0:
+        std = np.sqrt(sigma * sigma + shot_noise * np.maximum(noisy, 0), dtype=np.float32)
+        noisy = noisy + rng.standard_normal(noisy.shape, dtype=np.float32) * std
+    return np.clip(noisy + 0.5, 0, 255).astype(np.uint8)
 
 
 def _sensor_image(image: np.ndarray, camera: Camera, rng: np.random.Generator,
-                  noise_sigma: float) -> np.ndarray:
-    """BGR (H, W, 3) uint8 -> what the camera records: greyscale if needed, then noise."""
+                  noise_sigma: float, gain: float = 1.0, shot_noise: float = 0.0) -> np.ndarray:
+    """BGR (H, W, 3) scene -> what the camera records: the scene times the light's ``gain``,
+    greyscale if needed, then noise (see :func:`_add_noise`), uint8."""
+    scene = np.asarray(image, dtype=np.float32)
+    if gain != 1.0:
+        scene = scene * np.float32(gain)
     if not camera.colour:
-        image = cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
-    return _add_noise(image, rng, noise_sigma)
+        scene = cv2.cvtColor(np.clip(scene, 0, 255), cv2.COLOR_BGR2GRAY)
+    return _add_noise(scene, rng, noise_sigma, shot_noise)
 
 
 def noisy_background_frames(background: np.ndarray, camera: Camera, rng: np.random.Generator,
-                            n: int, noise_sigma: float) -> list[np.ndarray]:
+                            n: int, noise_sigma: float, gains=None,
+                            shot_noise: float = 0.0) -> list[np.ndarray]:
     """``n`` recordings of the empty scene: (H, W, 3) BGR or (H, W) grey uint8 each.
 
-    ``background`` is (H, W, 3) uint8 BGR; the noise model is that of :func:`render_view`.
+    ``background`` is (H, W, 3) uint8 BGR; ``gains`` (n,) the light's gain in each frame
+    (default 1); the sensor model is that of :func:`render_view`.
     """
-    return [_sensor_image(background, camera, rng, noise_sigma) for _ in range(n)]
+    gains = np.ones(n) if gains is None else np.asarray(gains, dtype=np.float64)
+    if gains.shape != (n,):
+        raise ValueError(f"need {n} gains, got shape {gains.shape}")
+    return [_sensor_image(background, camera, rng, noise_sigma, g, shot_noise) for g in gains]
+
+
+def light_directions(light_dir, radius: float, samples: int) -> np.ndarray:
+    """(samples, 3) unit directions spread over a disc of angular ``radius`` (rad) around
+    ``light_dir``: the centre, then points on a ring at 0.7 radius (an area light)."""
+    d = np.asarray(light_dir, dtype=np.float64)
+    d = d / np.linalg.norm(d)
+    if samples == 1 or radius == 0:
+        return d[None]
+    u = np.cross(d, [1.0, 0.0, 0.0] if abs(d[0]) < 0.9 else [0.0, 0.0, 1.0])
+    u /= np.linalg.norm(u)
+    v = np.cross(d, u)
+    angles = 2 * np.pi * np.arange(samples - 1) / (samples - 1)
+    ring = d + np.tan(0.7 * radius) * (np.cos(angles)[:, None] * u + np.sin(angles)[:, None] * v)
+    dirs = np.vstack([d, ring])
+    return dirs / np.linalg.norm(dirs, axis=1, keepdims=True)
+
+
+def floor_shadow(camera: Camera, vertices_mm: np.ndarray, faces: np.ndarray, light_dir,
+                 strength: float, light_radius: float = 0.15, samples: int = 5,
+                 blur_px: float = 1.5) -> np.ndarray:
+    """(H, W) float32 light factor of the floor, in [1 - strength, 1]: the soft shadow the
+    mesh casts on the floor plane y = 0 from an area light (:func:`light_directions`).
+
+    Each light sample's hard shadow (the mesh flattened onto the floor along the light and
+    projected through the lens) is rasterised at half resolution; their mean, blurred by
+    ``blur_px`` and resized to the image, gives a penumbra that widens with the height of
+    the occluder above the floor. ``strength`` is the fraction of light the umbra loses.
+    """
+    h, w = camera.height, camera.width
+    if strength <= 0:
+        return np.ones((h, w), np.float32)
+    vertices = np.asarray(vertices_mm, dtype=np.float64)
+    height = np.maximum(vertices[:, 1:2], 0.0)
+    hw, hh = (w + 1) // 2, (h + 1) // 2
+    cover = np.zeros(hh * hw, np.float32)
+    dirs = light_directions(light_dir, light_radius, samples)
+    for d in dirs:
+        if d[1] >= 0:
+            raise ValueError(f"light direction {d} does not point down (y up)")
+        on_floor = vertices - height * (d / d[1])
+        on_floor[:, 1] = 0.0
+        uv = (camera.project(on_floor) + 0.5) / 2 - 0.5             # half-resolution pixels
+        ok = np.isfinite(uv).all(axis=1) & (camera.to_camera(on_floor)[:, 2] > MIN_DEPTH_MM)
+        tris = np.asarray(faces)[ok[faces].all(axis=1)]
+        q = np.rint(np.clip(uv[tris], -MAX_PIXEL, MAX_PIXEL) * SUBPIXEL).astype(np.int64)
+        hit = np.zeros(hh * hw, bool)
+        for _, pix, _ in _fragments(q, hw, hh):
+            hit[pix] = True
+        cover += hit
+    cover = cover.reshape(hh, hw) / len(dirs)
+    if blur_px > 0:
+        cover = cv2.GaussianBlur(cover, (0, 0), blur_px / 2)
+    cover = cv2.resize(cover, (w, h), interpolation=cv2.INTER_LINEAR)
+    return (1 - strength * cover).astype(np.float32)
 
 
 def _fragments(q: np.ndarray, width: int, height: int):
@@ -173,8 +246,9 @@ def _fragments(q: np.ndarray, width: int, height: int):
 
 def render_view(camera: Camera, vertices_mm: np.ndarray, faces: np.ndarray,
                 face_colours: np.ndarray, background: np.ndarray, rng: np.random.Generator,
-                light_dir=(0.3, -1.0, 0.5), ambient: float = 0.35,
-                noise_sigma: float = 2.0) -> tuple[np.ndarray, np.ndarray]:
+                light_dir=LIGHT_DIR, ambient: float = 0.35, noise_sigma: float = 2.0,
+                shot_noise: float = 0.0, gain: float = 1.0,
+                shadow: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Render a shaded triangle mesh over ``background`` as ``camera`` records it.
 
     Args:
@@ -186,8 +260,11 @@ def render_view(camera: Camera, vertices_mm: np.ndarray, faces: np.ndarray,
         light_dir: world direction the light travels (y up: the default comes from above).
         ambient: shade of faces turned away from the light; lit faces get
             ``ambient + (1 - ambient) * cos(angle)``.
-        noise_sigma: Gaussian sensor noise in 8-bit units, added after the greyscale
+        noise_sigma: Gaussian read noise in 8-bit units, added after the greyscale
             conversion of a greyscale camera.
+        shot_noise: shot noise, variance per grey level (see :func:`_add_noise`).
+        gain: the light's intensity this frame (lighting flicker), multiplies the scene.
+        shadow: (H, W) light factor of the background (:func:`floor_shadow`), None = 1.
 
     Returns:
         image: (H, W, 3) uint8 BGR for a colour camera, (H, W) uint8 for a greyscale one.
@@ -233,8 +310,11 @@ def render_view(camera: Camera, vertices_mm: np.ndarray, faces: np.ndarray,
         zbuf[pix[first[nearer]]] = iz[first[nearer]]
         face_at[pix[first[nearer]]] = tri[first[nearer]]
 
-    image = np.array(background, dtype=np.uint8, copy=True).reshape(h * w, 3)
+    image = np.array(background, dtype=np.float32)
+    if shadow is not None:
+        image *= shadow[:, :, None]
+    image = image.reshape(h * w, 3)
     drawn = np.flatnonzero(face_at >= 0)
     image[drawn] = bgr[face_at[drawn]]
-    image = _sensor_image(image.reshape(h, w, 3), camera, rng, noise_sigma)
+    image = _sensor_image(image.reshape(h, w, 3), camera, rng, noise_sigma, gain, shot_noise)
     return image, silhouette.reshape(h, w)

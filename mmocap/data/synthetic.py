@@ -3,8 +3,8 @@
 Defaults mimic HumanEva-I: 7 cameras (C1..C3 colour, BW1..BW4 greyscale) on a ring of
 about 4 m around the capture volume, 640x480 at 60 fps, a little lens distortion.  The
 images are rendered from the full MakeHuman triangle mesh posed by linear blend skinning
-(:mod:`mmocap.data.render`), with clothing colours, shading, a cluttered background and
-sensor noise; the tracker instead uses rigidly attached surface samples, so the data is
+(:mod:`mmocap.data.render`), with clothing colours, shading, a cluttered background, the
+person's soft shadow on the floor, lighting flicker and sensor noise; the tracker instead uses rigidly attached surface samples, so the data is
 not made by the tracker's own model.  Layout on disk: :mod:`mmocap.data.sequence`.
 """
 from __future__ import annotations
@@ -92,18 +92,34 @@ def settings_digest(settings: dict) -> str:
 def generate(root, subject: str = "S1", action: str = "walking", frames: int = 60,
              cameras=("C1", "C2", "C3", "BW1", "BW2", "BW3", "BW4"), width: int = 640,
              height: int = 480, fps: float = 60.0, seed: int = 0, background_frames: int = 10,
-             noise_sigma: float = 2.0, distortion: float = 1.0, progress: bool = True) -> Path:
-    """Render one sequence into ``root`` (replacing what is there) and return its path."""
+             noise_sigma: float = 2.0, shot_noise: float = 0.02, flicker: float = 0.02,
+             shadow_strength: float = 0.4, shadow_softness: float = 0.15,
+             distortion: float = 1.0, progress: bool = True) -> Path:
+    """Render one sequence into ``root`` (replacing what is there) and return its path.
+
+    Lighting and sensor (see ``conf/dataset/synthetic.yaml``): ``noise_sigma`` read noise
+    (grey levels), ``shot_noise`` shot-noise variance per grey level, ``flicker`` standard
+    deviation of the light's gain from frame to frame (background frames included; every
+    camera sees the same light), ``shadow_strength`` fraction of the light the person's floor
+    shadow removes at its core, ``shadow_softness`` angular radius of the area light (rad).
+    """
     if frames < 1:
         raise ConfigError(f"dataset.frames must be >= 1, got {frames}")
     if width < 32 or height < 32:
         raise ConfigError(f"dataset image size must be at least 32x32, got {width}x{height}")
     if background_frames < 2:
         raise ConfigError(f"dataset.background_frames must be >= 2, got {background_frames}")
+    ranges = (("noise_sigma", noise_sigma, 0, 50), ("shot_noise", shot_noise, 0, 5),
+              ("flicker", flicker, 0, 0.3), ("shadow_strength", shadow_strength, 0, 1),
+              ("shadow_softness", shadow_softness, 0, 0.5))
+    for name, value, low, high in ranges:
+        if not low <= value <= high:
+            raise ConfigError(f"dataset.{name} must be in [{low}, {high}], got {value}")
     settings = dict(subject=subject, action=action, frames=frames, cameras=list(cameras),
                     width=width, height=height, fps=fps, seed=seed,
                     background_frames=background_frames, noise_sigma=noise_sigma,
-                    distortion=distortion)
+                    shot_noise=shot_noise, flicker=flicker, shadow_strength=shadow_strength,
+                    shadow_softness=shadow_softness, distortion=distortion)
     dims = subject_dimensions(subject)
     rng = np.random.default_rng([seed, sum(map(ord, subject)), sum(map(ord, action))])
     mesh = fit_subject(load_makehuman(), dims)
@@ -113,6 +129,9 @@ def generate(root, subject: str = "S1", action: str = "walking", frames: int = 6
     poses = generate_motion(action, frames, fps, floor, seed=int(rng.integers(2**31)))
     colours = face_colours(mesh, rng)
     markers_idx = marker_vertices(mesh)
+    background_gains = 1 + flicker * rng.standard_normal(background_frames)
+    frame_gains = 1 + flicker * rng.standard_normal(frames)
+    sensor = dict(noise_sigma=noise_sigma, shot_noise=shot_noise)
 
     root = Path(root)
     if root.exists():
@@ -126,7 +145,7 @@ def generate(root, subject: str = "S1", action: str = "walking", frames: int = 6
         folder = root / "background" / cam.name
         folder.mkdir()
         for k, img in enumerate(render.noisy_background_frames(
-                backgrounds[cam.name], cam, rng, background_frames, noise_sigma)):
+                backgrounds[cam.name], cam, rng, background_frames, gains=background_gains, **sensor)):
             cv2.imwrite(str(folder / f"{k:04d}.png"), img)
         (root / "images" / cam.name).mkdir()
         (root / "silhouettes" / cam.name).mkdir()
@@ -138,8 +157,11 @@ def generate(root, subject: str = "S1", action: str = "walking", frames: int = 6
         vertices = mesh.posed(S[f])
         markers[f] = vertices[markers_idx]
         for cam in cams:
+            shadow = render.floor_shadow(cam, vertices, mesh.faces, render.LIGHT_DIR,
+                                         shadow_strength, shadow_softness)
             image, silhouette = render.render_view(cam, vertices, mesh.faces, colours,
-                                                   backgrounds[cam.name], rng, noise_sigma=noise_sigma)
+                                                   backgrounds[cam.name], rng, gain=frame_gains[f],
+                                                   shadow=shadow, **sensor)
             cv2.imwrite(str(root / "images" / cam.name / f"{f:06d}.png"), image)
             cv2.imwrite(str(root / "silhouettes" / cam.name / f"{f:06d}.png"),
                         silhouette.astype(np.uint8) * 255)
@@ -169,13 +191,16 @@ class SyntheticDataset:
                  frames: int = 60, cameras=("C1", "C2", "C3", "BW1"),
                  all_cameras=("C1", "C2", "C3", "BW1", "BW2", "BW3", "BW4"), width: int = 640,
                  height: int = 480, fps: float = 60.0, seed: int = 0, background_frames: int = 10,
-                 noise_sigma: float = 2.0, distortion: float = 1.0):
+                 noise_sigma: float = 2.0, shot_noise: float = 0.02, flicker: float = 0.02,
+                 shadow_strength: float = 0.4, shadow_softness: float = 0.15,
+                 distortion: float = 1.0):
         self.path = Path(root) / f"{subject}_{action}"
         self.cameras = list(cameras)
         self.settings = dict(subject=subject, action=action, frames=frames, cameras=list(all_cameras),
                              width=width, height=height, fps=fps, seed=seed,
                              background_frames=background_frames, noise_sigma=noise_sigma,
-                             distortion=distortion)
+                             shot_noise=shot_noise, flicker=flicker, shadow_strength=shadow_strength,
+                             shadow_softness=shadow_softness, distortion=distortion)
 
     def open(self, progress: bool = True) -> Sequence:
         meta_path = self.path / "sequence.json"

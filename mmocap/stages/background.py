@@ -1,17 +1,32 @@
-"""Background models for the foreground stage: one per camera, fit on empty-scene frames.
+"""Stage "background": per-camera background models, fit on empty-scene frames.
 
 A model has ``fit(frames, name=None)`` and ``apply(image, name=None) -> (H, W) bool``;
 ``name`` (the camera's) only goes into error messages. Images are (H, W) greyscale or
-(H, W, channels) colour arrays of 8-bit values.
+(H, W, channels) colour arrays of 8-bit values. Models:
+
+- :class:`HorprasertBackground` (``background=horprasert``, the default): the statistical
+  colour model of Horprasert, Harwood and Davis (1999), which tells shadows and highlights
+  (the background darker or brighter) from foreground (the background replaced);
+- :class:`GaussianBackground` (``background=gaussian``): per-pixel mean and spread;
+- :class:`OpenCVBackground` (``background=mog2`` or ``background=knn``): OpenCV's Gaussian
+  mixture (Zivkovic 2004) and k-nearest-neighbour (Zivkovic and van der Heijden 2006)
+  subtractors, trained on the background frames and then applied without learning.
+
+Every model ends with the same optional clean-up of the binary mask (:class:`Cleanup`):
+opening, closing, removal of small components, keeping only the largest one.
 """
 from __future__ import annotations
 
 import numbers
+from abc import ABC, abstractmethod
 
 import cv2
 import numpy as np
 
 from mmocap.errors import ConfigError, DataError
+
+# Labels of HorprasertBackground.classify.
+BACKGROUND, SHADOW, HIGHLIGHT, FOREGROUND = 0, 1, 2, 3
 
 
 def _as_channels(image: np.ndarray) -> np.ndarray:
@@ -26,89 +41,340 @@ def _where(name: str | None) -> str:
     return f"camera {name}: " if name else ""
 
 
-class GaussianBackground:
-    """Per-pixel Gaussian background: mean and standard deviation of every channel.
+def _check_positive(param: str, value) -> float:
+    """A finite real number > 0, else a ConfigError naming ``background.<param>``."""
+    real = isinstance(value, numbers.Real) and not isinstance(value, bool)
+    if not (real and np.isfinite(value) and value > 0):
+        raise ConfigError(f"background.{param} must be a finite number > 0, got {value!r}")
+    return float(value)
 
-    A pixel is foreground where ``max_channel |I - mean| / std > threshold``; the mask is
-    then opened, closed and cleared of small connected components (8-connected).
 
-    Args:
-        threshold: normalised distance above which a pixel is foreground, > 0.
-        min_sigma: floor of the per-pixel standard deviation in grey levels, > 0 (absorbs
-            sensor noise that a few frames underestimate).
-        open_px: diameter in pixels of the elliptical opening (removes specks); 0 = off.
-        close_px: diameter in pixels of the elliptical closing (fills pinholes); 0 = off.
-        min_area_px: connected components with fewer pixels are removed; 0 = off.
-    """
+def _check_count(param: str, value, low: int = 0) -> int:
+    """An integer >= ``low``, else a ConfigError naming ``background.<param>``."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < low:
+        raise ConfigError(f"background.{param} must be an integer >= {low}, got {value!r}")
+    return int(value)
 
-    def __init__(self, threshold: float = 4.0, min_sigma: float = 3.0, open_px: int = 0,
-                 close_px: int = 3, min_area_px: int = 50):
-        for param, value in (("threshold", threshold), ("min_sigma", min_sigma)):
-            real = isinstance(value, numbers.Real) and not isinstance(value, bool)
-            if not (real and np.isfinite(value) and value > 0):
-                raise ConfigError(f"background.{param} must be a finite number > 0, got {value!r}")
-        sizes = (("open_px", open_px), ("close_px", close_px), ("min_area_px", min_area_px))
-        for param, value in sizes:
-            if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 0:
-                raise ConfigError(f"background.{param} must be an integer >= 0, got {value!r}")
-        self.threshold = float(threshold)
-        self.min_sigma = float(min_sigma)
-        self.open_px = int(open_px)
-        self.close_px = int(close_px)
-        self.min_area_px = int(min_area_px)
-        self.mean: np.ndarray | None = None
-        self.std: np.ndarray | None = None
-        self._shape: tuple | None = None
 
-    def fit(self, frames, name: str | None = None) -> "GaussianBackground":
-        """Estimate the model from background frames, all (H, W) or all (H, W, ch), at least 2.
-
-        Stores ``mean`` and ``std`` (H, W, ch) float32; ``std`` is the sample standard
-        deviation floored at ``min_sigma``.
-        """
-        frames = list(frames)
-        if len(frames) < 2:
-            raise DataError(f"{_where(name)}the background model needs at least 2 background frames, "
-                            f"got {len(frames)}")
-        shape = np.shape(frames[0])
-        total = np.zeros(_as_channels(frames[0]).shape, np.float64)
-        squares = np.zeros_like(total)
-        for k, frame in enumerate(frames):
-            if np.shape(frame) != shape:
-                raise DataError(f"{_where(name)}background frame {k} has shape {np.shape(frame)}, "
-                                f"frame 0 has {shape}")
-            f = _as_channels(frame).astype(np.float64)
-            total += f
-            squares += f * f
-        n = len(frames)
-        mean = total / n
-        var = np.maximum(squares - total * mean, 0.0) / (n - 1)
-        self.mean = mean.astype(np.float32)
-        self.std = np.maximum(np.sqrt(var), self.min_sigma).astype(np.float32)
-        self._shape = shape
-        return self
-
-    def apply(self, image: np.ndarray, name: str | None = None) -> np.ndarray:
-        """(H, W) or (H, W, ch) image like the fitted frames -> (H, W) bool foreground."""
-        if self.mean is None:
-            raise RuntimeError("GaussianBackground.apply called before fit")
-        if np.shape(image) != self._shape:
-            raise DataError(f"{_where(name)}image has shape {np.shape(image)} but the background "
-                            f"model was fit on frames of shape {self._shape}")
-        distance = (np.abs(_as_channels(image) - self.mean) / self.std).max(axis=2)
-        mask = (distance > self.threshold).astype(np.uint8)
-        if self.open_px:
-            mask = cv2.morphologyEx(mask, cv2.MORPH_OPEN, _disc(self.open_px))
-        if self.close_px:
-            mask = cv2.morphologyEx(mask, cv2.MORPH_CLOSE, _disc(self.close_px))
-        if self.min_area_px:
-            _, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
-            big = stats[:, cv2.CC_STAT_AREA] >= self.min_area_px
-            big[0] = False                                  # label 0 is the background
-            return big[labels]
-        return mask.astype(bool)
+def _check_fraction(param: str, value) -> float:
+    """A real number strictly between 0 and 1, else a ConfigError."""
+    real = isinstance(value, numbers.Real) and not isinstance(value, bool)
+    if not (real and 0 < value < 1):
+        raise ConfigError(f"background.{param} must be a number in (0, 1), got {value!r}")
+    return float(value)
 
 
 def _disc(size: int) -> np.ndarray:
     """Elliptical structuring element of diameter ``size`` pixels."""
     return cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (size, size))
+
+
+class Cleanup:
+    """Clean-up of a binary mask, in this order: opening, closing, components.
+
+    Args:
+        open_px: diameter in pixels of the elliptical opening (removes specks); 0 = off.
+        close_px: diameter in pixels of the elliptical closing (fills pinholes); 0 = off.
+        min_area_px: 8-connected components with fewer pixels are removed; 0 = off.
+        largest_only: keep only the largest component (one person in the scene).
+    """
+
+    def __init__(self, open_px: int = 0, close_px: int = 3, min_area_px: int = 50,
+                 largest_only: bool = False):
+        self.open_px = _check_count("open_px", open_px)
+        self.close_px = _check_count("close_px", close_px)
+        self.min_area_px = _check_count("min_area_px", min_area_px)
+        if not isinstance(largest_only, bool):
+            raise ConfigError(f"background.largest_only must be true or false, got {largest_only!r}")
+        self.largest_only = largest_only
+
+    def __call__(self, mask: np.ndarray) -> np.ndarray:
+        """(H, W) bool or 0/1 uint8 -> (H, W) bool."""
+        mask = np.asarray(mask, dtype=np.uint8)
+        if self.open_px:
+            mask = cv2.morphologyEx(mask, cv2.MORPH_OPEN, _disc(self.open_px))
+        if self.close_px:
+            mask = cv2.morphologyEx(mask, cv2.MORPH_CLOSE, _disc(self.close_px))
+        if not (self.min_area_px or self.largest_only):
+            return mask.astype(bool)
+        count, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
+        area = stats[:, cv2.CC_STAT_AREA]
+        keep = area >= self.min_area_px
+        keep[0] = False                                     # label 0 is the background
+        if self.largest_only and count > 1:
+            keep &= np.arange(count) == 1 + np.argmax(area[1:])
+        return keep[labels]
+
+
+class BackgroundModel(ABC):
+    """Shared frame checks and clean-up of the background models.
+
+    Subclasses set ``min_frames`` and implement ``_fit(stack)`` and ``_detect(image)``.
+    The keyword arguments are those of :class:`Cleanup`.
+    """
+
+    min_frames = 2
+
+    def __init__(self, open_px: int = 0, close_px: int = 3, min_area_px: int = 50,
+                 largest_only: bool = False):
+        self.cleanup = Cleanup(open_px, close_px, min_area_px, largest_only)
+        self._shape: tuple | None = None
+
+    def fit(self, frames, name: str | None = None) -> "BackgroundModel":
+        """Estimate the model from background frames, all (H, W) or all (H, W, ch)."""
+        frames = list(frames)
+        if len(frames) < self.min_frames:
+            raise DataError(f"{_where(name)}the {type(self).__name__} model needs at least "
+                            f"{self.min_frames} background frames, got {len(frames)}")
+        shape = np.shape(frames[0])
+        if len(shape) not in (2, 3):
+            raise DataError(f"{_where(name)}background frame 0 has shape {shape}, "
+                            "expected (H, W) or (H, W, channels)")
+        for k, frame in enumerate(frames):
+            if np.shape(frame) != shape:
+                raise DataError(f"{_where(name)}background frame {k} has shape {np.shape(frame)}, "
+                                f"frame 0 has {shape}")
+        self._fit([np.asarray(f) for f in frames])
+        self._shape = shape
+        return self
+
+    def apply(self, image: np.ndarray, name: str | None = None) -> np.ndarray:
+        """(H, W) or (H, W, ch) image like the fitted frames -> (H, W) bool foreground."""
+        self._check_image(image, name)
+        return self.cleanup(self._detect(np.asarray(image)))
+
+    def _check_image(self, image: np.ndarray, name: str | None) -> None:
+        if self._shape is None:
+            raise RuntimeError(f"{type(self).__name__}.apply called before fit")
+        if np.shape(image) != self._shape:
+            raise DataError(f"{_where(name)}image has shape {np.shape(image)} but the background "
+                            f"model was fit on frames of shape {self._shape}")
+
+    @abstractmethod
+    def _fit(self, frames: list[np.ndarray]) -> None:
+        """Learn from at least ``min_frames`` frames of one shape."""
+
+    @abstractmethod
+    def _detect(self, image: np.ndarray) -> np.ndarray:
+        """(H, W) bool or 0/1 uint8 raw foreground of one image, before the clean-up."""
+
+
+def _mean_std(frames: list[np.ndarray], min_sigma: float) -> tuple[np.ndarray, np.ndarray]:
+    """Per-pixel mean and sample standard deviation floored at ``min_sigma``, (H, W, ch) float32."""
+    total = np.zeros(_as_channels(frames[0]).shape, np.float64)
+    squares = np.zeros_like(total)
+    for frame in frames:
+        f = _as_channels(frame).astype(np.float64)
+        total += f
+        squares += f * f
+    n = len(frames)
+    mean = total / n
+    var = np.maximum(squares - total * mean, 0.0) / (n - 1)
+    return mean.astype(np.float32), np.maximum(np.sqrt(var), min_sigma).astype(np.float32)
+
+
+class GaussianBackground(BackgroundModel):
+    """Per-pixel Gaussian background: mean and standard deviation of every channel.
+
+    A pixel is foreground where ``max_channel |I - mean| / std > threshold``.
+
+    Args:
+        threshold: normalised distance above which a pixel is foreground, > 0.
+        min_sigma: floor of the per-pixel standard deviation in grey levels, > 0 (absorbs
+            sensor noise that a few frames underestimate).
+        open_px, close_px, min_area_px, largest_only: the :class:`Cleanup`.
+    """
+
+    def __init__(self, threshold: float = 4.0, min_sigma: float = 3.0, open_px: int = 0,
+                 close_px: int = 3, min_area_px: int = 50, largest_only: bool = False):
+        self.threshold = _check_positive("threshold", threshold)
+        self.min_sigma = _check_positive("min_sigma", min_sigma)
+        super().__init__(open_px, close_px, min_area_px, largest_only)
+        self.mean: np.ndarray | None = None
+        self.std: np.ndarray | None = None
+
+    def _fit(self, frames: list[np.ndarray]) -> None:
+        """Stores ``mean`` and ``std``, (H, W, ch) float32."""
+        self.mean, self.std = _mean_std(frames, self.min_sigma)
+
+    def _detect(self, image: np.ndarray) -> np.ndarray:
+        distance = (np.abs(_as_channels(image) - self.mean) / self.std).max(axis=2)
+        return distance > self.threshold
+
+
+class HorprasertBackground(BackgroundModel):
+    """Horprasert et al. (1999): brightness and chromaticity distortion per pixel.
+
+    Each pixel's background is its mean colour ``E`` and spread ``s`` per channel over the
+    background frames. An observed colour ``I`` is compared with it by the brightness
+    distortion ``alpha`` (the scale of ``E`` nearest to ``I``, in units of ``s``) and the
+    chromaticity distortion ``CD`` (the distance left, in units of ``s``)::
+
+        alpha = sum(I E / s^2) / sum(E^2 / s^2),   CD^2 = sum((I - alpha E)^2 / s^2)
+
+    Both are normalised by their per-pixel RMS over the background frames,
+    ``alpha_n = (alpha - 1) / rms(alpha - 1)`` and ``CD_n = CD / rms(CD)``, and the
+    thresholds come from the background frames themselves: ``tau_cd`` is the
+    ``detection_rate`` quantile of ``CD_n`` over all their pixels, and ``alpha_n`` must lie
+    between its ``(1 - detection_rate) / 2`` and ``(1 + detection_rate) / 2`` quantiles.
+    A pixel is then foreground if ``CD_n > tau_cd`` or ``alpha`` is outside
+    ``[shadow_min_alpha, highlight_max_alpha]``; else background if ``alpha_n`` is between
+    its thresholds, shadow if below them, highlight if above. Shadows and highlights are
+    background in the mask.
+
+    One channel: there ``alpha = I / E`` fits the single value exactly and ``CD`` is always 0,
+    so chromaticity is undefined. On greyscale images this model uses the values of a
+    ``grey_window_px`` square neighbourhood as the vector instead of the colour channels: a
+    soft shadow scales the local texture of the background, which ``alpha`` absorbs, while
+    a person replaces it, which ``CD`` measures (``grey_window_px=1`` turns this off and
+    leaves brightness alone to decide). Colour images use one pixel's channels, as the paper.
+
+    Departures from the paper: the bounds on ``alpha`` are in raw brightness (the paper's
+    ``tau_alpha_lo`` is on the normalised one) and there is also an upper bound, so a white
+    shirt before a grey wall is foreground, not a highlight; ``s`` is floored at
+    ``min_sigma`` and the RMS at small constants, so flat or saturated regions do not divide
+    by zero.
+
+    Args:
+        detection_rate: fraction of the background frames' pixels classified as background,
+            in (0, 1); sets the thresholds.
+        min_sigma: floor of the per-pixel spread, grey levels, > 0.
+        shadow_min_alpha: darkest shadow, as a fraction of the background's brightness, in (0, 1).
+        highlight_max_alpha: brightest highlight, as a multiple of it, > 1.
+        grey_window_px: side of the neighbourhood used as the vector on one-channel
+            images, odd, >= 1.
+        open_px, close_px, min_area_px, largest_only: the :class:`Cleanup`.
+    """
+
+    min_frames = 3
+    MIN_ALPHA_RMS = 1e-3   # floor of rms(alpha - 1): a fraction of the brightness
+    MIN_CD_RMS = 0.1       # floor of rms(CD): in units of the spread s
+    RMS_SMOOTHING_PX = 2.0
+
+    def __init__(self, detection_rate: float = 0.999, min_sigma: float = 2.0,
+                 shadow_min_alpha: float = 0.4, highlight_max_alpha: float = 1.5,
+                 grey_window_px: int = 3, open_px: int = 0, close_px: int = 3,
+                 min_area_px: int = 50, largest_only: bool = False):
+        self.detection_rate = _check_fraction("detection_rate", detection_rate)
+        self.min_sigma = _check_positive("min_sigma", min_sigma)
+        self.shadow_min_alpha = _check_fraction("shadow_min_alpha", shadow_min_alpha)
+        self.highlight_max_alpha = _check_positive("highlight_max_alpha", highlight_max_alpha)
+        if self.highlight_max_alpha <= 1:
+            raise ConfigError(f"background.highlight_max_alpha must be > 1, got {highlight_max_alpha!r}")
+        self.grey_window_px = _check_count("grey_window_px", grey_window_px, low=1)
+        if self.grey_window_px % 2 == 0:
+            raise ConfigError(f"background.grey_window_px must be odd, got {grey_window_px!r}")
+        super().__init__(open_px, close_px, min_area_px, largest_only)
+        self.mean: np.ndarray | None = None          # (H, W, ch) E, grey levels
+        self.std: np.ndarray | None = None           # (H, W, ch) s, grey levels
+        self.alpha_rms: np.ndarray | None = None     # (H, W) rms(alpha - 1)
+        self.cd_rms: np.ndarray | None = None        # (H, W) rms(CD)
+        self.tau_cd = self.tau_alpha_low = self.tau_alpha_high = None
+
+    def _smooth(self, x: np.ndarray) -> np.ndarray:
+        """(H, W) per-pixel mean square -> the same averaged over RMS_SMOOTHING_PX around."""
+        return cv2.GaussianBlur(x, (0, 0), self.RMS_SMOOTHING_PX, borderType=cv2.BORDER_REFLECT)
+
+    def _window(self) -> int:
+        return self.grey_window_px if self.mean.shape[2] == 1 else 1
+
+    def _sum(self, x: np.ndarray) -> np.ndarray:
+        """(H, W, ch) -> (H, W): sum over the channels and the window."""
+        total = x.sum(axis=2)
+        w = self._window()
+        if w == 1:
+            return total
+        return cv2.boxFilter(total, -1, (w, w), normalize=False, borderType=cv2.BORDER_REFLECT)
+
+    def _prepare(self) -> None:
+        """Per-pixel terms of alpha and CD that depend on the background only."""
+        inv_var = 1.0 / (self.std * self.std)
+        self._e_over_var = self.mean * inv_var
+        self._inv_var = inv_var
+        self._e2 = np.maximum(self._sum(self.mean * self._e_over_var), 1e-6)
+
+    def distortions(self, image: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Raw brightness and chromaticity distortion, ``alpha`` and ``CD``, (H, W) float32 each."""
+        f = _as_channels(image)
+        ie = self._sum(f * self._e_over_var)
+        i2 = self._sum(f * f * self._inv_var)
+        alpha = ie / self._e2
+        cd = np.sqrt(np.maximum(i2 - alpha * ie, 0.0))     # sum((I - alpha E)^2 / s^2)
+        return alpha, cd
+
+    def _fit(self, frames: list[np.ndarray]) -> None:
+        self.mean, std = _mean_std(frames, 0.0)
+        smooth = cv2.GaussianBlur(std * std, (0, 0), self.RMS_SMOOTHING_PX, borderType=cv2.BORDER_REFLECT)
+        self.std = np.maximum(np.sqrt(smooth.reshape(std.shape)), self.min_sigma)
+        self._prepare()
+        n = len(frames)
+        # Each frame against the mean of the others: I_k - E_{-k} = n / (n - 1) (I_k - E).
+        alphas, cds = zip(*(self.distortions(self.mean + (_as_channels(f) - self.mean) * (n / (n - 1)))
+                            for f in frames))
+        alphas, cds = np.stack(alphas), np.stack(cds)
+        self.alpha_rms = np.maximum(np.sqrt(self._smooth(np.mean((alphas - 1) ** 2, axis=0))),
+                                    self.MIN_ALPHA_RMS)
+        self.cd_rms = np.maximum(np.sqrt(self._smooth(np.mean(cds * cds, axis=0))), self.MIN_CD_RMS)
+        r = self.detection_rate
+        alpha_n = ((alphas - 1) / self.alpha_rms).ravel()
+        self.tau_alpha_low, self.tau_alpha_high = (float(q) for q in np.quantile(
+            alpha_n, [(1 - r) / 2, (1 + r) / 2]))
+        self.tau_cd = float(np.quantile(cds / self.cd_rms, r))
+
+    def classify(self, image: np.ndarray, name: str | None = None) -> np.ndarray:
+        """(H, W) uint8 labels: BACKGROUND, SHADOW, HIGHLIGHT or FOREGROUND (module constants)."""
+        self._check_image(image, name)
+        alpha, cd = self.distortions(np.asarray(image))
+        alpha_n = (alpha - 1) / self.alpha_rms
+        labels = np.full(alpha.shape, BACKGROUND, np.uint8)
+        labels[alpha_n < self.tau_alpha_low] = SHADOW
+        labels[alpha_n > self.tau_alpha_high] = HIGHLIGHT
+        foreground = ((cd / self.cd_rms > self.tau_cd) | (alpha < self.shadow_min_alpha)
+                      | (alpha > self.highlight_max_alpha))
+        labels[foreground] = FOREGROUND
+        return labels
+
+    def _detect(self, image: np.ndarray) -> np.ndarray:
+        return self.classify(image) == FOREGROUND
+
+
+class OpenCVBackground(BackgroundModel):
+    """OpenCV's MOG2 or KNN subtractor, trained on the background frames, applied frozen.
+
+    Pixels the subtractor calls shadow are background in the mask.
+
+    Args:
+        method: ``"mog2"`` or ``"knn"``.
+        threshold: MOG2's ``varThreshold`` (squared Mahalanobis distance) or KNN's
+            ``dist2Threshold`` (squared distance in grey levels), > 0.
+        detect_shadows: let the subtractor mark shadows (which then count as background).
+        open_px, close_px, min_area_px, largest_only: the :class:`Cleanup`.
+    """
+
+    METHODS = ("mog2", "knn")
+
+    def __init__(self, method: str = "mog2", threshold: float = 16.0, detect_shadows: bool = True,
+                 open_px: int = 0, close_px: int = 3, min_area_px: int = 50,
+                 largest_only: bool = False):
+        if method not in self.METHODS:
+            raise ConfigError(f"background.method must be one of {', '.join(self.METHODS)}, "
+                              f"got {method!r}")
+        if not isinstance(detect_shadows, bool):
+            raise ConfigError(f"background.detect_shadows must be true or false, got {detect_shadows!r}")
+        self.method = method
+        self.threshold = _check_positive("threshold", threshold)
+        self.detect_shadows = detect_shadows
+        super().__init__(open_px, close_px, min_area_px, largest_only)
+        self.subtractor = None
+
+    def _fit(self, frames: list[np.ndarray]) -> None:
+        n = len(frames)
+        if self.method == "mog2":
+            self.subtractor = cv2.createBackgroundSubtractorMOG2(n, self.threshold, self.detect_shadows)
+        else:
+            self.subtractor = cv2.createBackgroundSubtractorKNN(n, self.threshold, self.detect_shadows)
+        for frame in frames:
+            self.subtractor.apply(frame, learningRate=-1)   # automatic rate 1 / frames seen
+
+    def _detect(self, image: np.ndarray) -> np.ndarray:
+        return self.subtractor.apply(image, learningRate=0) == 255

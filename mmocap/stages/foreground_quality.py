@@ -1,0 +1,118 @@
+"""Foreground quality: precision, recall and IoU of background models against true silhouettes.
+
+Each background method is fit per camera on the sequence's background frames and applied to
+every frame; its masks (in the image's own, distorted geometry, before undistortion) are
+compared with the silhouettes the synthetic generator writes. The counts are pooled over
+frames: precision = TP / (TP + FP), recall = TP / (TP + FN), IoU = TP / (TP + FP + FN).
+
+Command line (``make foreground``)::
+
+    python -m mmocap.stages.foreground_quality [--methods horprasert,gaussian,mog2,knn]
+        [--csv outputs/tables/foreground.csv] [--md outputs/tables/foreground.md] [overrides]
+
+``overrides`` are Hydra overrides of ``conf/config.yaml`` (``dataset.action=boxing``,
+``dataset.cameras=[C1,BW1]``); each method is ``background=<method>`` composed with them.
+"""
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from hydra import compose, initialize_config_dir
+from hydra.utils import instantiate
+from tqdm.auto import tqdm
+
+from mmocap.cli import CONFIG_PATH, _guarded
+from mmocap.errors import DataError
+
+METHODS = ("horprasert", "gaussian", "mog2", "knn")
+COLUMNS = ["method", "camera", "precision", "recall", "iou"]
+
+
+def confusion(mask: np.ndarray, truth: np.ndarray) -> np.ndarray:
+    """(H, W) bool mask and truth -> (3,) int64 counts TP, FP, FN."""
+    tp = np.count_nonzero(mask & truth)
+    return np.array([tp, np.count_nonzero(mask) - tp, np.count_nonzero(truth) - tp], np.int64)
+
+
+def scores(counts: np.ndarray) -> tuple[float, float, float]:
+    """(3,) TP, FP, FN -> precision, recall, IoU (NaN where undefined)."""
+    tp, fp, fn = (float(c) for c in counts)
+    ratio = lambda a, b: a / b if b else float("nan")  # noqa: E731
+    return ratio(tp, tp + fp), ratio(tp, tp + fn), ratio(tp, tp + fp + fn)
+
+
+def evaluate(sequence, make_background, frames=None, progress: bool = False,
+             label: str = "") -> np.ndarray:
+    """(C, 3) pooled TP, FP, FN per camera of ``sequence`` for one background factory.
+
+    ``frames``: iterable of frame indices (default: all).
+    """
+    frames = range(sequence.n_frames) if frames is None else list(frames)
+    models = [make_background().fit(sequence.background(cam), name=cam.name)
+              for cam in sequence.cameras]
+    counts = np.zeros((len(sequence.cameras), 3), np.int64)
+    for frame in tqdm(frames, desc=f"foreground {label}".strip(), unit="frame", disable=not progress):
+        for c, (cam, model, image) in enumerate(zip(sequence.cameras, models, sequence.images(frame))):
+            counts[c] += confusion(model.apply(image, name=cam.name), sequence.silhouette(frame, cam))
+    return counts
+
+
+def quality_table(sequence, factories: dict, frames=None, progress: bool = False) -> pd.DataFrame:
+    """One row per method and camera, then one per method over all cameras ("all")."""
+    rows = []
+    for method, make_background in factories.items():
+        counts = evaluate(sequence, make_background, frames, progress, label=method)
+        for cam, c in zip(sequence.cameras, counts):
+            rows.append([method, cam.name, *scores(c)])
+        rows.append([method, "all", *scores(counts.sum(axis=0))])
+    return pd.DataFrame(rows, columns=COLUMNS)
+
+
+def to_markdown(table: pd.DataFrame) -> str:
+    """The table with one column per method: ``P / R / IoU`` per camera."""
+    cells = table.assign(cell=[f"{p:.3f} / {r:.3f} / {i:.3f}" for p, r, i in
+                               table[["precision", "recall", "iou"]].itertuples(index=False)])
+    wide = cells.pivot(index="camera", columns="method", values="cell")
+    wide = wide.loc[list(dict.fromkeys(table["camera"])), list(dict.fromkeys(table["method"]))]
+    head = "| camera | " + " | ".join(f"{m} P / R / IoU" for m in wide.columns) + " |"
+    rule = "| --- |" + " --- |" * len(wide.columns)
+    body = [f"| {cam} | " + " | ".join(row) + " |" for cam, row in zip(wide.index, wide.to_numpy())]
+    return "\n".join([head, rule, *body]) + "\n"
+
+
+def main(argv=None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--methods", default=",".join(METHODS),
+                        help="comma-separated background configs (conf/background/*.yaml)")
+    parser.add_argument("--csv", type=Path, default=Path("outputs/tables/foreground.csv"))
+    parser.add_argument("--md", type=Path, default=Path("outputs/tables/foreground.md"))
+    parser.add_argument("overrides", nargs="*", help="Hydra overrides, e.g. dataset.action=boxing")
+    args = parser.parse_args(argv)
+
+    def job():
+        with initialize_config_dir(config_dir=CONFIG_PATH, version_base="1.3"):
+            configs = {m: compose("config", overrides=[*args.overrides, f"background={m}"])
+                       for m in args.methods.split(",")}
+        cfg = next(iter(configs.values()))
+        sequence = instantiate(cfg.dataset).open(progress=cfg.progress)
+        if not (sequence.root / "silhouettes").is_dir():
+            raise DataError(f"sequence {sequence.root} has no true silhouettes to compare with")
+        factories = {m: instantiate(c.background) for m, c in configs.items()}
+        return sequence, quality_table(sequence, factories, progress=cfg.progress)
+
+    sequence, table = _guarded(job)
+    for path in (args.csv, args.md):
+        path.parent.mkdir(parents=True, exist_ok=True)
+    table.to_csv(args.csv, index=False, float_format="%.4f")
+    text = (f"Foreground quality on {sequence.subject} {sequence.meta.get('action')} "
+            f"({sequence.n_frames} frames): precision / recall / IoU against the true silhouettes\n\n"
+            + to_markdown(table))
+    args.md.write_text(text)
+    print(text, end="")
+
+
+if __name__ == "__main__":
+    main()
