@@ -1,0 +1,254 @@
+"""HumanEva-I layout: a tiny synthetic sequence exported to it and read back, bad input, and
+the pipeline run on the exported folder."""
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import scipy.io
+from hydra import compose, initialize_config_dir
+
+from mmocap.body.model import MARKER_NAMES, BodyModel
+from mmocap.body.skeleton import dof_mask
+from mmocap.camera import Camera
+from mmocap.cli import CONFIG_PATH
+from mmocap.data import humaneva as he
+from mmocap.data.sequence import Sequence
+from mmocap.data.synthetic import generate
+from mmocap.errors import ConfigError, DataError
+from mmocap.stages.evaluation import marker_error
+
+CAMERAS = ["C1", "BW1"]
+FRAMES = 3
+LEAD = 4  # the exporter's default mocap lead
+
+
+@pytest.fixture(scope="module")
+def synthetic(tmp_path_factory) -> Path:
+    return generate(tmp_path_factory.mktemp("synthetic") / "S1_walking", frames=FRAMES, cameras=CAMERAS,
+                    width=96, height=72, background_frames=3, seed=3, progress=False)
+
+
+@pytest.fixture(scope="module")
+def exported(synthetic, tmp_path_factory) -> Path:
+    return he.export(synthetic, tmp_path_factory.mktemp("humaneva"), progress=False)
+
+
+@pytest.fixture
+def damaged(exported, tmp_path) -> Path:
+    """A private copy of the exported folder that a test may damage."""
+    return Path(shutil.copytree(exported, tmp_path / "HumanEva"))
+
+
+def open_he(root, **kwargs):
+    return he.HumanEvaDataset(root, cameras=kwargs.pop("cameras", CAMERAS), **kwargs).open(progress=False)
+
+
+def test_exported_layout_has_the_real_names(exported):
+    for path in ("S1/Calibration_Data/C1.cal", "S1/Calibration_Data/BW1.cal",
+                 "S1/Image_Data/Walking_1_(C1).avi", "S1/Image_Data/Walking_1_(BW1).avi",
+                 "S1/Sync_Data/Walking_1_(C1).ofs", "S1/Mocap_Data/Walking_1.mat",
+                 "Background/Background_1_(C1).avi", "Background/Background_1_(BW1).avi"):
+        assert (exported / path).is_file(), path
+
+
+def test_calibration_round_trip(synthetic, exported):
+    seq = open_he(exported)
+    points = np.random.default_rng(0).uniform([-800, 0, -800], [800, 1900, 800], size=(100, 3))
+    for cam in seq.cameras:
+        original = Camera.load(synthetic / "calibration" / f"{cam.name}.json")
+        np.testing.assert_allclose(cam.project(points), original.project(points), atol=1e-9)
+        assert (cam.width, cam.height, cam.colour) == (96, 72, cam.name == "C1")
+
+
+def test_sync_offsets_arithmetic(tmp_path):
+    sync = he.SyncOffsets(image_start=3, mocap_start=10, mocap_scale=2.0)
+    np.testing.assert_allclose(sync.mocap_index([3, 4, 10]), [10, 12, 24])
+    np.testing.assert_allclose(sync.image_index(sync.mocap_index([1.0, 7.5])), [1.0, 7.5])
+    sync.save(tmp_path / "a.ofs")
+    assert he.SyncOffsets.load(tmp_path / "a.ofs") == sync
+    # markers at fractional mocap indices are interpolated between neighbours
+    mocap = np.arange(5, dtype=float)[:, None, None] * np.ones((1, 2, 3))
+    mocap[3, 1] = np.nan
+    out = he.sample_mocap(mocap, [1.0, 2.5, 4.0, 5.0, 5.5, 0.5])
+    np.testing.assert_allclose(out[:4, 0, 0], [0.0, 1.5, 3.0, 4.0])
+    assert np.isnan(out[2, 1]).all() and not np.isnan(out[1, 1]).any()   # row 3 is missing
+    assert np.isnan(out[4:]).all()                                          # outside the recording
+
+
+def test_other_cameras_follow_their_own_ofs(synthetic, damaged):
+    """BW1 starting one image later: sequence frame k shows its image k + 2 (1-based)."""
+    he.SyncOffsets(2, 1 + LEAD, 2.0).save(damaged / "S1/Sync_Data/Walking_1_(BW1).ofs")
+    seq = open_he(damaged)
+    assert seq.image_index.tolist() == [[1, 2], [2, 3]] and seq.n_frames == 2
+    original = Sequence.open(synthetic)
+    np.testing.assert_array_equal(seq.images(0)[1], original.images(1)[1])
+    np.testing.assert_array_equal(seq.images(1)[0], original.images(1)[0])
+
+
+@pytest.mark.parametrize("images", ["avi", "png"])
+def test_images_background_and_markers_round_trip(synthetic, tmp_path, images):
+    root = he.export(synthetic, tmp_path / "he", images=images, progress=False)
+    seq = open_he(root)
+    original = Sequence.open(synthetic)
+    assert seq.n_frames == FRAMES and seq.subject == "S1" and seq.meta["first_image"] == 1
+    for f in range(FRAMES):
+        for mine, theirs in zip(seq.images(f), original.images(f)):
+            np.testing.assert_array_equal(mine, theirs)  # lossless video
+    for cam, cam0 in zip(seq.cameras, original.cameras):
+        np.testing.assert_array_equal(np.stack(seq.background(cam)), np.stack(original.background(cam0)))
+    np.testing.assert_allclose(seq.markers(), original.markers(), atol=1e-9)
+
+
+def test_mocap_file_has_the_real_structure(synthetic, exported):
+    mat = scipy.io.loadmat(str(exported / "S1/Mocap_Data/Walking_1.mat"))
+    groups = mat["ParameterGroup"]
+    point = groups[0, [str(g[0, 0][0]) for g in groups[0]["name"]].index("POINT")]
+    params = point["Parameter"]
+    names = [str(p[0, 0][0]) for p in params[0]["name"]]
+    labels = [str(x[0]) for x in params[0, names.index("LABELS")]["data"][0]]
+    rate = float(np.squeeze(params[0, names.index("RATE")]["data"]))
+    assert {"LFHD", "C7", "LSHO", "RANK"} <= set(labels) and rate == 120.0
+    # 120 Hz: (frames - 1) * 2 + 1 samples after the lead, which is stored as zeros (missing)
+    assert mat["Markers"].shape == (LEAD + 2 * (FRAMES - 1) + 1, len(labels), 3)
+    assert np.all(mat["Markers"][:LEAD] == 0)
+    truth = Sequence.open(synthetic).markers()
+    ankle = labels.index("RANK")
+    np.testing.assert_allclose(mat["Markers"][LEAD + 1, ankle], truth[:2, MARKER_NAMES.index("r_ankle")].mean(0))
+
+
+def test_missing_markers_are_nan_and_the_start_skips_them(damaged):
+    path = damaged / "S1/Mocap_Data/Walking_1.mat"
+    labels, markers = he.read_mocap(path)
+    assert np.isnan(markers[:LEAD]).all() and not np.isnan(markers[LEAD:]).any()
+    markers[LEAD, labels.index("LKNE")] = np.nan   # image 1: the left knee marker drops out
+    markers[LEAD + 4, labels.index("C7")] = np.nan  # image 3: the neck marker
+    he.write_mocap(path, labels, markers)
+    seq = open_he(damaged)
+    # the sequence starts at image 2, the first with every marker
+    assert seq.meta["first_image"] == 2 and seq.n_frames == 2
+    truth = seq.markers()
+    neck = MARKER_NAMES.index("neck")
+    assert np.isnan(truth[1, neck]).all() and not np.isnan(np.delete(truth, neck, axis=1)).any()
+    assert not np.isnan(truth[0]).any()
+    with pytest.raises(DataError, match="markers neck are missing at the first frame"):
+        open_he(damaged, start_frame=3)
+
+
+def test_x0_is_fitted_to_the_first_frame_markers(synthetic, exported, tmp_path):
+    seq = open_he(exported)
+    body = BodyModel("S1", vertices=None)
+    truth = Sequence.open(synthetic)
+    fitted = marker_error(body.markers(seq.x0[None]), truth.markers()[:1])[0]
+    true_pose = marker_error(body.markers(truth.x0[None]), truth.markers()[:1])[0]
+    assert fitted < true_pose + 2.0 and fitted < 10.0
+    assert np.all(seq.x0[~dof_mask(39)] == 0)
+    # a user-given x0 is taken as it is
+    np.savetxt(tmp_path / "x0.txt", truth.x0)
+    np.testing.assert_allclose(open_he(exported, x0=str(tmp_path / "x0.txt")).x0, truth.x0)
+    (tmp_path / "bad.txt").write_text("1 2 3")
+    with pytest.raises(DataError, match="bad.txt must hold 51"):
+        open_he(exported, x0=str(tmp_path / "bad.txt"))
+
+
+def test_fit_pose_recovers_a_turned_pose():
+    """A pose turned about the vertical and bent is found from its markers alone."""
+    body = BodyModel("S1", vertices=None)
+    mask = dof_mask(39)
+    x = np.zeros(51)
+    x[:3] = (300.0, 950.0, -200.0)
+    x[4] = 2.5                                  # root turned about y
+    x[3 + 3 * 11] = 0.6                         # left knee flexed
+    x[3 + 3 * 4 + 1] = 1.0                      # left elbow flexed
+    fitted = he.fit_pose(body, body.markers(x[None])[0], mask)
+    assert marker_error(body.markers(fitted[None]), body.markers(x[None]))[0] < 5.0
+
+
+@pytest.mark.parametrize("damage, message", [
+    (lambda r: (r / "S1/Calibration_Data/C1.cal").write_text("600 610 320\n240 0 0"), r"C1.cal holds 6 numbers"),
+    (lambda r: (r / "S1/Calibration_Data/BW1.cal").write_text("x " * 22), r"BW1.cal: non-numeric"),
+    (lambda r: he.SyncOffsets(50, 1, 2).save(r / "S1/Sync_Data/Walking_1_(C1).ofs"),
+     r"Walking_1_\(C1\).ofs starts at image 50, past the end of .*Walking_1_\(C1\).avi \(3 images\)"),
+    (lambda r: he.SyncOffsets(-40, 1, 2).save(r / "S1/Sync_Data/Walking_1_(BW1).ofs"),
+     r"Walking_1_\(BW1\).ofs: no image of .* falls within"),
+    (lambda r: (r / "S1/Sync_Data/Walking_1_(C1).ofs").write_text("1 2"), r"\(C1\).ofs must hold 3"),
+    (lambda r: (r / "S1/Image_Data/Walking_1_(BW1).avi").unlink(),
+     r"camera BW1: image data not found: .*Walking_1_\(BW1\).avi"),
+    (lambda r: shutil.rmtree(r / "S1/Calibration_Data"), r"calibration file not found: .*C1.cal"),
+    (lambda r: (r / "S1/Image_Data/Walking_1_(C1).avi").write_bytes(b"RIFF not a video" * 8),
+     r"camera C1: cannot read video .*Walking_1_\(C1\).avi"),
+    (lambda r: (r / "Background/Background_1_(BW1).avi").unlink(), r"camera BW1: no background video"),
+    (lambda r: (r / "S1/Mocap_Data/Walking_1.mat").write_bytes(b"garbage"), r"cannot read mocap file .*Walking_1.mat"),
+    (lambda r: shutil.rmtree(r / "S1"), r"subject folder not found"),
+])
+def test_bad_input_names_the_file(damaged, damage, message):
+    damage(damaged)
+    with pytest.raises(DataError, match=message):
+        open_he(damaged)
+
+
+def test_background_too_short(damaged):
+    with pytest.raises(DataError, match=r"camera C1: background .*Background_1_\(C1\).avi holds 3 frames.*at least 5"):
+        open_he(damaged, min_background_frames=5, background_frames=10)
+
+
+def test_mocap_without_a_mapped_label(damaged):
+    path = damaged / "S1/Mocap_Data/Walking_1.mat"
+    labels, markers = he.read_mocap(path)
+    labels[labels.index("LELB")] = "LELX"
+    he.write_mocap(path, labels, markers)
+    with pytest.raises(DataError, match=r"Walking_1.mat has no marker labelled LELB \(mapped to 'l_elbow'"):
+        open_he(damaged)
+
+
+def test_trial_without_mocap_needs_x0(damaged, synthetic, tmp_path):
+    (damaged / "S1/Mocap_Data/Walking_1.mat").unlink()
+    with pytest.raises(DataError, match="no mocap file .*Walking_1.mat.*dataset.x0"):
+        open_he(damaged)
+    np.savetxt(tmp_path / "x0.txt", Sequence.open(synthetic).x0)
+    seq = open_he(damaged, x0=str(tmp_path / "x0.txt"))
+    assert seq.n_frames == FRAMES and np.isnan(seq.markers()).all()
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    (dict(subject="S7"), "unknown HumanEva-I subject 'S7'"),
+    (dict(action="Dancing"), "unknown HumanEva-I action 'Dancing'"),
+    (dict(trial=4), "unknown HumanEva-I trial 4"),
+    (dict(cameras=["C9"]), "dataset.cameras must name HumanEva-I cameras"),
+    (dict(root=None), "dataset.root must be set"),
+    (dict(marker_map={"head": ["LFHD"]}), "marker_map must give labels"),
+    (dict(marker_map={**he.default_marker_map(), "neck": ["LFHD"]}), "label for two markers"),
+])
+def test_bad_config_values(exported, kwargs, message):
+    args = dict(root=exported, cameras=CAMERAS) | kwargs
+    with pytest.raises(ConfigError, match=message):
+        he.HumanEvaDataset(**args)
+
+
+def test_pipeline_runs_on_the_exported_folder(exported, tmp_path):
+    from mmocap.pipeline import run
+
+    with initialize_config_dir(config_dir=CONFIG_PATH, version_base="1.3"):
+        cfg = compose("config", overrides=[
+            "dataset=humaneva", f"dataset.root={exported}", "dataset.subject=S1", "dataset.action=Walking",
+            "dataset.trial=1", f"dataset.cameras=[{','.join(CAMERAS)}]", "tracking.frames=2",
+            "tracking.evaluations=200", "progress=false", "overlays=1", "body.vertices=2000"])
+    summary = run(cfg, tmp_path / "run")
+    assert summary["frames"] == 2 and summary["subject"] == "S1" and summary["action"] == "Walking"
+    assert summary["cameras"] == CAMERAS
+    assert np.isfinite(summary["mean_marker_error_mm"]) and summary["mean_marker_error_mm"] < 60
+    assert (tmp_path / "run" / "summary.json").is_file()
+
+
+def test_export_command(synthetic, tmp_path):
+    def mmocap(*args):
+        return subprocess.run([sys.executable, "-m", "mmocap", "export-humaneva", *map(str, args)],
+                              cwd=tmp_path, capture_output=True, text=True, timeout=120)
+
+    out = mmocap(synthetic, tmp_path / "he", "--images", "png", "--trial", "3")
+    assert out.returncode == 0, out.stderr
+    assert len(list((tmp_path / "he/S1/Image_Data/Walking_3_(BW1)").glob("*.png"))) == FRAMES
+    bad = mmocap(tmp_path / "nothing", tmp_path / "he2")
+    assert bad.returncode == 2 and "not a sequence folder" in bad.stderr and "Traceback" not in bad.stderr
