@@ -162,10 +162,6 @@ class FrameSource:
             raise DataError(f"camera {self.camera}: cannot read {where}")
         return image if self.colour else cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
 
-    def close(self) -> None:
-        if self._capture is not None:
-            self._capture.release()
-
 
 def _frame_number(path: Path) -> tuple[int, str]:
     digits = re.findall(r"\d+", path.stem)
