@@ -1,4 +1,5 @@
-"""Figures of a tracking run: error per frame, and the tracked model over camera images."""
+"""Figures of a tracking run (error per frame, the tracked model over camera images) and of a
+sweep (error box plots, error curves of several algorithms, time-vs-error Pareto front)."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -9,6 +10,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+import pandas as pd  # noqa: E402
 
 from mmocap.body.skeleton import PARENT_INDEX  # noqa: E402
 
@@ -58,3 +60,122 @@ def overlay(image: np.ndarray, camera, silhouette: np.ndarray, joints_mm: np.nda
         for point in camera.project(truth_markers_mm[~np.isnan(truth_markers_mm).any(axis=1)]):
             cv2.drawMarker(out, tuple(np.round(point).astype(int)), (0, 255, 0), cv2.MARKER_CROSS, 7, 1)
     return out
+
+
+def plot_error_curves(errors_mm: pd.DataFrame, path: Path, title: str,
+                      spread: tuple[pd.DataFrame, pd.DataFrame] | None = None,
+                      note: str | None = None) -> None:
+    """Marker error (mm) per frame of several algorithms (Yeguas Fig. 10).
+
+    Args:
+        errors_mm: (frames, algorithms) errors, index = frame number, one column per line.
+        spread: optional (low, high) frames of the same shape, drawn as a band per line.
+        note: provenance, stored as the PNG's Description.
+    """
+    fig, ax = plt.subplots(figsize=(9, 3.8), dpi=110)
+    for name in errors_mm.columns:
+        line, = ax.plot(errors_mm.index, errors_mm[name], lw=1.4,
+                        label=f"{name} (mean {errors_mm[name].mean():.1f} mm)")
+        if spread is not None:
+            ax.fill_between(errors_mm.index, spread[0][name], spread[1][name], color=line.get_color(),
+                            alpha=0.15, lw=0)
+    ax.set_xlabel("frame")
+    ax.set_ylabel("marker error (mm)")
+    ax.set_title(title)
+    ax.set_ylim(bottom=0)
+    ax.grid(alpha=0.3)
+    ax.legend(loc="upper left", fontsize=8, ncol=2)
+    fig.tight_layout()
+    _save(fig, path, note)
+
+
+def plot_grouped_boxplots(data: pd.DataFrame, path: Path, *, value: str, x: str, hue: str,
+                          panel: list[str], ylabel: str, title: str, note: str | None = None) -> None:
+    """Box plots of ``value``, panels stacked vertically (Yeguas Fig. 7).
+
+    One panel per combination of the ``panel`` columns; in each, the ``x`` values along the
+    axis and, at each, one box per ``hue`` value present in the panel (one colour per hue
+    value across panels). Whiskers span the minimum and the maximum, the box the quartiles,
+    the line inside the median. Categorical columns keep their category order, others are
+    sorted. ``note`` (provenance) is stored as the PNG's Description.
+    """
+    xs, hues = _levels(data[x]), _levels(data[hue])
+    colours = dict(zip(hues, plt.get_cmap("tab10" if len(hues) <= 10 else "tab20")(np.arange(len(hues)) % 20)))
+    panels = list(data.groupby(panel, observed=True, sort=True))
+    widest = max(panel_data[hue].nunique() for _, panel_data in panels)
+    fig, axes = plt.subplots(len(panels), 1, squeeze=False, sharey=True, dpi=100,
+                             figsize=(min(24.0, max(7.0, 0.22 * len(xs) * widest + 1.5)),
+                                      2.6 * len(panels) + 1.0))
+    for ax, (key, panel_data) in zip(axes[:, 0], panels):
+        present = [h for h in hues if (panel_data[hue] == h).any()]
+        width = 0.8 / len(present)
+        for h, name in enumerate(present):
+            groups = [panel_data.loc[(panel_data[x] == v) & (panel_data[hue] == name), value].to_numpy()
+                      for v in xs]
+            positions = [k - 0.4 + width * (h + 0.5) for k, g in enumerate(groups) if len(g)]
+            ax.boxplot([g for g in groups if len(g)], positions=positions, widths=width * 0.85,
+                       whis=(0, 100), patch_artist=True, manage_ticks=False,
+                       boxprops=dict(facecolor=colours[name], lw=0.8),
+                       medianprops=dict(color="black", lw=1), whiskerprops=dict(lw=0.8),
+                       capprops=dict(lw=0.8))
+        ax.set_xticks(range(len(xs)), [str(v) for v in xs])
+        ax.set_xlim(-0.5, len(xs) - 0.5)
+        ax.set_title(", ".join(map(str, key if isinstance(key, tuple) else (key,))), fontsize=10)
+        ax.set_ylabel(ylabel)
+        ax.grid(axis="y", alpha=0.3)
+    handles = [plt.Rectangle((0, 0), 1, 1, facecolor=colours[h]) for h in hues]
+    ncol = min(len(hues), 8)
+    fig.legend(handles, [str(h) for h in hues], loc="lower center", ncol=ncol, fontsize=9)
+    fig.suptitle(title)
+    legend_rows = -(-len(hues) // ncol)
+    fig.tight_layout(rect=(0, (0.3 + 0.25 * legend_rows) / fig.get_figheight(), 1,
+                           1 - 0.25 / fig.get_figheight()))
+    _save(fig, path, note)
+
+
+def plot_pareto_front(table: pd.DataFrame, path: Path, *, title: str, note: str | None = None,
+                      x: str = "seconds_per_frame", y: str = "mean_marker_error_mm") -> None:
+    """Time against error of every configuration, the Pareto front linked (Cano Fig. 4).
+
+    ``table`` holds one row per configuration: ``vertices`` (marker shape), ``backend``
+    (colour), ``evaluations`` (written beside the point), ``x``, ``y`` and ``pareto`` (bool).
+    ``note`` (provenance) is stored as the PNG's Description.
+    """
+    backends, meshes = sorted(table["backend"].unique()), sorted(table["vertices"].unique())
+    colours = dict(zip(backends, plt.get_cmap("tab10")(np.arange(len(backends)) % 10)))
+    markers = dict(zip(meshes, "os^Dvp*hX"))
+    fig, ax = plt.subplots(figsize=(8, 5), dpi=110)
+    front = table[table["pareto"]].sort_values(x)
+    ax.plot(front[x], front[y], color="0.3", lw=1.2, ls="--", zorder=1, label="Pareto front")
+    for row in table.itertuples(index=False):
+        ax.scatter(getattr(row, x), getattr(row, y), color=colours[row.backend],
+                   marker=markers[row.vertices], s=70 if row.pareto else 35,
+                   edgecolors="black" if row.pareto else "none", zorder=2)
+        ax.annotate(f"{row.evaluations}", (getattr(row, x), getattr(row, y)), fontsize=7,
+                    xytext=(4, 3), textcoords="offset points")
+    handles = [plt.Line2D([], [], color="0.3", ls="--", label="Pareto front")]
+    handles += [plt.Line2D([], [], ls="", marker="o", color=colours[b], label=f"backend {b}")
+                for b in backends]
+    handles += [plt.Line2D([], [], ls="", marker=markers[v], color="0.5", label=f"{v} vertices")
+                for v in meshes]
+    ax.legend(handles=handles, fontsize=8, loc="upper right")
+    if table[x].max() > 20 * table[x].min() > 0:
+        ax.set_xscale("log")
+    ax.set_xlabel("time per frame (s)")
+    ax.set_ylabel("mean marker error (mm)")
+    ax.set_title(f"{title}\n(numbers: evaluations per frame; outlined: non-dominated)", fontsize=10)
+    ax.grid(alpha=0.3, which="both")
+    fig.tight_layout()
+    _save(fig, path, note)
+
+
+def _levels(column: pd.Series) -> list:
+    """The distinct values of a column: in category order if categorical, else sorted."""
+    if isinstance(column.dtype, pd.CategoricalDtype):
+        return [c for c in column.cat.categories if (column == c).any()]
+    return sorted(column.unique())
+
+
+def _save(fig, path: Path, note: str | None) -> None:
+    fig.savefig(path, metadata={"Description": note} if note else None)
+    plt.close(fig)

@@ -124,6 +124,13 @@ def _align(column: pd.Series) -> str:
     return "right" if numeric else "left"
 
 
+def write_csv(df: pd.DataFrame, path: str | Path, source: str | Path | None = None) -> Path:
+    """``df`` as CSV under a '# <provenance>' line, written atomically; returns the path."""
+    path = Path(path)
+    write_text_atomic(path, f"# {provenance(source)}\n" + df.to_csv(index=False))
+    return path
+
+
 def write_table(df: pd.DataFrame, stem: str | Path, *, title: str, source: str | Path | None = None,
                 floatfmt: Format = ".3f", formats: dict[str, Format] | None = None) -> list[Path]:
     """Write ``df`` to ``stem``.csv, .md and .tex (see the module docstring); returns the paths.

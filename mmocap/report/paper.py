@@ -1,0 +1,371 @@
+"""The papers' tables and figures from the runs of a sweep.
+
+``python -m mmocap.report.paper NAME FOLDER`` reads ``FOLDER/runs.csv`` (one row per
+finished run) and, for the figures that plot frames, ``FOLDER/frames.csv`` (one row per
+tracked frame), and writes ``outputs/tables/NAME.{csv,md,tex}`` and
+``outputs/figures/NAME.png``. NAME is one of:
+
+- ``table4``, ``table5``: Yeguas Tables 4 and 5, the algorithms ranked at 39 and 28 DOF, one
+  Friedman test and Holm comparisons against the best-ranked per budget;
+- ``table6``, ``table7``: Yeguas Tables 6 and 7, for each hierarchical (Table 6: H-CMAES,
+  H-DE, H-PSO and the partitioned PSAPF) or holistic (Table 7) algorithm, its DOF x budget
+  variants ranked against each other;
+- ``fig7``: Yeguas Fig. 7, box plots of the marker error of every frame per sequence and
+  algorithm-DOF pair, one panel per budget and strategy;
+- ``fig10``: Yeguas Fig. 10, error per frame of the holistic algorithms on one sequence;
+- ``cano_table3``: Cano Table 3, error per sequence of each mesh level x budget, with the
+  average and the Friedman ranks of the configurations;
+- ``fig4``: Cano Fig. 4, time per frame against error of each mesh level x budget x
+  backend, the non-dominated configurations linked (also written as a table);
+- ``all``: every one of them that the runs allow; the others are named with the reason.
+
+Algorithms are written as in the Yeguas paper: ``H-`` for a hierarchical search, then
+``ALG(DOF,EVAL)``. A Friedman block is a (sequence, seed) pair by default, each run its own
+measurement; ``--block sequence`` averages the seeds of a sequence first, as the paper's
+tables do (9 blocks). Tables 4-7 mark with ``*`` the p-values that Holm's procedure finds
+significant, and write every statistic in ``NAME_data.csv``. Errors in mm, times in s.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+import warnings
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+import pandas as pd
+
+from mmocap.errors import DataError, MmocapError
+from mmocap.report import figures
+from mmocap.report.tables import format_p, provenance, write_csv, write_table
+from mmocap.stages.pareto import summarise
+from mmocap.stages.statistics import FriedmanHolm, friedman_holm, read_table
+
+ERROR = "mean_marker_error_mm"
+OPTIMIZER_ORDER = ["cmaes", "de", "pso", "apf", "psapf"]
+DEFAULT_BLOCK = ("sequence", "seed")
+Outputs = list[Path]
+
+
+def short_name(optimizer: str, strategy: str) -> str:
+    """'cmaes', 'hierarchical' -> 'H-CMAES'; 'apf', 'holistic' -> 'APF'."""
+    return ("H-" if strategy == "hierarchical" else "") + optimizer.upper()
+
+
+def paper_label(optimizer: str, strategy: str, dof: int, evaluations: int) -> str:
+    """The Yeguas paper's ALG(DOF,EVAL), e.g. 'H-CMAES(39,500)'."""
+    return f"{short_name(optimizer, strategy)}({dof},{evaluations})"
+
+
+def is_hierarchical(runs: pd.DataFrame) -> pd.Series:
+    """Rows searched by parts: a hierarchical strategy, or the partitioned PSAPF (Table 6)."""
+    return (runs["strategy"] == "hierarchical") | (runs["optimizer"] == "psapf")
+
+
+def require(table: pd.DataFrame, columns: list[str], source: str) -> None:
+    missing = [c for c in columns if c not in table.columns]
+    if missing:
+        raise DataError(f"{source}: missing column(s) {', '.join(map(repr, missing))}")
+
+
+def by_optimizer(pairs) -> list[tuple[str, str]]:
+    """(optimizer, strategy) pairs in the papers' order: CMA-ES, DE, PSO, APF, PSAPF, then
+    others by name; holistic before hierarchical."""
+    rank = {name: i for i, name in enumerate(OPTIMIZER_ORDER)}
+    return sorted(set(pairs), key=lambda p: (rank.get(p[0], len(rank)), p[0], p[1] == "hierarchical"))
+
+
+def _mark(p: float, significant: bool) -> str:
+    return "-" if np.isnan(p) else format_p(p) + ("*" if significant else "")
+
+
+def _ranking_groups(tests: list[tuple[str, FriedmanHolm]], alpha: float) -> pd.DataFrame:
+    """Side-by-side Algorithm | Rank | p-value groups, one per test, the Friedman statistic
+    as a last row and Holm's alpha / (r - 1) as a last column (the Yeguas tables' shape)."""
+    blocks, ks = [], {t.n_algorithms for _, t in tests}
+    for name, test in tests:
+        c = test.comparisons
+        group = pd.DataFrame({
+            f"Algorithm ({name})": c["algorithm"],
+            f"Rank ({name})": c["rank"].map(lambda r: f"{r:.3f}"),
+            f"p-value ({name})": [_mark(p, s) for p, s in zip(c["p"], c["significant"])]})
+        friedman = pd.DataFrame({group.columns[0]: ["Fried. Stat."],
+                                 group.columns[1]: [f"{test.statistic:.3f}"],
+                                 group.columns[2]: [f"p = {format_p(test.p_value)}"]})
+        blocks.append(pd.concat([group, friedman], ignore_index=True))
+    table = pd.concat(blocks, axis=1).fillna("")
+    k = max(ks)
+    table["Holm"] = [""] + [f"{alpha / (r - 1):.3f}" for r in range(2, k + 1)] + [""] * (len(table) - k)
+    return table
+
+
+def _long_statistics(tests: list[tuple[dict, FriedmanHolm]]) -> pd.DataFrame:
+    """Every statistic of every test, one row per algorithm, keyed by the test's fields."""
+    rows = []
+    for keys, test in tests:
+        rows.append(test.comparisons.assign(
+            **keys, n_algorithms=test.n_algorithms, n_blocks=test.n_blocks,
+            friedman_chi2=test.statistic, friedman_p=test.p_value,
+            iman_davenport=test.iman_davenport, iman_davenport_p=test.iman_davenport_p,
+            control=test.control))
+    table = pd.concat(rows, ignore_index=True)
+    front = list(tests[0][0])
+    return table[front + [c for c in table.columns if c not in front]]
+
+
+def _test(runs: pd.DataFrame, labels, block, alpha: float, source: str, what: str,
+          compared: str = "algorithm") -> FriedmanHolm:
+    """Friedman and Holm on ``runs`` with ``labels`` as the compared column, named ``compared``
+    in messages, which start with '<source>, <what>: '."""
+    return friedman_holm(runs.assign(**{compared: list(labels)}), list(block), compared, ERROR,
+                         alpha=alpha, source=f"{source}, {what}")
+
+
+def _blocks_note(block, tests: list[FriedmanHolm], alpha: float) -> str:
+    n = sorted({t.n_blocks for t in tests})
+    return (f"Friedman ranks over {'/'.join(map(str, n))} blocks ({' x '.join(block)}), lower error "
+            f"ranked first; p: Holm vs the best-ranked, * significant at alpha = {alpha:g}")
+
+
+def yeguas_rankings(runs: pd.DataFrame, out: Path, *, name: str, dof: int, block=DEFAULT_BLOCK,
+                    alpha: float = 0.05, source: str = "runs") -> Outputs:
+    """Yeguas Table 4 (dof 39) or 5 (dof 28): the algorithms ranked at each budget."""
+    require(runs, ["optimizer", "strategy", "dof", "evaluations", ERROR, *block], source)
+    runs = runs[runs["dof"] == dof]
+    if runs.empty:
+        raise DataError(f"{source}: no runs with dof = {dof} for {name}")
+    tests = []
+    for evaluations, group in runs.groupby("evaluations"):
+        labels = [paper_label(o, s, dof, evaluations) for o, s in zip(group.optimizer, group.strategy)]
+        tests.append(({"dof": dof, "evaluations": evaluations},
+                      _test(group, labels, block, alpha, source,
+                            f"{name} at {dof} DOF and {evaluations} evaluations")))
+    title = (f"Yeguas Table {name[-1]}: {dof}-DOF model, the algorithms ranked per budget. "
+             + _blocks_note(block, [t for _, t in tests], alpha))
+    display = _ranking_groups([(f"{k['evaluations']} ev.", t) for k, t in tests], alpha)
+    return write_table(display, out / "tables" / name, title=title, source=source) + [
+        write_csv(_long_statistics(tests), out / "tables" / f"{name}_data.csv", source)]
+
+
+def table4(runs, frames, out, **options) -> Outputs:
+    """Yeguas Table 4: the algorithms at 39 DOF."""
+    return yeguas_rankings(runs, out, name="table4", dof=39, **options)
+
+
+def table5(runs, frames, out, **options) -> Outputs:
+    """Yeguas Table 5: the algorithms at 28 DOF."""
+    return yeguas_rankings(runs, out, name="table5", dof=28, **options)
+
+
+def strategy_variants(runs: pd.DataFrame, out: Path, *, name: str, hierarchical: bool,
+                      block=DEFAULT_BLOCK, alpha: float = 0.05, source: str = "runs") -> Outputs:
+    """Yeguas Table 6 (hierarchical) or 7 (holistic): each algorithm's DOF x budget variants."""
+    require(runs, ["optimizer", "strategy", "dof", "evaluations", ERROR, *block], source)
+    runs = runs[is_hierarchical(runs) == hierarchical]
+    kind = "hierarchical" if hierarchical else "holistic"
+    if runs.empty:
+        raise DataError(f"{source}: no {kind} runs for {name}")
+    tests = []
+    for optimizer, strategy in by_optimizer(zip(runs.optimizer, runs.strategy)):
+        group = runs[(runs.optimizer == optimizer) & (runs.strategy == strategy)]
+        labels = [paper_label(optimizer, strategy, d, e) for d, e in zip(group.dof, group.evaluations)]
+        tests.append(({"algorithm": short_name(optimizer, strategy)},
+                      _test(group, labels, block, alpha, source,
+                            f"{name} for {short_name(optimizer, strategy)}", "variant")))
+    title = (f"Yeguas Table {name[-1]}: {kind} approaches, each algorithm's DOF x evaluations variants "
+             f"ranked. " + _blocks_note(block, [t for _, t in tests], alpha))
+    display = _ranking_groups([(k["algorithm"], t) for k, t in tests], alpha)
+    return write_table(display, out / "tables" / name, title=title, source=source) + [
+        write_csv(_long_statistics(tests), out / "tables" / f"{name}_data.csv", source)]
+
+
+def table6(runs, frames, out, **options) -> Outputs:
+    """Yeguas Table 6: hierarchical algorithms across DOF and budgets."""
+    return strategy_variants(runs, out, name="table6", hierarchical=True, **options)
+
+
+def table7(runs, frames, out, **options) -> Outputs:
+    """Yeguas Table 7: holistic algorithms across DOF and budgets."""
+    return strategy_variants(runs, out, name="table7", hierarchical=False, **options)
+
+
+def frame_errors(runs: pd.DataFrame, frames: pd.DataFrame | None, source: str) -> pd.DataFrame:
+    """The frames joined with their run's columns; a frame of an unknown run is an error."""
+    if frames is None:
+        raise DataError(f"{source}: no frames.csv beside the runs")
+    require(frames, ["run_id", "frame", "marker_error_mm"], f"{source} (frames)")
+    unknown = sorted(set(frames["run_id"]) - set(runs["run_id"]))
+    if unknown:
+        raise DataError(f"{source}: frames of {len(unknown)} run(s) not in runs.csv, "
+                        f"e.g. {unknown[0]!r}")
+    return frames.merge(runs, on="run_id", how="inner")
+
+
+def fig7(runs, frames, out, *, source: str = "runs", **_) -> Outputs:
+    """Yeguas Fig. 7: box plots of the error of every frame, per sequence and algorithm-DOF."""
+    require(runs, ["run_id", "optimizer", "strategy", "dof", "evaluations", "sequence"], source)
+    data = frame_errors(runs, frames, source)
+    pair = [f"{short_name(o, s)}({d})" for o, s, d in zip(data.optimizer, data.strategy, data.dof)]
+    pairs = [f"{short_name(o, s)}({d})" for o, s in by_optimizer(zip(data.optimizer, data.strategy))
+             for d in sorted(data.dof.unique(), reverse=True)]
+    budgets = [f"{e} evaluations" for e in sorted(data.evaluations.unique())]
+    data = data.assign(pair=pd.Categorical(pair, pairs),
+                       budget=pd.Categorical([f"{e} evaluations" for e in data.evaluations], budgets),
+                       kind=np.where(is_hierarchical(data), "hierarchical", "holistic"))
+    path = out / "figures" / "fig7.png"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    figures.plot_grouped_boxplots(
+        data, path, value="marker_error_mm", x="sequence", hue="pair", panel=["budget", "kind"],
+        ylabel="marker error (mm)", title="Marker error of every frame of every run (Yeguas Fig. 7)",
+        note=provenance(source))
+    return [path]
+
+
+def _prefer(values, wanted):
+    values = sorted(values)
+    return wanted if wanted in values else values[len(values) // 2]
+
+
+def fig10(runs, frames, out, *, source: str = "runs", sequence: str | None = None,
+          dof: int | None = None, evaluations: int | None = None, **_) -> Outputs:
+    """Yeguas Fig. 10: error per frame of the holistic algorithms on one sequence.
+
+    Defaults as in the paper where the runs have them: S1_walking, 39 DOF, 1500 evaluations
+    (else the first sequence, the middle DOF and budget). Several seeds: their mean, with
+    a band from the lowest to the highest.
+    """
+    require(runs, ["run_id", "optimizer", "strategy", "dof", "evaluations", "sequence"], source)
+    data = frame_errors(runs, frames, source)
+    holistic = data[~is_hierarchical(data)]
+    data = holistic if not holistic.empty else data
+    sequence = sequence or _prefer(data.sequence.unique(), "S1_walking")
+    dof = dof or _prefer(data.dof.unique(), 39)
+    evaluations = evaluations or _prefer(data.evaluations.unique(), 1500)
+    data = data[(data.sequence == sequence) & (data.dof == dof) & (data.evaluations == evaluations)]
+    if data.empty:
+        raise DataError(f"{source}: no frames of {sequence} at {dof} DOF, {evaluations} evaluations")
+    data = data.assign(name=[short_name(o, s) for o, s in zip(data.optimizer, data.strategy)])
+    order = [short_name(o, s) for o, s in by_optimizer(zip(data.optimizer, data.strategy))]
+    table = data.pivot_table(index="frame", columns="name", values="marker_error_mm",
+                             aggfunc=["mean", "min", "max"])
+    seeds = data.groupby("name")["run_id"].nunique()
+    path = out / "figures" / "fig10.png"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    figures.plot_error_curves(
+        table["mean"][order], path, note=provenance(source),
+        title=f"{sequence}, {dof} DOF, {evaluations} evaluations per frame"
+              + (f", mean of {seeds.max()} runs (band: min-max)" if seeds.max() > 1 else ""),
+        spread=(table["min"][order], table["max"][order]) if seeds.max() > 1 else None)
+    return [path]
+
+
+def _configuration_label(vertices: int, evaluations: int) -> str:
+    return f"{vertices} v, {evaluations} ev."
+
+
+def cano_table3(runs, frames, out, *, block=DEFAULT_BLOCK, source: str = "runs", **_) -> Outputs:
+    """Cano Table 3: error (mm) per sequence of each mesh level x budget, its average over the
+    sequences and the configurations' Friedman ranks."""
+    require(runs, ["algorithm", "dof", "vertices", "evaluations", "sequence", ERROR, *block], source)
+    setups = runs[["algorithm", "dof"]].drop_duplicates()
+    if len(setups) > 1:
+        raise DataError(f"{source}: cano_table3 compares the mesh levels and budgets of one algorithm "
+                        f"and DOF, the runs hold {', '.join(f'{a}/{d}' for a, d in setups.itertuples(index=False))}")
+    configurations = runs[["vertices", "evaluations"]].drop_duplicates().sort_values(
+        ["vertices", "evaluations"], ascending=[False, True])
+    columns = [_configuration_label(v, e) for v, e in configurations.itertuples(index=False)]
+    runs = runs.assign(configuration=[_configuration_label(v, e) for v, e in
+                                      zip(runs.vertices, runs.evaluations)])
+    test = _test(runs, runs.configuration, block, 0.05, source, "cano_table3", "configuration")
+    per_sequence = runs.pivot_table(index="sequence", columns="configuration", values=ERROR,
+                                    aggfunc="mean")[columns]
+    ranks = test.comparisons.set_index("algorithm")["rank"]
+    table = pd.concat([per_sequence, per_sequence.mean().to_frame("Avg. Error").T,
+                       ranks.reindex(columns).to_frame("Ranks").T])
+    table = table.rename_axis("Sequence").reset_index()
+    algorithm, dof = setups.iloc[0]
+    title = (f"Cano Table 3: mean marker error (mm) of {algorithm}, {dof} DOF, per mesh level "
+             f"(vertices) x evaluations per frame; Ranks: Friedman over {test.n_blocks} blocks "
+             f"({' x '.join(block)}), chi2_F = {test.statistic:.3f}, p = {format_p(test.p_value)}")
+    return write_table(table, out / "tables" / "cano_table3", title=title, source=source, floatfmt=".2f")
+
+
+def fig4(runs, frames, out, *, source: str = "runs", **_) -> Outputs:
+    """Cano Fig. 4: time per frame against error of each mesh level x budget x backend, the
+    Pareto front linked; the configurations also as a table."""
+    table = summarise(runs, source=source)
+    path = out / "figures" / "fig4.png"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    figures.plot_pareto_front(table, path, note=provenance(source),
+                              title="Time per frame against marker error (Cano Fig. 4)")
+    title = ("Cano Fig. 4: mean time per frame (s) and marker error (mm) of each configuration; "
+             "pareto = not dominated on both")
+    return [path] + write_table(table, out / "tables" / "fig4", title=title, source=source, floatfmt=".4g")
+
+
+MAKERS: dict[str, Callable[..., Outputs]] = {
+    "table4": table4, "table5": table5, "table6": table6, "table7": table7, "fig7": fig7,
+    "fig10": fig10, "cano_table3": cano_table3, "fig4": fig4}
+
+
+def load_sweep(folder: Path) -> tuple[pd.DataFrame, pd.DataFrame | None]:
+    """``runs.csv`` of ``folder`` (required) and its ``frames.csv`` (None when absent)."""
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise DataError(f"{folder}: no such folder")
+    runs = read_table(folder / "runs.csv")
+    if runs.empty:
+        raise DataError(f"{folder / 'runs.csv'}: no runs")
+    frames_path = folder / "frames.csv"
+    return runs, read_table(frames_path) if frames_path.is_file() else None
+
+
+def make(names: list[str], folder: Path, out: Path, **options) -> tuple[Outputs, dict[str, str]]:
+    """Make each named table or figure; returns the files written and, for ``all``, the
+    reasons of the ones skipped (a single name's error is raised)."""
+    runs, frames = load_sweep(folder)
+    source = str(Path(folder) / "runs.csv")
+    written, skipped = [], {}
+    for name in names:
+        try:
+            written += MAKERS[name](runs, frames, Path(out), source=source, **options)
+        except DataError as err:
+            if len(names) == 1:
+                raise
+            skipped[name] = str(err)
+    if not written:
+        raise DataError(f"{source}: nothing could be made: " + "; ".join(f"{n}: {e}" for n, e in skipped.items()))
+    return written, skipped
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m mmocap.report.paper",
+                                     description=__doc__.split("\n\n")[0])
+    parser.add_argument("name", choices=[*MAKERS, "all"])
+    parser.add_argument("folder", type=Path, help="folder holding runs.csv (and frames.csv)")
+    parser.add_argument("--out", type=Path, default=Path("outputs"),
+                        help="writes OUT/tables/ and OUT/figures/ (default: %(default)s)")
+    parser.add_argument("--block", default=",".join(DEFAULT_BLOCK),
+                        help="columns naming a Friedman block (default: %(default)s)")
+    parser.add_argument("--alpha", type=float, default=0.05, help="Holm's significance level")
+    args = parser.parse_args(argv)
+    names = list(MAKERS) if args.name == "all" else [args.name]
+    block = tuple(c.strip() for c in args.block.split(",") if c.strip())
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            written, skipped = make(names, args.folder, args.out, block=block, alpha=args.alpha)
+    except MmocapError as err:
+        print(f"mmocap: error: {err}", file=sys.stderr)
+        return 2
+    for warning in caught:
+        print(f"mmocap: warning: {warning.message}", file=sys.stderr)
+    for name, reason in skipped.items():
+        print(f"skipped {name}: {reason}")
+    print("written: " + ", ".join(map(str, written)))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
