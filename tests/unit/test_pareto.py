@@ -1,0 +1,74 @@
+"""Non-dominated configurations on (time, error), both minimised, and their summary table."""
+import itertools
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from mmocap.errors import DataError
+from mmocap.stages.pareto import non_dominated, summarise
+
+
+def brute_force_front(points):
+    """Reference: a point is on the front when no other is <= everywhere and < somewhere."""
+    return np.array([not any(np.all(q <= p) and np.any(q < p) for q in points) for p in points])
+
+
+def test_hand_made_front():
+    #            fast+bad  slow+good  dominated  middle   equal to middle
+    points = [[1.0, 9.0], [9.0, 1.0], [5.0, 6.0], [4.0, 4.0], [4.0, 4.0]]
+    assert non_dominated(np.array(points)).tolist() == [True, True, False, True, True]
+
+
+def test_ties_on_one_objective():
+    # same time, different error: only the lower error survives; same error, faster survives
+    points = np.array([[2.0, 5.0], [2.0, 3.0], [1.0, 3.0]])
+    assert non_dominated(points).tolist() == [False, False, True]
+
+
+def test_random_points_match_the_definition():
+    rng = np.random.default_rng(0)
+    for n, m in itertools.product((1, 2, 7, 40), (2, 3)):
+        points = rng.integers(0, 6, size=(n, m)).astype(float)  # many ties
+        front = non_dominated(points)
+        assert front.tolist() == brute_force_front(points).tolist()
+        assert front.any()
+
+
+def runs_table():
+    rows = []
+    for vertices, evaluations, backend, seconds, error in [
+            (3000, 150, "numpy", 1.0, 40.0), (3000, 450, "numpy", 3.0, 30.0),
+            (5000, 150, "numpy", 2.0, 42.0), (5000, 450, "numpy", 6.0, 25.0),
+            (3000, 150, "opencl", 0.2, 40.0), (3000, 450, "opencl", 0.6, 30.0),
+            (5000, 150, "opencl", 0.4, 42.0), (5000, 450, "opencl", 1.2, 25.0)]:
+        for seed, jitter in ((0, -0.1), (1, 0.1)):  # two runs per configuration, mean = value
+            rows.append(dict(vertices=vertices, evaluations=evaluations, backend=backend, seed=seed,
+                             seconds_per_frame=seconds + jitter, mean_marker_error_mm=error + jitter))
+    return pd.DataFrame(rows)
+
+
+def test_summarise_averages_runs_and_marks_the_front():
+    table = summarise(runs_table())
+    assert len(table) == 8 and (table["runs"] == 2).all()
+    assert table["seconds_per_frame"].is_monotonic_increasing
+    front = table[table.pareto]
+    # every numpy configuration is dominated by its faster opencl twin, and opencl 5000x150
+    # (0.4 s, 42 mm) by opencl 3000x150 (0.2 s, 40 mm)
+    assert list(zip(front.backend, front.vertices, front.evaluations)) == [
+        ("opencl", 3000, 150), ("opencl", 3000, 450), ("opencl", 5000, 450)]
+    assert front["mean_marker_error_mm"].tolist() == pytest.approx([40.0, 30.0, 25.0])
+
+
+@pytest.mark.parametrize("damage, message", [
+    (lambda t: t.drop(columns="backend"), "missing column(s) 'backend'"),
+    (lambda t: t.iloc[0:0], "no runs to compare"),
+    (lambda t: t.assign(seconds_per_frame=t.seconds_per_frame.where(t.index != 3, np.nan)),
+     "'seconds_per_frame' holds 1 value(s) that are not finite numbers"),
+    (lambda t: t.assign(mean_marker_error_mm=t.mean_marker_error_mm.astype(object).where(t.index != 0, "x")),
+     "the first 'x' in data row 1"),
+])
+def test_bad_runs_are_clear_errors(damage, message):
+    with pytest.raises(DataError) as err:
+        summarise(damage(runs_table()), source="sweep/runs.csv")
+    assert str(err.value).startswith("sweep/runs.csv: ") and message in str(err.value)
