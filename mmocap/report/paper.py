@@ -40,7 +40,7 @@ from mmocap.errors import DataError, MmocapError
 from mmocap.report import figures
 from mmocap.report.tables import format_p, provenance, write_csv, write_table
 from mmocap.stages.pareto import summarise
-from mmocap.stages.statistics import FriedmanHolm, friedman_holm, read_table
+from mmocap.stages.statistics import FriedmanHolm, friedman_holm, read_table, require_columns
 
 ERROR = "mean_marker_error_mm"
 OPTIMIZER_ORDER = ["cmaes", "de", "pso", "apf", "psapf"]
@@ -63,12 +63,6 @@ def is_hierarchical(runs: pd.DataFrame) -> pd.Series:
     return (runs["strategy"] == "hierarchical") | (runs["optimizer"] == "psapf")
 
 
-def require(table: pd.DataFrame, columns: list[str], source: str) -> None:
-    missing = [c for c in columns if c not in table.columns]
-    if missing:
-        raise DataError(f"{source}: missing column(s) {', '.join(map(repr, missing))}")
-
-
 def by_optimizer(pairs) -> list[tuple[str, str]]:
     """(optimizer, strategy) pairs in the papers' order: CMA-ES, DE, PSO, APF, PSAPF, then
     others by name; holistic before hierarchical."""
@@ -83,7 +77,7 @@ def _mark(p: float, significant: bool) -> str:
 def _ranking_groups(tests: list[tuple[str, FriedmanHolm]], alpha: float) -> pd.DataFrame:
     """Side-by-side Algorithm | Rank | p-value groups, one per test, the Friedman statistic
     as a last row and Holm's alpha / (r - 1) as a last column (the Yeguas tables' shape)."""
-    blocks, ks = [], {t.n_algorithms for _, t in tests}
+    blocks = []
     for name, test in tests:
         c = test.comparisons
         group = pd.DataFrame({
@@ -95,16 +89,17 @@ def _ranking_groups(tests: list[tuple[str, FriedmanHolm]], alpha: float) -> pd.D
                                  group.columns[2]: [f"p = {format_p(test.p_value)}"]})
         blocks.append(pd.concat([group, friedman], ignore_index=True))
     table = pd.concat(blocks, axis=1).fillna("")
-    k = max(ks)
+    k = max(t.n_algorithms for _, t in tests)
     table["Holm"] = [""] + [f"{alpha / (r - 1):.3f}" for r in range(2, k + 1)] + [""] * (len(table) - k)
     return table
 
 
-def _long_statistics(tests: list[tuple[dict, FriedmanHolm]]) -> pd.DataFrame:
-    """Every statistic of every test, one row per algorithm, keyed by the test's fields."""
+def _long_statistics(tests: list[tuple[dict, FriedmanHolm]], compared: str = "algorithm") -> pd.DataFrame:
+    """Every statistic of every test, one row per compared item (column ``compared``), keyed
+    by the test's fields."""
     rows = []
     for keys, test in tests:
-        rows.append(test.comparisons.assign(
+        rows.append(test.comparisons.rename(columns={"algorithm": compared}).assign(
             **keys, n_algorithms=test.n_algorithms, n_blocks=test.n_blocks,
             friedman_chi2=test.statistic, friedman_p=test.p_value,
             iman_davenport=test.iman_davenport, iman_davenport_p=test.iman_davenport_p,
@@ -131,7 +126,7 @@ def _blocks_note(block, tests: list[FriedmanHolm], alpha: float) -> str:
 def yeguas_rankings(runs: pd.DataFrame, out: Path, *, name: str, dof: int, block=DEFAULT_BLOCK,
                     alpha: float = 0.05, source: str = "runs") -> Outputs:
     """Yeguas Table 4 (dof 39) or 5 (dof 28): the algorithms ranked at each budget."""
-    require(runs, ["optimizer", "strategy", "dof", "evaluations", ERROR, *block], source)
+    require_columns(runs, ["optimizer", "strategy", "dof", "evaluations", ERROR, *block], source)
     runs = runs[runs["dof"] == dof]
     if runs.empty:
         raise DataError(f"{source}: no runs with dof = {dof} for {name}")
@@ -161,7 +156,7 @@ def table5(runs, frames, out, **options) -> Outputs:
 def strategy_variants(runs: pd.DataFrame, out: Path, *, name: str, hierarchical: bool,
                       block=DEFAULT_BLOCK, alpha: float = 0.05, source: str = "runs") -> Outputs:
     """Yeguas Table 6 (hierarchical) or 7 (holistic): each algorithm's DOF x budget variants."""
-    require(runs, ["optimizer", "strategy", "dof", "evaluations", ERROR, *block], source)
+    require_columns(runs, ["optimizer", "strategy", "dof", "evaluations", ERROR, *block], source)
     runs = runs[is_hierarchical(runs) == hierarchical]
     kind = "hierarchical" if hierarchical else "holistic"
     if runs.empty:
@@ -177,7 +172,7 @@ def strategy_variants(runs: pd.DataFrame, out: Path, *, name: str, hierarchical:
              f"ranked. " + _blocks_note(block, [t for _, t in tests], alpha))
     display = _ranking_groups([(k["algorithm"], t) for k, t in tests], alpha)
     return write_table(display, out / "tables" / name, title=title, source=source) + [
-        write_csv(_long_statistics(tests), out / "tables" / f"{name}_data.csv", source)]
+        write_csv(_long_statistics(tests, "variant"), out / "tables" / f"{name}_data.csv", source)]
 
 
 def table6(runs, frames, out, **options) -> Outputs:
@@ -194,7 +189,7 @@ def frame_errors(runs: pd.DataFrame, frames: pd.DataFrame | None, source: str) -
     """The frames joined with their run's columns; a frame of an unknown run is an error."""
     if frames is None:
         raise DataError(f"{source}: no frames.csv beside the runs")
-    require(frames, ["run_id", "frame", "marker_error_mm"], f"{source} (frames)")
+    require_columns(frames, ["run_id", "frame", "marker_error_mm"], f"{source} (frames)")
     unknown = sorted(set(frames["run_id"]) - set(runs["run_id"]))
     if unknown:
         raise DataError(f"{source}: frames of {len(unknown)} run(s) not in runs.csv, "
@@ -204,7 +199,7 @@ def frame_errors(runs: pd.DataFrame, frames: pd.DataFrame | None, source: str) -
 
 def fig7(runs, frames, out, *, source: str = "runs", **_) -> Outputs:
     """Yeguas Fig. 7: box plots of the error of every frame, per sequence and algorithm-DOF."""
-    require(runs, ["run_id", "optimizer", "strategy", "dof", "evaluations", "sequence"], source)
+    require_columns(runs, ["run_id", "optimizer", "strategy", "dof", "evaluations", "sequence"], source)
     data = frame_errors(runs, frames, source)
     pair = [f"{short_name(o, s)}({d})" for o, s, d in zip(data.optimizer, data.strategy, data.dof)]
     pairs = [f"{short_name(o, s)}({d})" for o, s in by_optimizer(zip(data.optimizer, data.strategy))
@@ -235,7 +230,7 @@ def fig10(runs, frames, out, *, source: str = "runs", sequence: str | None = Non
     (else the first sequence, the middle DOF and budget). Several seeds: their mean, with
     a band from the lowest to the highest.
     """
-    require(runs, ["run_id", "optimizer", "strategy", "dof", "evaluations", "sequence"], source)
+    require_columns(runs, ["run_id", "optimizer", "strategy", "dof", "evaluations", "sequence"], source)
     data = frame_errors(runs, frames, source)
     holistic = data[~is_hierarchical(data)]
     data = holistic if not holistic.empty else data
@@ -267,11 +262,12 @@ def _configuration_label(vertices: int, evaluations: int) -> str:
 def cano_table3(runs, frames, out, *, block=DEFAULT_BLOCK, source: str = "runs", **_) -> Outputs:
     """Cano Table 3: error (mm) per sequence of each mesh level x budget, its average over the
     sequences and the configurations' Friedman ranks."""
-    require(runs, ["algorithm", "dof", "vertices", "evaluations", "sequence", ERROR, *block], source)
+    require_columns(runs, ["algorithm", "dof", "vertices", "evaluations", "sequence", ERROR, *block], source)
     setups = runs[["algorithm", "dof"]].drop_duplicates()
     if len(setups) > 1:
-        raise DataError(f"{source}: cano_table3 compares the mesh levels and budgets of one algorithm "
-                        f"and DOF, the runs hold {', '.join(f'{a}/{d}' for a, d in setups.itertuples(index=False))}")
+        held = ", ".join(f"{a}/{d}" for a, d in setups.itertuples(index=False))
+        raise DataError(f"{source}: cano_table3 compares the mesh levels and budgets of one "
+                        f"algorithm and DOF, the runs hold {held}")
     configurations = runs[["vertices", "evaluations"]].drop_duplicates().sort_values(
         ["vertices", "evaluations"], ascending=[False, True])
     columns = [_configuration_label(v, e) for v, e in configurations.itertuples(index=False)]
@@ -335,7 +331,8 @@ def make(names: list[str], folder: Path, out: Path, **options) -> tuple[Outputs,
                 raise
             skipped[name] = str(err)
     if not written:
-        raise DataError(f"{source}: nothing could be made: " + "; ".join(f"{n}: {e}" for n, e in skipped.items()))
+        reasons = "; ".join(f"{n}: {e}" for n, e in skipped.items())
+        raise DataError(f"{source}: nothing could be made: {reasons}")
     return written, skipped
 
 

@@ -11,6 +11,7 @@ import numpy as np
 import pandas as pd
 
 from mmocap.errors import DataError
+from mmocap.stages.statistics import finite_numbers, require_columns
 
 CONFIGURATION = ["vertices", "evaluations", "backend"]
 OBJECTIVES = ["seconds_per_frame", "mean_marker_error_mm"]
@@ -40,18 +41,10 @@ def summarise(runs: pd.DataFrame, by: list[str] = CONFIGURATION, objectives: lis
         One row per configuration: the ``by`` columns, the mean of each objective, ``runs``
         (how many were averaged) and ``pareto`` (bool), sorted by the first objective.
     """
-    missing = [c for c in [*by, *objectives] if c not in runs.columns]
-    if missing:
-        raise DataError(f"{source}: missing column(s) {', '.join(map(repr, missing))}")
+    require_columns(runs, [*by, *objectives], source)
     if runs.empty:
         raise DataError(f"{source}: no runs to compare")
-    values = runs[objectives].apply(pd.to_numeric, errors="coerce")
-    for column in objectives:
-        bad = ~np.isfinite(values[column].to_numpy(dtype=float))
-        if bad.any():
-            row = bad.nonzero()[0][0]
-            raise DataError(f"{source}: column {column!r} holds {int(bad.sum())} value(s) that are "
-                            f"not finite numbers, the first {runs[column].iloc[row]!r} in data row {row + 1}")
+    values = {column: finite_numbers(runs, column, source) for column in objectives}
     grouped = runs[by].assign(**values).groupby(by, observed=True)
     table = grouped[objectives].mean().assign(runs=grouped.size()).reset_index()
     table["pareto"] = non_dominated(table[objectives].to_numpy())

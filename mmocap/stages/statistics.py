@@ -61,22 +61,8 @@ def block_matrix(table: pd.DataFrame, block: list[str] | str, algorithm: str, va
     block = [block] if isinstance(block, str) else list(block)
     if not block:
         raise DataError(f"{source}: no block column given")
-    missing = [c for c in [*block, algorithm, value] if c not in table.columns]
-    if missing:
-        raise DataError(f"{source}: missing column(s) {', '.join(map(repr, missing))}; "
-                        f"columns are {', '.join(map(str, table.columns))}")
-    values = pd.to_numeric(table[value], errors="coerce")
-    bad = values.isna() & table[value].notna()
-    if bad.any():
-        row = bad.to_numpy().nonzero()[0][0]
-        raise DataError(f"{source}: column {value!r} holds {int(bad.sum())} value(s) that are not "
-                        f"numbers, the first {table[value].iloc[row]!r} in data row {row + 1}")
-    broken = ~np.isfinite(values.to_numpy(dtype=float))
-    if broken.any():
-        row = broken.nonzero()[0][0]
-        raise DataError(f"{source}: column {value!r} holds {int(broken.sum())} NaN or infinite "
-                        f"value(s), the first in data row {row + 1}; remove those rows or "
-                        f"re-run their measurements")
+    require_columns(table, [*block, algorithm, value], source)
+    values = finite_numbers(table, value, source)
     for column in [*block, algorithm]:
         if table[column].isna().any():
             raise DataError(f"{source}: column {column!r} has empty cells")
@@ -100,6 +86,31 @@ def block_matrix(table: pd.DataFrame, block: list[str] | str, algorithm: str, va
         raise DataError(f"{source}: the Friedman test needs at least {MIN_BLOCKS} blocks "
                         f"({', '.join(block)}) with a value for every {algorithm}, got {len(matrix)}")
     return matrix, dropped
+
+
+def require_columns(table: pd.DataFrame, columns: list[str], source: str) -> None:
+    """DataError naming the columns of ``columns`` that ``table`` lacks, and those it has."""
+    missing = [c for c in columns if c not in table.columns]
+    if missing:
+        raise DataError(f"{source}: missing column(s) {', '.join(map(repr, missing))}; "
+                        f"columns are {', '.join(map(str, table.columns))}")
+
+
+def finite_numbers(table: pd.DataFrame, column: str, source: str) -> np.ndarray:
+    """The column as floats (n,); a DataError names the first text or NaN/infinite cell."""
+    values = pd.to_numeric(table[column], errors="coerce").to_numpy(dtype=float)
+    text = np.isnan(values) & table[column].notna().to_numpy()
+    if text.any():
+        row = text.nonzero()[0][0]
+        raise DataError(f"{source}: column {column!r} holds {int(text.sum())} value(s) that are not "
+                        f"numbers, the first {table[column].iloc[row]!r} in data row {row + 1}")
+    broken = ~np.isfinite(values)
+    if broken.any():
+        row = broken.nonzero()[0][0]
+        raise DataError(f"{source}: column {column!r} holds {int(broken.sum())} NaN or infinite "
+                        f"value(s), the first in data row {row + 1}; remove those rows or "
+                        f"re-run their measurements")
+    return values
 
 
 def _block_name(name) -> str:

@@ -64,7 +64,7 @@ def test_summarise_averages_runs_and_marks_the_front():
     (lambda t: t.drop(columns="backend"), "missing column(s) 'backend'"),
     (lambda t: t.iloc[0:0], "no runs to compare"),
     (lambda t: t.assign(seconds_per_frame=t.seconds_per_frame.where(t.index != 3, np.nan)),
-     "'seconds_per_frame' holds 1 value(s) that are not finite numbers"),
+     "'seconds_per_frame' holds 1 NaN or infinite value(s), the first in data row 4"),
     (lambda t: t.assign(mean_marker_error_mm=t.mean_marker_error_mm.astype(object).where(t.index != 0, "x")),
      "the first 'x' in data row 1"),
 ])

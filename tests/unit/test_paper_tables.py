@@ -1,0 +1,214 @@
+"""The papers' tables and figures from small hand-made runs/frames tables (the contract's
+columns), with errors chosen so that every rank is known in advance."""
+import numpy as np
+import pandas as pd
+import pytest
+from PIL import Image
+
+from mmocap.errors import DataError
+from mmocap.report import paper
+
+SEQUENCES = ["S1_walking", "S1_boxing"]
+SEEDS = [0, 1]
+# base error (mm) per algorithm: the order every block ranks them in, but one (see below)
+ALGORITHMS = {("cmaes", "hierarchical"): 10.0, ("cmaes", "holistic"): 12.0, ("de", "holistic"): 15.0,
+              ("apf", "holistic"): 30.0, ("psapf", "holistic"): 35.0}
+SWAPPED_BLOCK = ("S1_boxing", 1)  # there holistic CMA-ES beats hierarchical CMA-ES
+
+
+def run_error(optimizer, strategy, dof, evaluations, sequence, seed):
+    """Base error, +2 mm at 28 DOF, -3 mm at 450 evaluations, +0.1 mm per seed."""
+    error = ALGORITHMS[optimizer, strategy] + (2.0 if dof == 28 else 0.0) - (3.0 if evaluations == 450 else 0.0)
+    if (sequence, seed) == SWAPPED_BLOCK and optimizer == "cmaes":
+        error += 3.0 if strategy == "hierarchical" else -3.0
+    return error + 0.1 * seed
+
+
+def make_sweep(vertices=(3000,), backends=("numpy",), algorithms=ALGORITHMS, dofs=(39, 28)):
+    runs, frames = [], []
+    for (optimizer, strategy) in algorithms:
+        for dof in dofs:
+            for evaluations in (150, 450):
+                for v in vertices:
+                    for backend in backends:
+                        for sequence in SEQUENCES:
+                            for seed in SEEDS:
+                                error = run_error(optimizer, strategy, dof, evaluations, sequence, seed)
+                                error += 5.0 * (v == 2000)
+                                run_id = f"r{len(runs):03d}"
+                                per_frame = error + np.array([-1.0, 0.0, 1.0])
+                                runs.append(dict(
+                                    run_id=run_id, subject=sequence[:2], action=sequence[3:],
+                                    sequence=sequence, seed=seed, optimizer=optimizer, strategy=strategy,
+                                    algorithm=f"{optimizer}-{strategy}", dof=dof, evaluations=evaluations,
+                                    vertices=v, backend=backend, frames=3, mean_marker_error_mm=error,
+                                    seconds_per_frame=evaluations * v / 1e6 * (0.1 if backend == "opencl" else 1.0),
+                                    evaluation_seconds_per_frame=np.nan))
+                                frames += [dict(run_id=run_id, frame=f, marker_error_mm=e)
+                                           for f, e in enumerate(per_frame)]
+    return pd.DataFrame(runs), pd.DataFrame(frames)
+
+
+@pytest.fixture
+def sweep(tmp_path):
+    runs, frames = make_sweep()
+    folder = tmp_path / "sweep"
+    folder.mkdir()
+    runs.to_csv(folder / "runs.csv", index=False)
+    frames.to_csv(folder / "frames.csv", index=False)
+    return folder
+
+
+def read(path):
+    return pd.read_csv(path, comment="#")
+
+
+def test_table4_ranks_and_holm(sweep, tmp_path):
+    out = tmp_path / "out"
+    assert paper.main(["table4", str(sweep), "--out", str(out)]) == 0
+    tables = out / "tables"
+    assert (tables / "table4.csv").read_text().startswith("# mmocap ")  # provenance
+    assert (tables / "table4.tex").read_text().startswith("% mmocap ")
+    assert (tables / "table4.md").read_text().splitlines()[2].startswith("_mmocap ")
+    data = read(out / "tables" / "table4_data.csv")
+    assert set(data.dof) == {39} and set(data.evaluations) == {150, 450}
+    at150 = data[data.evaluations == 150].set_index("algorithm")
+    # 4 blocks; H-CMAES first in 3, second in 1; CMAES the reverse; then DE, APF, PSAPF
+    assert at150["rank"].to_dict() == {"H-CMAES(39,150)": 1.25, "CMAES(39,150)": 1.75,
+                                       "DE(39,150)": 3.0, "APF(39,150)": 4.0, "PSAPF(39,150)": 5.0}
+    assert (at150.control == "H-CMAES(39,150)").all() and (at150.n_blocks == 4).all()
+    # chi2_F = 12N/(k(k+1)) (sum R^2 - k(k+1)^2/4) = 48/30 (54.625 - 45)
+    assert at150.friedman_chi2.iloc[0] == pytest.approx(48 / 30 * 9.625)
+    se = np.sqrt(5 * 6 / (6 * 4))
+    assert at150.loc["PSAPF(39,150)", "z"] == pytest.approx(3.75 / se)
+    assert at150["holm_alpha"].dropna().tolist() == pytest.approx([0.05, 0.025, 0.05 / 3, 0.0125])
+    display = read(out / "tables" / "table4.csv")
+    assert display.columns[:3].tolist() == ["Algorithm (150 ev.)", "Rank (150 ev.)", "p-value (150 ev.)"]
+    assert display["Algorithm (150 ev.)"].tolist()[-1] == "Fried. Stat."
+    assert display["Holm"].tolist()[1:5] == [0.05, 0.025, 0.017, 0.013]
+    assert display["p-value (450 ev.)"].iloc[0] == "-"
+    significant = at150.dropna(subset=["p"])
+    for label, row in significant.iterrows():  # the display marks exactly Holm's rejections
+        shown = display.loc[display["Algorithm (150 ev.)"] == label, "p-value (150 ev.)"].item()
+        assert shown.endswith("*") == row.significant
+    assert r"\toprule" in (out / "tables" / "table4.tex").read_text()
+
+
+def test_table5_uses_28_dof_and_block_sequence_averages_seeds(sweep, tmp_path):
+    out = tmp_path / "out"
+    assert paper.main(["table5", str(sweep), "--out", str(out), "--block", "sequence"]) == 0
+    data = read(out / "tables" / "table5_data.csv")
+    assert set(data.dof) == {28} and (data.n_blocks == 2).all()
+    at450 = data[data.evaluations == 450].set_index("algorithm")["rank"]
+    # the seeds' means: H-CMAES 9.05 mm and CMAES 11.05 in S1_walking, but 10.55 and 9.55 in
+    # S1_boxing (seed 1 swapped them): each first in one of the two blocks
+    assert at450["H-CMAES(28,450)"] == 1.5 and at450["CMAES(28,450)"] == 1.5
+
+
+def test_tables6_and_7_group_hierarchical_and_holistic(sweep, tmp_path):
+    out = tmp_path / "out"
+    assert paper.main(["table6", str(sweep), "--out", str(out)]) == 0
+    assert paper.main(["table7", str(sweep), "--out", str(out)]) == 0
+    six = read(out / "tables" / "table6_data.csv")
+    seven = read(out / "tables" / "table7_data.csv")
+    assert list(six.algorithm.unique()) == ["H-CMAES", "PSAPF"]  # PSAPF searches by parts
+    assert list(seven.algorithm.unique()) == ["CMAES", "DE", "APF"]
+    de = seven[seven.algorithm == "DE"]
+    # every block: (39,450) < (28,450) < (39,150) < (28,150)
+    assert de["rank"].tolist() == [1.0, 2.0, 3.0, 4.0]
+    assert de["variant"].tolist() == ["DE(39,450)", "DE(28,450)", "DE(39,150)", "DE(28,150)"]
+    display = read(out / "tables" / "table7.csv")
+    assert display.columns.tolist()[:3] == ["Algorithm (CMAES)", "Rank (CMAES)", "p-value (CMAES)"]
+
+
+def test_cano_table3_values_and_ranks(tmp_path):
+    runs, _ = make_sweep(vertices=(3000, 2000), algorithms={("cmaes", "holistic"): 12.0}, dofs=(39,))
+    folder = tmp_path / "cano"
+    folder.mkdir()
+    runs.to_csv(folder / "runs.csv", index=False)
+    assert paper.main(["cano_table3", str(folder), "--out", str(tmp_path / "out")]) == 0
+    table = read(tmp_path / "out" / "tables" / "cano_table3.csv").set_index("Sequence")
+    assert table.columns.tolist() == ["3000 v, 150 ev.", "3000 v, 450 ev.", "2000 v, 150 ev.", "2000 v, 450 ev."]
+    # S1_walking, 3000 vertices, 150 evaluations: 12 mm, seeds 0 and 1 -> 12.05
+    assert table.loc["S1_walking", "3000 v, 150 ev."] == pytest.approx(12.05)
+    # S1_boxing seed 1 has CMA-ES 3 mm better: (12 + 9.1) / 2
+    assert table.loc["S1_boxing", "3000 v, 150 ev."] == pytest.approx(10.55)
+    assert table.loc["Avg. Error", "2000 v, 450 ev."] == pytest.approx(table.loc[SEQUENCES, "2000 v, 450 ev."].mean())
+    assert table.loc["Ranks"].tolist() == [2.0, 1.0, 4.0, 3.0]
+
+
+def test_cano_table3_needs_one_algorithm(sweep, tmp_path):
+    with pytest.raises(DataError, match="compares the mesh levels and budgets of one algorithm and DOF"):
+        paper.make(["cano_table3"], sweep, tmp_path)
+
+
+def test_fig4_front_and_table(tmp_path):
+    runs, _ = make_sweep(vertices=(3000, 2000), backends=("numpy", "opencl"),
+                         algorithms={("cmaes", "holistic"): 12.0}, dofs=(39,))
+    folder = tmp_path / "fig4"
+    folder.mkdir()
+    runs.to_csv(folder / "runs.csv", index=False)
+    written, _ = paper.make(["fig4"], folder, tmp_path / "out")
+    png = tmp_path / "out" / "figures" / "fig4.png"
+    assert png in written and Image.open(png).size[0] > 500
+    assert Image.open(png).info["Description"].startswith("mmocap ")
+    table = read(tmp_path / "out" / "tables" / "fig4.csv")
+    front = table[table.pareto]
+    # opencl 3000 v is the fastest at each budget and 2000 v is 5 mm worse: it is dominated
+    assert sorted(zip(front.backend, front.vertices, front.evaluations)) == [
+        ("opencl", 2000, 150), ("opencl", 3000, 150), ("opencl", 3000, 450)]
+
+
+def test_figures_7_and_10(sweep, tmp_path):
+    written, skipped = paper.make(["fig7", "fig10"], sweep, tmp_path / "out")
+    assert not skipped
+    for name in ("fig7", "fig10"):
+        path = tmp_path / "out" / "figures" / f"{name}.png"
+        assert path in written
+        image = np.asarray(Image.open(path).convert("L"))
+        assert image.shape[0] > 300 and image.std() > 10  # something drawn
+
+
+def test_fig10_needs_the_frames(sweep, tmp_path):
+    (sweep / "frames.csv").unlink()
+    with pytest.raises(DataError, match="no frames.csv beside the runs"):
+        paper.make(["fig10"], sweep, tmp_path)
+
+
+def test_frames_of_unknown_runs_are_an_error(sweep, tmp_path):
+    frames = read(sweep / "frames.csv")
+    frames.loc[0, "run_id"] = "ghost"
+    frames.to_csv(sweep / "frames.csv", index=False)
+    with pytest.raises(DataError, match="frames of 1 run.s. not in runs.csv, e.g. 'ghost'"):
+        paper.make(["fig7"], sweep, tmp_path)
+
+
+def test_all_makes_what_it_can_and_names_the_rest(sweep, tmp_path, capsys):
+    assert paper.main(["all", str(sweep), "--out", str(tmp_path / "out")]) == 0
+    out = capsys.readouterr().out
+    assert "skipped cano_table3: " in out
+    for name in ("table4", "table5", "table6", "table7"):
+        assert (tmp_path / "out" / "tables" / f"{name}.md").is_file()
+
+
+@pytest.mark.parametrize("damage, message", [
+    (lambda runs: runs.drop(columns="dof"), "missing column(s) 'dof'"),
+    (lambda runs: runs[runs.dof == 28], "no runs with dof = 39 for table4"),
+    (lambda runs: runs[runs.optimizer == "cmaes"],
+     "table4 at 39 DOF and 150 evaluations: the Friedman test needs at least 3 values of 'algorithm', "
+     "got 2: CMAES(39,150), H-CMAES(39,150)"),
+    (lambda runs: runs.assign(mean_marker_error_mm=runs.mean_marker_error_mm.where(runs.index != 0, np.nan)),
+     "NaN or infinite"),
+])
+def test_bad_runs_exit_2_with_one_line(sweep, tmp_path, capsys, damage, message):
+    runs = damage(read(sweep / "runs.csv"))
+    runs.to_csv(sweep / "runs.csv", index=False)
+    assert paper.main(["table4", str(sweep), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"mmocap: error: {sweep / 'runs.csv'}") and message in err
+    assert err.count("\n") == 1
+
+
+def test_missing_folder(tmp_path, capsys):
+    assert paper.main(["fig4", str(tmp_path / "nope")]) == 2
+    assert capsys.readouterr().err == f"mmocap: error: {tmp_path / 'nope'}: no such folder\n"
