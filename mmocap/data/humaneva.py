@@ -380,7 +380,7 @@ class HumanEvaSequence(SequenceBase):
 
     sources: list[FrameSource] = field(default_factory=list)
     image_index: np.ndarray = field(default_factory=lambda: np.empty((0, 0), int))
-    truth: np.ndarray = field(default_factory=lambda: np.empty((0, 15, 3)))
+    truth: np.ndarray = field(default_factory=lambda: np.empty((0, len(MARKER_NAMES), 3)))
     background_sources: dict = field(default_factory=dict)
     background_frames: int = 50
 
