@@ -100,7 +100,8 @@ def plot_grouped_boxplots(data: pd.DataFrame, path: Path, *, value: str, x: str,
     sorted. ``note`` (provenance) is stored as the PNG's Description.
     """
     xs, hues = _levels(data[x]), _levels(data[hue])
-    colours = dict(zip(hues, plt.get_cmap("tab10" if len(hues) <= 10 else "tab20")(np.arange(len(hues)) % 20)))
+    palette = plt.get_cmap("tab10" if len(hues) <= 10 else "tab20")
+    colours = dict(zip(hues, palette(np.arange(len(hues)) % 20)))
     panels = list(data.groupby(panel, observed=True, sort=True))
     widest = max(panel_data[hue].nunique() for _, panel_data in panels)
     fig, axes = plt.subplots(len(panels), 1, squeeze=False, sharey=True, dpi=100,

@@ -70,6 +70,20 @@ def by_optimizer(pairs) -> list[tuple[str, str]]:
     return sorted(set(pairs), key=lambda p: (rank.get(p[0], len(rank)), p[0], p[1] == "hierarchical"))
 
 
+def describe_runs(runs: pd.DataFrame, source: str) -> str:
+    """The source of a table or figure: its file, how many runs, their seeds and commits."""
+    parts = [f"{len(runs)} runs"]
+    if "seed" in runs:
+        seeds = sorted(int(s) for s in runs["seed"].unique())
+        contiguous = len(seeds) > 2 and seeds == list(range(seeds[0], seeds[-1] + 1))
+        parts.append(f"seeds {seeds[0]}-{seeds[-1]}" if contiguous else f"seeds {', '.join(map(str, seeds))}")
+    if "git_commit" in runs:
+        commits = sorted({str(c)[:10] for c in runs["git_commit"].dropna()})
+        if commits:
+            parts.append(f"run commit(s) {', '.join(commits)}")
+    return f"{source} ({'; '.join(parts)})"
+
+
 def _mark(p: float, significant: bool) -> str:
     return "-" if np.isnan(p) else format_p(p) + ("*" if significant else "")
 
@@ -139,8 +153,9 @@ def yeguas_rankings(runs: pd.DataFrame, out: Path, *, name: str, dof: int, block
     title = (f"Yeguas Table {name[-1]}: {dof}-DOF model, the algorithms ranked per budget. "
              + _blocks_note(block, [t for _, t in tests], alpha))
     display = _ranking_groups([(f"{k['evaluations']} ev.", t) for k, t in tests], alpha)
-    return write_table(display, out / "tables" / name, title=title, source=source) + [
-        write_csv(_long_statistics(tests), out / "tables" / f"{name}_data.csv", source)]
+    origin = describe_runs(runs, source)
+    return write_table(display, out / "tables" / name, title=title, source=origin) + [
+        write_csv(_long_statistics(tests), out / "tables" / f"{name}_data.csv", origin)]
 
 
 def table4(runs, frames, out, **options) -> Outputs:
@@ -171,8 +186,9 @@ def strategy_variants(runs: pd.DataFrame, out: Path, *, name: str, hierarchical:
     title = (f"Yeguas Table {name[-1]}: {kind} approaches, each algorithm's DOF x evaluations variants "
              f"ranked. " + _blocks_note(block, [t for _, t in tests], alpha))
     display = _ranking_groups([(k["algorithm"], t) for k, t in tests], alpha)
-    return write_table(display, out / "tables" / name, title=title, source=source) + [
-        write_csv(_long_statistics(tests, "variant"), out / "tables" / f"{name}_data.csv", source)]
+    origin = describe_runs(runs, source)
+    return write_table(display, out / "tables" / name, title=title, source=origin) + [
+        write_csv(_long_statistics(tests, "variant"), out / "tables" / f"{name}_data.csv", origin)]
 
 
 def table6(runs, frames, out, **options) -> Outputs:
@@ -213,7 +229,7 @@ def fig7(runs, frames, out, *, source: str = "runs", **_) -> Outputs:
     figures.plot_grouped_boxplots(
         data, path, value="marker_error_mm", x="sequence", hue="pair", panel=["budget", "kind"],
         ylabel="marker error (mm)", title="Marker error of every frame of every run (Yeguas Fig. 7)",
-        note=provenance(source))
+        note=provenance(describe_runs(runs, source)))
     return [path]
 
 
@@ -247,8 +263,9 @@ def fig10(runs, frames, out, *, source: str = "runs", sequence: str | None = Non
     seeds = data.groupby("name")["run_id"].nunique()
     path = out / "figures" / "fig10.png"
     path.parent.mkdir(parents=True, exist_ok=True)
+    origin = describe_runs(data.drop_duplicates("run_id"), source)
     figures.plot_error_curves(
-        table["mean"][order], path, note=provenance(source),
+        table["mean"][order], path, note=provenance(origin),
         title=f"{sequence}, {dof} DOF, {evaluations} evaluations per frame"
               + (f", mean of {seeds.max()} runs (band: min-max)" if seeds.max() > 1 else ""),
         spread=(table["min"][order], table["max"][order]) if seeds.max() > 1 else None)
@@ -284,7 +301,8 @@ def cano_table3(runs, frames, out, *, block=DEFAULT_BLOCK, source: str = "runs",
     title = (f"Cano Table 3: mean marker error (mm) of {algorithm}, {dof} DOF, per mesh level "
              f"(vertices) x evaluations per frame; Ranks: Friedman over {test.n_blocks} blocks "
              f"({' x '.join(block)}), chi2_F = {test.statistic:.3f}, p = {format_p(test.p_value)}")
-    return write_table(table, out / "tables" / "cano_table3", title=title, source=source, floatfmt=".2f")
+    return write_table(table, out / "tables" / "cano_table3", title=title,
+                       source=describe_runs(runs, source), floatfmt=".2f")
 
 
 def fig4(runs, frames, out, *, source: str = "runs", **_) -> Outputs:
@@ -293,11 +311,13 @@ def fig4(runs, frames, out, *, source: str = "runs", **_) -> Outputs:
     table = summarise(runs, source=source)
     path = out / "figures" / "fig4.png"
     path.parent.mkdir(parents=True, exist_ok=True)
-    figures.plot_pareto_front(table, path, note=provenance(source),
+    origin = describe_runs(runs, source)
+    figures.plot_pareto_front(table, path, note=provenance(origin),
                               title="Time per frame against marker error (Cano Fig. 4)")
     title = ("Cano Fig. 4: mean time per frame (s) and marker error (mm) of each configuration; "
              "pareto = not dominated on both")
-    return [path] + write_table(table, out / "tables" / "fig4", title=title, source=source, floatfmt=".4g")
+    return [path] + write_table(table, out / "tables" / "fig4", title=title, source=origin,
+                                floatfmt=".4g")
 
 
 MAKERS: dict[str, Callable[..., Outputs]] = {

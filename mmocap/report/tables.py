@@ -2,9 +2,9 @@
 
 ``write_table(df, "outputs/tables/table4", title=..., source=...)`` writes ``table4.csv``,
 ``table4.md`` and ``table4.tex``, each to a temporary file renamed into place, so that a
-reader never sees half a table. The provenance line names the mmocap version, the git
-commit of the working tree (with ``+dirty`` when it has uncommitted changes), the date
-(UTC) and the source file:
+reader never sees half a table. The provenance line names the versions of mmocap and the
+numerical packages, the git commit of the source tree (with ``+dirty`` when it has
+uncommitted changes), the date (UTC) and the source:
 
 - CSV: a first line ``# <provenance>`` (read back with ``pd.read_csv(path, comment="#")``);
 - Markdown: the title as a heading, then the provenance in italics;
@@ -15,44 +15,29 @@ from __future__ import annotations
 
 import datetime
 import os
-import subprocess
-from importlib import metadata
 from pathlib import Path
 from typing import Callable, Union
 
 import numpy as np
 import pandas as pd
 
+from mmocap.stages.results import provenance as run_provenance
 Format = Union[str, Callable[[float], str]]
 LATEX_SPECIALS = {"\\": r"\textbackslash{}", "&": r"\&", "%": r"\%", "$": r"\$", "#": r"\#",
                   "_": r"\_", "{": r"\{", "}": r"\}", "~": r"\textasciitilde{}",
                   "^": r"\textasciicircum{}"}
 
 
-def git_commit(folder: Path | None = None) -> str | None:
-    """Short commit hash of the repository holding ``folder`` (default: this package),
-    ``+dirty`` appended when tracked files have changed; None outside a repository."""
-    folder = Path(folder) if folder else Path(__file__).resolve().parent
-    try:
-        commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=folder, check=True,
-                                capture_output=True, text=True, timeout=10).stdout.strip()
-        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=folder,
-                               check=True, capture_output=True, text=True, timeout=10).stdout.strip()
-    except (OSError, subprocess.SubprocessError):
-        return None
-    return commit + ("+dirty" if dirty else "")
-
-
 def provenance(source: str | Path | None = None) -> str:
-    """'mmocap <version>, commit <hash>, <UTC date>, source <file>' (parts unknown left out)."""
-    try:
-        version = metadata.version("mmocap")
-    except metadata.PackageNotFoundError:
-        version = "unknown"
-    parts = [f"mmocap {version}"]
-    commit = git_commit()
-    if commit:
-        parts.append(f"commit {commit}")
+    """'mmocap <version> (numpy .., scipy .., pandas ..), commit <hash>[+dirty], <UTC date>,
+    source <source>', from :func:`mmocap.stages.results.provenance` (unknown parts left out)."""
+    facts = run_provenance()
+    versions = facts["versions"]
+    parts = [f"mmocap {versions.get('mmocap') or 'unknown'} ("
+             + ", ".join(f"{p} {versions[p]}" for p in ("numpy", "scipy", "pandas") if versions.get(p))
+             + ")"]
+    if facts["git_commit"]:
+        parts.append(f"commit {facts['git_commit'][:10]}" + ("+dirty" if facts["git_dirty"] else ""))
     parts.append(datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"))
     if source is not None:
         parts.append(f"source {source}")
