@@ -9,7 +9,8 @@ PLUGINS       := plugins/mmocap-pycma
 PLUGIN_FILES  := $(shell find $(PLUGINS) -name '*.py' -o -name '*.toml' -o -name '*.yaml')
 
 .DEFAULT_GOAL := help
-.PHONY: help install demo optimizers test test-all clean bench table1 table2
+.PHONY: help install demo foreground optimizers test test-all clean bench table1 table2
+.PHONY: tables table4 table5 table6 table7 fig7 fig10 cano_table3 fig4
 
 help: ## Show this help
 	@grep -hE '^[a-zA-Z0-9_-]+:.*## ' $(MAKEFILE_LIST) | awk 'BEGIN {FS = ":.*## "}; {printf "  \033[36m%-12s\033[0m %s\n", $$1, $$2}'
@@ -25,6 +26,9 @@ install: $(STAMP) ## Create .venv; install mmocap, its test dependencies and the
 
 demo: $(STAMP) ## Generate synthetic S1 walking, track it with CMA-ES, write outputs/demo/
 	$(PY) -m mmocap +experiment=demo
+
+foreground: $(STAMP) ## Precision, recall and IoU of each background method per camera on the demo sequence; outputs/tables/foreground.*
+	$(PY) -m mmocap.stages.foreground_quality progress=false 'dataset.cameras=$${dataset.all_cameras}'
 
 optimizers: $(STAMP) ## Demo sequence with every built-in optimiser, holistic and hierarchical; table in outputs/tables/
 	rm -rf outputs/optimizers
@@ -46,6 +50,43 @@ table1: $(STAMP) ## Cano Table 1 and Fig. 3 for this machine: CMA-ES frame times
 
 table2: $(STAMP) ## Cano Table 2 for this machine: time per model-view per backend and mesh; outputs/tables/table2.*
 	$(BENCH) table2
+
+# Paper tables and figures: each runs (or resumes) its sweep into outputs/sweeps/<name>/<scale>/
+# (which ends by writing runs.csv and frames.csv there), then makes the table or figure. SCALE=smoke|default|paper;
+# SWEEP_ARGS adds overrides (e.g. hydra/launcher=slurm). The Cano targets time their runs,
+# so they run one job at a time.
+SCALE      ?= smoke
+SWEEP_ARGS ?=
+define paper_sweep
+	$(PY) -m mmocap -m +experiment=$(1) scale=$(SCALE) $(2) $(SWEEP_ARGS)
+	$(PY) -m mmocap.report.paper $(1) outputs/sweeps/$(1)/$(SCALE)
+endef
+
+tables: table4 table5 table6 table7 fig7 fig10 cano_table3 fig4 ## Every paper table and figure at SCALE (smoke: minutes)
+
+table4: $(STAMP) ## Yeguas Table 4: ranks of the 8 algorithms, 39 DOF, per budget
+	$(call paper_sweep,table4)
+
+table5: $(STAMP) ## Yeguas Table 5: ranks of the 8 algorithms, 28 DOF, per budget
+	$(call paper_sweep,table5)
+
+table6: $(STAMP) ## Yeguas Table 6: each hierarchical algorithm across DOF and budget (reuses table4/5 runs)
+	$(call paper_sweep,table6)
+
+table7: $(STAMP) ## Yeguas Table 7: each holistic algorithm across DOF and budget (reuses table4/5 runs)
+	$(call paper_sweep,table7)
+
+fig7: $(STAMP) ## Yeguas Fig. 7: error box plots per sequence (reuses table4/5 runs)
+	$(call paper_sweep,fig7)
+
+fig10: $(STAMP) ## Yeguas Fig. 10: error per frame of the holistic algorithms, S1 walking
+	$(call paper_sweep,fig10)
+
+cano_table3: $(STAMP) ## Cano Table 3: CMA-ES error per mesh level x evaluations, with ranks
+	$(call paper_sweep,cano_table3,hydra.launcher.n_jobs=1)
+
+fig4: $(STAMP) ## Cano Fig. 4: time vs error per mesh x evaluations x backend, Pareto front (reuses cano_table3 runs)
+	$(call paper_sweep,fig4,hydra.launcher.n_jobs=1)
 
 test: $(STAMP) ## Run the fast test suite
 	$(PY) -m pytest -q

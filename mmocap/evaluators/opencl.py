@@ -36,6 +36,7 @@ import numpy as np
 
 from mmocap.errors import ConfigError
 from mmocap.evaluators.silhouette import NEAR_MM, SilhouetteEvaluator, view_geometry
+from mmocap.stages.foreground import pack_rows
 
 log = logging.getLogger(__name__)
 KERNEL = Path(__file__).with_name("kernels") / "silhouette.cl"
@@ -210,6 +211,13 @@ class OpenCLEvaluator(SilhouetteEvaluator):
         """The OpenCL devices the population is split over."""
         return [lane.device for lane in self._lanes]
 
+    def setup(self, body, cameras, foreground) -> None:
+        """As the base class; masks of the foreground stage (``ForegroundMask``) bring their
+        rows packed in this evaluator's layout, which are uploaded without repacking."""
+        given = foreground if isinstance(foreground, (list, tuple)) else []
+        self._packed = [getattr(m, "packed", None) for m in given]
+        super().setup(body, cameras, foreground)
+
     def _prepare(self) -> None:
         vertices, start = _vertex_arrays(self.body)
         # a mask with a spare word (see the kernel's stamp) or a padded layer (see PAD),
@@ -226,7 +234,8 @@ class OpenCLEvaluator(SilhouetteEvaluator):
                                   f"{4 * self._mask_words} bytes of local memory; "
                                   f"{lane.device.name.strip()!r} has {lane.device.local_mem_size}")
             lane.upload(vertices=vertices, start=start, shapes=shapes,
-                        fg=np.concatenate([_pack_bits(m, self._mask_words) for m in self.foreground]))
+                        fg=np.concatenate([_pack_bits(m, self._mask_words, p) for m, p in
+                                           zip(self.foreground, self._packed or [None] * len(self.foreground))]))
 
     def _counts(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         counts, _ = self._run(X, write_masks=False)
@@ -353,13 +362,10 @@ def _projections(M: np.ndarray, K: np.ndarray) -> np.ndarray:
     return out
 
 
-def _pack_bits(mask: np.ndarray, size: int) -> np.ndarray:
-    """(H, W) bool -> (size,) uint32: bit x % 32 of word x // 32 of each row of
-    ceil(W / 32) words, then zeros."""
-    H, W = mask.shape
-    padded = np.zeros((H, (W + 31) // 32 * 32), bool)
-    padded[:, :W] = mask
+def _pack_bits(mask: np.ndarray, size: int, packed: np.ndarray | None = None) -> np.ndarray:
+    """(H, W) bool -> (size,) uint32: the rows of :func:`pack_rows` (``packed`` if given),
+    then zeros."""
+    words = (pack_rows(mask) if packed is None else packed).ravel()
     out = np.zeros(size, np.uint32)
-    words = np.packbits(padded, axis=1, bitorder="little").view("<u4").ravel()
     out[:len(words)] = words
     return out

@@ -252,7 +252,7 @@ class HorprasertBackground(BackgroundModel):
     RMS_SMOOTHING_PX = 2.0
 
     def __init__(self, detection_rate: float = 0.999, min_sigma: float = 2.0,
-                 shadow_min_alpha: float = 0.4, highlight_max_alpha: float = 1.5,
+                 shadow_min_alpha: float = 0.55, highlight_max_alpha: float = 1.5,
                  grey_window_px: int = 3, open_px: int = 0, close_px: int = 3,
                  min_area_px: int = 50, largest_only: bool = False):
         self.detection_rate = _check_fraction("detection_rate", detection_rate)
@@ -272,40 +272,41 @@ class HorprasertBackground(BackgroundModel):
         self.tau_cd = self.tau_alpha_low = self.tau_alpha_high = None
 
     def _smooth(self, x: np.ndarray) -> np.ndarray:
-        """(H, W) per-pixel mean square -> the same averaged over RMS_SMOOTHING_PX around."""
+        """(H, W) per-pixel mean squares -> their mean over about RMS_SMOOTHING_PX around."""
         return cv2.GaussianBlur(x, (0, 0), self.RMS_SMOOTHING_PX, borderType=cv2.BORDER_REFLECT)
 
     def _window(self) -> int:
         return self.grey_window_px if self.mean.shape[2] == 1 else 1
 
-    def _sum(self, x: np.ndarray) -> np.ndarray:
-        """(H, W, ch) -> (H, W): sum over the channels and the window."""
-        total = x.sum(axis=2)
+    def _box(self, x: np.ndarray) -> np.ndarray:
+        """(H, W) -> (H, W) sums over the ``_window()`` square around each pixel."""
         w = self._window()
-        if w == 1:
-            return total
-        return cv2.boxFilter(total, -1, (w, w), normalize=False, borderType=cv2.BORDER_REFLECT)
+        return cv2.boxFilter(x, -1, (w, w), normalize=False, borderType=cv2.BORDER_REFLECT)
 
     def _prepare(self) -> None:
         """Per-pixel terms of alpha and CD that depend on the background only."""
-        inv_var = 1.0 / (self.std * self.std)
-        self._e_over_var = self.mean * inv_var
-        self._inv_var = inv_var
-        self._e2 = np.maximum(self._sum(self.mean * self._e_over_var), 1e-6)
+        self._inv_var = 1.0 / (self.std * self.std)
+        self._e_over_var = self.mean * self._inv_var
+        e2 = (self.mean * self._e_over_var).sum(axis=2)
+        self._e2 = np.maximum(e2, 1e-6)
+        self._e2_window = np.maximum(self._box(e2), 1e-6) if self._window() > 1 else self._e2
 
     def distortions(self, image: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Raw brightness and chromaticity distortion, ``alpha`` and ``CD``, (H, W) float32 each."""
+        """Brightness distortion ``alpha`` of each pixel and chromaticity distortion ``CD``
+        of its vector (the channels, or the window on one channel), (H, W) float32 each."""
         f = _as_channels(image)
-        ie = self._sum(f * self._e_over_var)
-        i2 = self._sum(f * f * self._inv_var)
+        ie = (f * self._e_over_var).sum(axis=2)
+        i2 = (f * f * self._inv_var).sum(axis=2)
         alpha = ie / self._e2
-        cd = np.sqrt(np.maximum(i2 - alpha * ie, 0.0))     # sum((I - alpha E)^2 / s^2)
+        if self._window() > 1:
+            ie, i2 = self._box(ie), self._box(i2)
+        cd = np.sqrt(np.maximum(i2 - ie * ie / self._e2_window, 0.0))   # the vector's alpha
         return alpha, cd
 
     def _fit(self, frames: list[np.ndarray]) -> None:
         self.mean, std = _mean_std(frames, 0.0)
-        smooth = cv2.GaussianBlur(std * std, (0, 0), self.RMS_SMOOTHING_PX, borderType=cv2.BORDER_REFLECT)
-        self.std = np.maximum(np.sqrt(smooth.reshape(std.shape)), self.min_sigma)
+        var = self._smooth(std * std).reshape(std.shape)
+        self.std = np.maximum(np.sqrt(var), self.min_sigma)
         self._prepare()
         n = len(frames)
         # Each frame against the mean of the others: I_k - E_{-k} = n / (n - 1) (I_k - E).
@@ -316,9 +317,8 @@ class HorprasertBackground(BackgroundModel):
                                     self.MIN_ALPHA_RMS)
         self.cd_rms = np.maximum(np.sqrt(self._smooth(np.mean(cds * cds, axis=0))), self.MIN_CD_RMS)
         r = self.detection_rate
-        alpha_n = ((alphas - 1) / self.alpha_rms).ravel()
         self.tau_alpha_low, self.tau_alpha_high = (float(q) for q in np.quantile(
-            alpha_n, [(1 - r) / 2, (1 + r) / 2]))
+            (alphas - 1) / self.alpha_rms, [(1 - r) / 2, (1 + r) / 2]))
         self.tau_cd = float(np.quantile(cds / self.cd_rms, r))
 
     def classify(self, image: np.ndarray, name: str | None = None) -> np.ndarray:
@@ -331,6 +331,9 @@ class HorprasertBackground(BackgroundModel):
         labels[alpha_n > self.tau_alpha_high] = HIGHLIGHT
         foreground = ((cd / self.cd_rms > self.tau_cd) | (alpha < self.shadow_min_alpha)
                       | (alpha > self.highlight_max_alpha))
+        if self._window() > 1:
+            # CD describes the neighbourhood: a pixel as bright as its background stays background
+            foreground &= labels != BACKGROUND
         labels[foreground] = FOREGROUND
         return labels
 
@@ -375,6 +378,15 @@ class OpenCVBackground(BackgroundModel):
             self.subtractor = cv2.createBackgroundSubtractorKNN(n, self.threshold, self.detect_shadows)
         for frame in frames:
             self.subtractor.apply(frame, learningRate=-1)   # automatic rate 1 / frames seen
+        self.subtractor.apply(frames[-1], learningRate=self._frozen_rate)
+
+    @property
+    def _frozen_rate(self) -> float:
+        """Learning rate that leaves the model as it is. OpenCV's KNN turns a rate of 0 into
+        an update period of log(0.7) / log(1) and keeps learning; 1e-9 means one update in
+        about 10^9 frames. Its first call after training still settles the model, hence the
+        extra background frame at the end of ``_fit``."""
+        return 0.0 if self.method == "mog2" else 1e-9
 
     def _detect(self, image: np.ndarray) -> np.ndarray:
-        return self.subtractor.apply(image, learningRate=0) == 255
+        return self.subtractor.apply(image, learningRate=self._frozen_rate) == 255

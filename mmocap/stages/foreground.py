@@ -1,41 +1,211 @@
-"""Stage "foreground": per-camera background models applied to each frame, then undistorted.
+"""Stage "foreground": background subtraction, undistortion, masks for the evaluators, cache.
 
-The masks come out in the ideal pin-hole geometry of ``camera.ideal()`` (the Cano paper's
-approach: undistort the foreground once per frame, never the model's vertices).
+Per frame and camera, the camera's background model (:mod:`mmocap.stages.background`, fit on
+the sequence's background frames) gives a mask in the image's own, distorted geometry; the
+undistortion stage then remaps it once with the camera's maps, computed once per camera by
+``cv2.initUndistortRectifyMap`` (:meth:`mmocap.camera.Camera.undistort_mask`). From there on
+the cameras are ideal pin-holes, ``camera.ideal()``: the Cano paper's approach (Sec. 3.2),
+which undistorts the foreground once per frame and never the model's vertices.
+
+The masks are :class:`ForegroundMask` arrays: (H, W) bool that also carry their row-packed
+bits (the layout the OpenCL evaluator uploads) and ``|F|``.
+
+Cache: one ``.npz`` per frame holding every camera's packed bits, in
+``<cache_dir>/<key>/NNNNNN.npz``, ``key`` being a digest of the background model's
+configuration and of the sequence (its metadata, calibrations and, where there is one, the
+modification time of its ``sequence.json``, which a re-rendered sequence rewrites). A
+changed configuration or sequence thus reads and writes another folder; files are written
+to a temporary name and renamed, so an interrupted run never leaves a partial one. The
+default ``cache_dir`` is ``<sequence folder>/cache/foreground``.
 """
 from __future__ import annotations
 
+import functools
+import hashlib
+import json
+import logging
+import os
+import tempfile
+import zipfile
+from pathlib import Path
 from typing import Callable
 
 import numpy as np
 
-from mmocap.data.sequence import Sequence
+log = logging.getLogger(__name__)
+CACHE_FORMAT = 1   # bump when the masks of a given configuration change meaning
+_DEFAULT = "default"
+
+
+def pack_rows(mask: np.ndarray) -> np.ndarray:
+    """(H, W) bool -> (H, ceil(W / 32)) little-endian uint32: pixel x of a row is bit
+    x % 32 of word x // 32 (the OpenCL evaluator's foreground layout); padding bits are 0."""
+    mask = np.asarray(mask, dtype=bool)
+    H, W = mask.shape
+    padded = np.zeros((H, (W + 31) // 32 * 32), bool)
+    padded[:, :W] = mask
+    return np.packbits(padded, axis=1, bitorder="little").view("<u4")
+
+
+def unpack_rows(packed: np.ndarray, width: int) -> np.ndarray:
+    """Inverse of :func:`pack_rows`: (H, ceil(W / 32)) uint32 -> (H, W) bool."""
+    bits = np.unpackbits(np.ascontiguousarray(packed, dtype="<u4").view(np.uint8), axis=1,
+                         bitorder="little")
+    return bits[:, :width].astype(bool)
+
+
+class ForegroundMask(np.ndarray):
+    """(H, W) bool foreground of one camera, with ``packed`` (:func:`pack_rows`) and
+    ``area`` = |F| in pixels.
+
+    Arrays derived from a mask (views, results of operations) are plain masks again:
+    their ``packed`` and ``area`` are None.
+    """
+
+    packed: np.ndarray | None
+    area: int | None
+
+    def __new__(cls, mask: np.ndarray, packed: np.ndarray | None = None) -> "ForegroundMask":
+        mask = np.asarray(mask, dtype=bool)
+        if mask.ndim != 2:
+            raise ValueError(f"a foreground mask is (H, W), got shape {mask.shape}")
+        obj = mask.view(cls)
+        obj.packed = pack_rows(mask) if packed is None else packed
+        obj.area = int(np.count_nonzero(mask))
+        return obj
+
+    def __array_finalize__(self, obj) -> None:
+        self.packed = None
+        self.area = None
+
+    def __reduce__(self):
+        return (ForegroundMask, (np.asarray(self),))
+
+
+def _describe(make_background) -> dict:
+    """What determines a background factory's masks: its target and arguments."""
+    if isinstance(make_background, functools.partial):
+        return {**_describe(make_background.func), "args": list(make_background.args),
+                "kwargs": dict(sorted(make_background.keywords.items()))}
+    return {"target": f"{make_background.__module__}.{make_background.__qualname__}"}
+
+
+def cache_key(sequence, make_background) -> str:
+    """16 hex digits identifying the masks of ``sequence`` under ``make_background``."""
+    meta_file = Path(sequence.root) / "sequence.json"
+    state = {
+        "format": CACHE_FORMAT,
+        "background": _describe(make_background),
+        "meta": sequence.meta,
+        "cameras": [cam.to_dict() for cam in sequence.cameras],
+        "meta_mtime_ns": meta_file.stat().st_mtime_ns if meta_file.is_file() else None,
+    }
+    text = json.dumps(state, sort_keys=True, default=str)
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+class MaskCache:
+    """Packed masks per frame in ``folder`` (one ``NNNNNN.npz`` per frame)."""
+
+    def __init__(self, folder: Path, cameras):
+        self.folder = Path(folder)
+        self.cameras = list(cameras)
+        self.hits = self.misses = 0
+        self._writable = True
+
+    def path(self, frame: int) -> Path:
+        return self.folder / f"{frame:06d}.npz"
+
+    def load(self, frame: int) -> list[ForegroundMask] | None:
+        """The frame's masks, or None if absent or unreadable (then they are recomputed)."""
+        path = self.path(frame)
+        if not path.is_file():
+            self.misses += 1
+            return None
+        try:
+            with np.load(path) as data:
+                masks = []
+                for cam in self.cameras:
+                    packed = data[cam.name]
+                    if packed.shape != (cam.height, (cam.width + 31) // 32):
+                        raise ValueError(f"camera {cam.name} has packed shape {packed.shape}")
+                    masks.append(ForegroundMask(unpack_rows(packed, cam.width), packed))
+        except (OSError, KeyError, ValueError, zipfile.BadZipFile) as exc:
+            log.warning("foreground cache %s unreadable (%s); recomputing", path, exc)
+            self.misses += 1
+            return None
+        self.hits += 1
+        return masks
+
+    def save(self, frame: int, masks: list[ForegroundMask]) -> None:
+        """Write atomically; a folder that cannot be written turns the cache off with a warning."""
+        if not self._writable:
+            return
+        try:
+            self.folder.mkdir(parents=True, exist_ok=True)
+            fd, tmp = tempfile.mkstemp(dir=self.folder, prefix=".tmp-", suffix=".npz")
+            try:
+                with os.fdopen(fd, "wb") as f:
+                    np.savez(f, **{cam.name: m.packed for cam, m in zip(self.cameras, masks)})
+                os.replace(tmp, self.path(frame))
+            except BaseException:
+                Path(tmp).unlink(missing_ok=True)
+                raise
+        except OSError as exc:
+            log.warning("foreground cache %s not writable (%s); masks will not be cached",
+                        self.folder, exc)
+            self._writable = False
 
 
 class Foreground:
-    """Foreground masks of a sequence.
+    """Foreground masks of a sequence, in the ideal pin-hole geometry of :attr:`cameras`.
 
     Args:
         sequence: the opened sequence.
         make_background: factory returning a fresh background model with ``fit(frames)``
             and ``apply(image, name=...) -> (H, W) bool`` (a Hydra ``_partial_``).
+        cache_dir: folder of the mask cache; None = no cache; by default
+            ``<sequence folder>/cache/foreground``.
     """
 
-    def __init__(self, sequence: Sequence, make_background: Callable):
+    def __init__(self, sequence, make_background: Callable, cache_dir=_DEFAULT):
         self.sequence = sequence
-        self.models = []
-        for cam in sequence.cameras:
-            model = make_background()
-            model.fit(sequence.background(cam), name=cam.name)
-            self.models.append(model)
+        self.make_background = make_background
+        self._models: list | None = None
+        if cache_dir == _DEFAULT:
+            cache_dir = Path(sequence.root) / "cache" / "foreground"
+        self.cache = None if cache_dir is None else MaskCache(
+            Path(cache_dir) / cache_key(sequence, make_background), sequence.cameras)
 
     @property
     def cameras(self):
         """The ideal pin-hole cameras the masks belong to."""
         return [cam.ideal() for cam in self.sequence.cameras]
 
-    def masks(self, frame: int, images: list[np.ndarray] | None = None) -> list[np.ndarray]:
-        """(H, W) bool undistorted foreground per camera for ``frame``."""
+    @property
+    def models(self) -> list:
+        """One fitted background model per camera (fit on first use)."""
+        if self._models is None:
+            self._models = [self.make_background().fit(self.sequence.background(cam), name=cam.name)
+                            for cam in self.sequence.cameras]
+        return self._models
+
+    def detect(self, frame: int, images: list[np.ndarray] | None = None) -> list[np.ndarray]:
+        """(H, W) bool foreground per camera in the images' own (distorted) geometry."""
         images = self.sequence.images(frame) if images is None else images
-        return [cam.undistort_mask(model.apply(img, name=cam.name))
+        return [model.apply(img, name=cam.name)
                 for cam, model, img in zip(self.sequence.cameras, self.models, images)]
+
+    def masks(self, frame: int, images: list[np.ndarray] | None = None) -> list[ForegroundMask]:
+        """Undistorted foreground per camera for ``frame``; from the cache unless ``images``
+        (which replace the sequence's) are given."""
+        use_cache = self.cache is not None and images is None
+        if use_cache:
+            cached = self.cache.load(frame)
+            if cached is not None:
+                return cached
+        masks = [ForegroundMask(cam.undistort_mask(mask))
+                 for cam, mask in zip(self.sequence.cameras, self.detect(frame, images))]
+        if use_cache:
+            self.cache.save(frame, masks)
+        return masks
