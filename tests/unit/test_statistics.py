@@ -169,6 +169,7 @@ BAD = [
     (lambda t: t.assign(value=t.value.where(t.index != 2, np.nan)),
      "'value' holds 1 NaN or infinite value(s), the first in data row 3"),
     (lambda t: t.assign(value=t.value.where(t.index != 0, np.inf)), "NaN or infinite"),
+    (lambda t: t.assign(algorithm=t.algorithm.where(t.index != 1, None)), "column 'algorithm' has empty cells"),
 ]
 
 
