@@ -131,10 +131,18 @@ def _test(runs: pd.DataFrame, labels, block, alpha: float, source: str, what: st
                          alpha=alpha, source=f"{source}, {what}")
 
 
-def _blocks_note(block, tests: list[FriedmanHolm], alpha: float) -> str:
-    n = sorted({t.n_blocks for t in tests})
-    return (f"Friedman ranks over {'/'.join(map(str, n))} blocks ({' x '.join(block)}), lower error "
-            f"ranked first; p: Holm vs the best-ranked, * significant at alpha = {alpha:g}")
+def _write_rankings(runs: pd.DataFrame, out: Path, name: str, caption: str,
+                    tests: list[tuple[dict, FriedmanHolm]], headers: list[str], compared: str,
+                    block, alpha: float, source: str) -> Outputs:
+    """Write a Yeguas-shaped table of ``tests`` (one group per header) and its data CSV."""
+    n = sorted({t.n_blocks for _, t in tests})
+    title = (f"Yeguas Table {name[-1]}: {caption}. Friedman ranks over {'/'.join(map(str, n))} "
+             f"blocks ({' x '.join(block)}), lower error ranked first; p: Holm vs the best-ranked, "
+             f"* significant at alpha = {alpha:g}")
+    display = _ranking_groups([(h, t) for h, (_, t) in zip(headers, tests)], alpha)
+    origin = describe_runs(runs, source)
+    return write_table(display, out / "tables" / name, title=title, source=origin) + [
+        write_csv(_long_statistics(tests, compared), out / "tables" / f"{name}_data.csv", origin)]
 
 
 def yeguas_rankings(runs: pd.DataFrame, out: Path, *, name: str, dof: int, block=DEFAULT_BLOCK,
@@ -150,12 +158,9 @@ def yeguas_rankings(runs: pd.DataFrame, out: Path, *, name: str, dof: int, block
         tests.append(({"dof": dof, "evaluations": evaluations},
                       _test(group, labels, block, alpha, source,
                             f"{name} at {dof} DOF and {evaluations} evaluations")))
-    title = (f"Yeguas Table {name[-1]}: {dof}-DOF model, the algorithms ranked per budget. "
-             + _blocks_note(block, [t for _, t in tests], alpha))
-    display = _ranking_groups([(f"{k['evaluations']} ev.", t) for k, t in tests], alpha)
-    origin = describe_runs(runs, source)
-    return write_table(display, out / "tables" / name, title=title, source=origin) + [
-        write_csv(_long_statistics(tests), out / "tables" / f"{name}_data.csv", origin)]
+    return _write_rankings(runs, out, name, f"{dof}-DOF model, the algorithms ranked per budget",
+                           tests, [f"{k['evaluations']} ev." for k, _ in tests], "algorithm",
+                           block, alpha, source)
 
 
 def table4(runs, frames, out, **options) -> Outputs:
@@ -183,12 +188,9 @@ def strategy_variants(runs: pd.DataFrame, out: Path, *, name: str, hierarchical:
         tests.append(({"algorithm": short_name(optimizer, strategy)},
                       _test(group, labels, block, alpha, source,
                             f"{name} for {short_name(optimizer, strategy)}", "variant")))
-    title = (f"Yeguas Table {name[-1]}: {kind} approaches, each algorithm's DOF x evaluations variants "
-             f"ranked. " + _blocks_note(block, [t for _, t in tests], alpha))
-    display = _ranking_groups([(k["algorithm"], t) for k, t in tests], alpha)
-    origin = describe_runs(runs, source)
-    return write_table(display, out / "tables" / name, title=title, source=origin) + [
-        write_csv(_long_statistics(tests, "variant"), out / "tables" / f"{name}_data.csv", origin)]
+    return _write_rankings(runs, out, name,
+                           f"{kind} approaches, each algorithm's DOF x evaluations variants ranked",
+                           tests, [k["algorithm"] for k, _ in tests], "variant", block, alpha, source)
 
 
 def table6(runs, frames, out, **options) -> Outputs:
