@@ -1,0 +1,179 @@
+"""Foreground stage: packed masks, the per-frame cache, undistortion, the OpenCL upload."""
+import functools
+import os
+import pickle
+import shutil
+
+import numpy as np
+import pytest
+
+from mmocap.data.sequence import Sequence
+from mmocap.data.synthetic import generate
+from mmocap.stages.background import HorprasertBackground
+from mmocap.stages.foreground import Foreground, ForegroundMask, pack_rows, unpack_rows
+
+
+class CountingHorprasert(HorprasertBackground):
+    """The Horprasert model, counting the images it segments (class-wide)."""
+
+    applied = 0
+
+    def apply(self, image, name=None):
+        type(self).applied += 1
+        return super().apply(image, name)
+
+
+def reference_bits(mask: np.ndarray) -> np.ndarray:
+    """Word x // 32 of row y has bit x % 32 set where mask[y, x]: built pixel by pixel."""
+    H, W = mask.shape
+    words = np.zeros((H, (W + 31) // 32), np.uint64)
+    ys, xs = np.nonzero(mask)
+    np.bitwise_or.at(words, (ys, xs // 32), np.left_shift(np.uint64(1), (xs % 32).astype(np.uint64)))
+    return words.astype(np.uint32)
+
+
+def iou(a, b):
+    return (a & b).sum() / (a | b).sum()
+
+
+@pytest.fixture
+def sequence(tiny_sequence, tmp_path) -> Sequence:
+    """A private copy of the tiny sequence (the tests touch its files)."""
+    return Sequence.open(shutil.copytree(tiny_sequence, tmp_path / "seq"))
+
+
+@pytest.fixture(autouse=True)
+def reset_counter():
+    CountingHorprasert.applied = 0
+
+
+@pytest.mark.parametrize("width", [1, 31, 32, 33, 70, 640])
+def test_packed_rows_are_the_bit_layout_and_unpack(width):
+    mask = np.random.default_rng(width).random((5, width)) < 0.4
+    packed = pack_rows(mask)
+    assert packed.dtype == np.dtype("<u4") and packed.shape == (5, (width + 31) // 32)
+    np.testing.assert_array_equal(packed, reference_bits(mask))
+    np.testing.assert_array_equal(unpack_rows(packed, width), mask)
+
+
+def test_foreground_mask_carries_its_bits_and_area():
+    plain = np.random.default_rng(1).random((24, 70)) < 0.3
+    mask = ForegroundMask(plain)
+    assert mask.shape == (24, 70) and mask.dtype == bool and mask.area == plain.sum()
+    np.testing.assert_array_equal(mask.packed, reference_bits(plain))
+    assert mask[2:].packed is None and (~mask).area is None      # derived arrays are plain
+    again = pickle.loads(pickle.dumps(mask))
+    np.testing.assert_array_equal(again.packed, mask.packed)
+    assert again.area == mask.area
+    with pytest.raises(ValueError, match=r"\(H, W\)"):
+        ForegroundMask(np.zeros((2, 3, 4), bool))
+
+
+def test_opencl_uploads_the_packed_rows_as_they_are():
+    pytest.importorskip("pyopencl")
+    from mmocap.evaluators import opencl
+
+    mask = ForegroundMask(np.random.default_rng(2).random((48, 70)) < 0.5)
+    size = 48 * 3 + 5
+    np.testing.assert_array_equal(opencl._pack_bits(mask, size, mask.packed),
+                                  opencl._pack_bits(np.asarray(mask), size))
+    np.testing.assert_array_equal(opencl._pack_bits(mask, size, mask.packed)[:48 * 3],
+                                  reference_bits(mask).ravel())
+
+
+def test_masks_are_undistorted_foreground_with_areas(sequence):
+    fg = Foreground(sequence, HorprasertBackground, cache_dir=None)
+    assert all(not cam.dist.any() for cam in fg.cameras)
+    masks = fg.masks(1)
+    raw = fg.detect(1)
+    for cam, mask, detected in zip(sequence.cameras, masks, raw):
+        assert isinstance(mask, ForegroundMask) and mask.shape == (cam.height, cam.width)
+        assert mask.area == np.count_nonzero(mask) > 0.005 * mask.size
+        np.testing.assert_array_equal(mask, cam.undistort_mask(detected))
+        np.testing.assert_array_equal(mask.packed, pack_rows(mask))
+        # the background model finds the person (3 background frames, small images)
+        assert iou(detected, sequence.silhouette(1, cam)) > 0.7, cam.name
+
+
+def test_cache_hit_miss_and_invalidation(sequence, tmp_path):
+    cache = tmp_path / "cache"
+    make = functools.partial(CountingHorprasert, detection_rate=0.999)
+    first = Foreground(sequence, make, cache_dir=cache)
+    computed = [first.masks(f) for f in range(sequence.n_frames)]
+    cams = len(sequence.cameras)
+    assert CountingHorprasert.applied == sequence.n_frames * cams and first.cache.misses == 4
+    files = sorted(p.name for p in first.cache.folder.iterdir())
+    assert files == [f"{f:06d}.npz" for f in range(sequence.n_frames)]     # no temporary left
+
+    # hit: a new run reads every frame back, fits no model and segments nothing
+    second = Foreground(sequence, make, cache_dir=cache)
+    for f in range(sequence.n_frames):
+        for a, b in zip(computed[f], second.masks(f)):
+            np.testing.assert_array_equal(a, b)
+            np.testing.assert_array_equal(a.packed, b.packed)
+            assert a.area == b.area
+    assert CountingHorprasert.applied == sequence.n_frames * cams
+    assert second.cache.hits == sequence.n_frames and second._models is None
+
+    # another background configuration: another folder, computed again
+    other = Foreground(sequence, functools.partial(CountingHorprasert, detection_rate=0.99),
+                       cache_dir=cache)
+    assert other.cache.folder != first.cache.folder
+    other.masks(0)
+    assert CountingHorprasert.applied == (sequence.n_frames + 1) * cams
+
+    # a re-rendered sequence (sequence.json rewritten): another folder too
+    meta = sequence.root / "sequence.json"
+    stat = meta.stat()
+    os.utime(meta, ns=(stat.st_atime_ns, stat.st_mtime_ns + 10**9))
+    assert Foreground(sequence, make, cache_dir=cache).cache.folder != first.cache.folder
+
+    # images given by the caller bypass the cache
+    before = CountingHorprasert.applied
+    second.masks(0, images=sequence.images(0))
+    assert CountingHorprasert.applied == before + cams
+
+
+def test_a_damaged_cache_file_is_recomputed_and_replaced(sequence, tmp_path):
+    fg = Foreground(sequence, CountingHorprasert, cache_dir=tmp_path)
+    good = fg.masks(2)
+    fg.cache.path(2).write_bytes(b"not an npz")
+    again = Foreground(sequence, CountingHorprasert, cache_dir=tmp_path)
+    for a, b in zip(good, again.masks(2)):
+        np.testing.assert_array_equal(a, b)
+    assert again.cache.misses == 1
+    assert Foreground(sequence, CountingHorprasert, cache_dir=tmp_path).cache.load(2) is not None
+
+
+def test_default_cache_lives_in_the_sequence_folder(sequence):
+    fg = Foreground(sequence, HorprasertBackground)
+    fg.masks(0)
+    assert fg.cache.path(0).is_file()
+    assert fg.cache.folder.parent == sequence.root / "cache" / "foreground"
+
+
+def test_unwritable_cache_folder_only_turns_the_cache_off(sequence, tmp_path, caplog):
+    blocker = tmp_path / "file"
+    blocker.write_text("a file where the cache folder should go")
+    fg = Foreground(sequence, HorprasertBackground, cache_dir=blocker)
+    masks = fg.masks(0)
+    assert len(masks) == len(sequence.cameras)
+    assert "not writable" in caplog.text
+
+
+def test_undistorted_masks_match_a_distortion_free_rendering(tmp_path):
+    """The same scene rendered through the lens and through ideal pin-holes."""
+    kwargs = dict(subject="S1", action="walking", frames=1, cameras=("C1", "BW1"), width=320,
+                  height=240, background_frames=4, seed=3, progress=False)
+    lens = Sequence.open(generate(tmp_path / "lens", distortion=1.0, **kwargs))
+    ideal = Sequence.open(generate(tmp_path / "ideal", distortion=0.0, **kwargs))
+    lens_fg = Foreground(lens, HorprasertBackground, cache_dir=None)
+    ideal_fg = Foreground(ideal, HorprasertBackground, cache_dir=None)
+    for c, (cam, ideal_cam) in enumerate(zip(lens.cameras, ideal.cameras)):
+        np.testing.assert_allclose(cam.ideal().K, ideal_cam.K)
+        through_lens = lens.silhouette(0, cam)
+        truth = ideal.silhouette(0, ideal_cam)
+        undistorted = cam.undistort_mask(through_lens)
+        # at 320x240 a pixel of the outline is ~2 % of a silhouette's area
+        assert iou(undistorted, truth) > max(0.94, iou(through_lens, truth)), cam.name
+        assert iou(lens_fg.masks(0)[c], ideal_fg.masks(0)[c]) > 0.85, cam.name
