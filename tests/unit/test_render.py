@@ -260,3 +260,60 @@ def test_rasterising_in_chunks_changes_nothing(monkeypatch):
     monkeypatch.setattr(render, "CHUNK", 500)
     chunked = render_plain(cam, v, f, colours)
     assert np.array_equal(whole[0], chunked[0]) and np.array_equal(whole[1], chunked[1])
+
+
+def floor_camera() -> Camera:
+    """Camera 3 m up and 4 m back, looking at the floor origin (y up)."""
+    return Camera.look_at("F", (0, 3000, 4000), (0, 0, 0), FOCAL, W, H)
+
+
+def test_floor_shadow_is_soft_and_bounded_by_its_strength():
+    cam = floor_camera()
+    v, f = cube(size=600, centre=(0, 300, 0))          # a box standing on the floor
+    hard = render.floor_shadow(cam, v, f, render.LIGHT_DIR, 0.4, light_radius=0.0, blur_px=0)
+    soft = render.floor_shadow(cam, v, f, render.LIGHT_DIR, 0.4, light_radius=0.2)
+    for light in (hard, soft):
+        assert light.shape == (H, W) and light.dtype == np.float32
+        assert light.min() == pytest.approx(0.6, abs=1e-6) and light.max() == 1.0
+    umbra = hard < 0.7
+    assert umbra.sum() > 1000
+    # the light travels towards +z, the camera: the shadow lies below the box in the image
+    centre_row = np.argwhere(umbra)[:, 0].mean()
+    box_row = cam.project(np.array([[0.0, 0, 0]]))[0, 1]
+    assert centre_row > box_row
+    penumbra = lambda light: np.count_nonzero((light > 0.62) & (light < 0.98))  # noqa: E731
+    assert penumbra(soft) > 2 * penumbra(hard)
+    np.testing.assert_array_equal(render.floor_shadow(cam, v, f, render.LIGHT_DIR, 0.0), 1.0)
+
+
+def test_shadow_darkens_the_background_not_the_person():
+    cam = floor_camera()
+    v, f = cube(size=600, centre=(0, 300, 0))
+    light = render.floor_shadow(cam, v, f, render.LIGHT_DIR, 0.5, light_radius=0.0, blur_px=0)
+    image, sil = render_plain(cam, v, f, shadow=light)
+    plain, _ = render_plain(cam, v, f)
+    assert ((light < 0.75) & ~sil).sum() > 500
+    np.testing.assert_allclose(image[~sil].astype(float), GREY * light[~sil, None].repeat(3, 1), atol=0.51)
+    assert np.array_equal(image[sil], plain[sil])
+
+
+def test_light_directions_spread_over_the_area_light():
+    dirs = render.light_directions(render.LIGHT_DIR, 0.2, 5)
+    centre = np.asarray(render.LIGHT_DIR) / np.linalg.norm(render.LIGHT_DIR)
+    np.testing.assert_allclose(np.linalg.norm(dirs, axis=1), 1.0)
+    np.testing.assert_allclose(dirs[0], centre)
+    np.testing.assert_allclose(np.arccos(dirs[1:] @ centre), 0.14, rtol=1e-6)
+    assert render.light_directions(render.LIGHT_DIR, 0.0, 5).shape == (1, 3)
+
+
+@pytest.mark.parametrize("colour", [True, False])
+def test_gain_and_shot_noise(colour):
+    cam = camera(colour=colour)
+    v, f = cube(centre=(0, 0, 8000))                  # behind the camera: only the background
+    image, _ = render_plain(cam, v, f, gain=1.1)
+    np.testing.assert_array_equal(image, round(GREY * 1.1))
+    image, _ = render_plain(cam, v, f, noise_sigma=0.0, shot_noise=0.1)
+    assert image.astype(float).std() == pytest.approx(np.sqrt(0.1 * GREY), rel=0.05)
+    frames = render.noisy_background_frames(flat_background(), cam, np.random.default_rng(1), 2,
+                                            0.0, gains=[0.9, 1.2])
+    assert [int(fr.mean()) for fr in frames] == [round(GREY * 0.9), round(GREY * 1.2)]

@@ -8,6 +8,7 @@ import pytest
 from mmocap.body.model import MARKER_NAMES, BodyModel
 from mmocap.data.motion import ACTIONS, generate_motion
 from mmocap.data.sequence import Sequence
+from mmocap.data.synthetic import generate
 from mmocap.errors import ConfigError, DataError
 from mmocap.stages.evaluation import marker_error
 
@@ -71,3 +72,46 @@ def test_sequence_reader_errors(tiny_sequence, tmp_path):
         Sequence.open(tmp_path)
     with pytest.raises(ConfigError, match="unknown action"):
         generate_motion("juggling", 10, 60.0, 950.0)
+
+
+def _outside_darker(seq, cam, frame=0, ratio=0.8):
+    """(H, W) bool: pixels outside the silhouette darker than ``ratio`` of the empty scene."""
+    empty = np.mean(seq.background(cam), axis=0)
+    image = seq.images(frame)[seq.cameras.index(cam)].astype(float)
+    darker = (image + 1) / (empty + 1) < ratio
+    return (darker.all(axis=2) if darker.ndim == 3 else darker) & ~seq.silhouette(frame, cam)
+
+
+def test_lighting_flickers_and_the_person_casts_a_shadow(tiny_sequence):
+    seq = Sequence.open(tiny_sequence)
+    gains = []
+    for cam in seq.cameras:
+        means = np.array([frame.mean() for frame in seq.background(cam)])
+        gains.append(means / means[0])
+        shadow = _outside_darker(seq, cam)
+        assert shadow.sum() > 200, cam.name
+        # on the floor, at the feet: below the silhouette's centre
+        assert np.nonzero(shadow)[0].mean() > np.nonzero(seq.silhouette(0, cam))[0].mean(), cam.name
+    gains = np.array(gains)
+    assert np.ptp(gains[0]) > 0.005                       # the light's gain changes frame to frame
+    np.testing.assert_allclose(gains, gains[[0]].repeat(len(gains), 0), atol=2e-3)  # one light for all
+
+
+def test_lighting_effects_can_be_turned_off(tmp_path):
+    root = generate(tmp_path / "plain", frames=1, cameras=("C1",), width=160, height=120,
+                    background_frames=3, flicker=0.0, shadow_strength=0.0, shot_noise=0.0,
+                    progress=False)
+    seq = Sequence.open(root)
+    cam = seq.cameras[0]
+    means = [frame.mean() for frame in seq.background(cam)]
+    assert np.ptp(means) / means[0] < 1e-3
+    assert _outside_darker(seq, cam).sum() < 5             # only noise
+
+
+@pytest.mark.parametrize("kwargs", [{"flicker": -0.1}, {"shadow_strength": 1.5},
+                                    {"shot_noise": -1.0}, {"shadow_softness": 2.0},
+                                    {"noise_sigma": -2.0}])
+def test_bad_lighting_settings_name_the_value(tmp_path, kwargs):
+    name = next(iter(kwargs))
+    with pytest.raises(ConfigError, match=f"dataset.{name} must be in"):
+        generate(tmp_path / "bad", frames=1, cameras=("C1",), progress=False, **kwargs)
