@@ -12,11 +12,12 @@ bits (the layout the OpenCL evaluator uploads) and ``|F|``.
 
 Cache: one ``.npz`` per frame holding every camera's packed bits, in
 ``<cache_dir>/<key>/NNNNNN.npz``, ``key`` being a digest of the background model's
-configuration and of the sequence (its metadata, calibrations and, where there is one, the
-modification time of its ``sequence.json``, which a re-rendered sequence rewrites). A
-changed configuration or sequence thus reads and writes another folder; files are written
-to a temporary name and renamed, so an interrupted run never leaves a partial one. The
-default ``cache_dir`` is ``<sequence folder>/cache/foreground``.
+configuration and of the sequence: its folder, metadata, calibrations, the pixels of its
+background frames and, where there is one, the modification time of its ``sequence.json``
+(which a re-rendered sequence rewrites). A changed configuration or sequence thus reads and
+writes another folder; files are written to a temporary name and renamed, so an interrupted
+run never leaves a partial one. The default ``cache_dir`` is ``outputs/cache/foreground``
+(relative to the working directory, like the runs), which keeps datasets read-only.
 """
 from __future__ import annotations
 
@@ -34,7 +35,7 @@ import numpy as np
 
 log = logging.getLogger(__name__)
 CACHE_FORMAT = 1   # bump when the masks of a given configuration change meaning
-_DEFAULT = "default"
+DEFAULT_CACHE_DIR = Path("outputs/cache/foreground")
 
 
 def pack_rows(mask: np.ndarray) -> np.ndarray:
@@ -96,12 +97,16 @@ def cache_key(sequence, make_background) -> str:
     state = {
         "format": CACHE_FORMAT,
         "background": _describe(make_background),
+        "root": str(Path(sequence.root).resolve()),
         "meta": sequence.meta,
         "cameras": [cam.to_dict() for cam in sequence.cameras],
         "meta_mtime_ns": meta_file.stat().st_mtime_ns if meta_file.is_file() else None,
     }
-    text = json.dumps(state, sort_keys=True, default=str)
-    return hashlib.sha256(text.encode()).hexdigest()[:16]
+    digest = hashlib.sha256(json.dumps(state, sort_keys=True, default=str).encode())
+    for cam in sequence.cameras:
+        for frame in sequence.background(cam):
+            digest.update(np.ascontiguousarray(frame).tobytes())
+    return digest.hexdigest()[:16]
 
 
 class MaskCache:
@@ -164,16 +169,13 @@ class Foreground:
         sequence: the opened sequence.
         make_background: factory returning a fresh background model with ``fit(frames)``
             and ``apply(image, name=...) -> (H, W) bool`` (a Hydra ``_partial_``).
-        cache_dir: folder of the mask cache; None = no cache; by default
-            ``<sequence folder>/cache/foreground``.
+        cache_dir: folder of the mask cache, None = no cache (see the module docstring).
     """
 
-    def __init__(self, sequence, make_background: Callable, cache_dir=_DEFAULT):
+    def __init__(self, sequence, make_background: Callable, cache_dir=DEFAULT_CACHE_DIR):
         self.sequence = sequence
         self.make_background = make_background
         self._models: list | None = None
-        if cache_dir == _DEFAULT:
-            cache_dir = Path(sequence.root) / "cache" / "foreground"
         self.cache = None if cache_dir is None else MaskCache(
             Path(cache_dir) / cache_key(sequence, make_background), sequence.cameras)
 

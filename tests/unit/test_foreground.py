@@ -4,6 +4,9 @@ import os
 import pickle
 import shutil
 
+from pathlib import Path
+
+import cv2
 import numpy as np
 import pytest
 
@@ -145,11 +148,20 @@ def test_a_damaged_cache_file_is_recomputed_and_replaced(sequence, tmp_path):
     assert Foreground(sequence, CountingHorprasert, cache_dir=tmp_path).cache.load(2) is not None
 
 
-def test_default_cache_lives_in_the_sequence_folder(sequence):
+def test_default_cache_is_in_outputs_and_follows_the_background_frames(sequence, tmp_path,
+                                                                        monkeypatch):
+    monkeypatch.chdir(tmp_path)
     fg = Foreground(sequence, HorprasertBackground)
     fg.masks(0)
     assert fg.cache.path(0).is_file()
-    assert fg.cache.folder.parent == sequence.root / "cache" / "foreground"
+    assert fg.cache.folder.parent == Path("outputs/cache/foreground")
+    # another empty scene (same metadata and files' times): another key
+    path = sorted((sequence.root / "background" / "C1").glob("*.png"))[0]
+    stat = path.stat()
+    image = cv2.imread(str(path))
+    cv2.imwrite(str(path), 255 - image)
+    os.utime(path, ns=(stat.st_atime_ns, stat.st_mtime_ns))
+    assert Foreground(sequence, HorprasertBackground).cache.folder != fg.cache.folder
 
 
 def test_unwritable_cache_folder_only_turns_the_cache_off(sequence, tmp_path, caplog):
