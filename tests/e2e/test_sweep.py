@@ -1,0 +1,122 @@
+"""Multirun sweeps end to end: launchers, resuming a killed sweep, progress, bad sweeps."""
+import importlib.util
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import pandas as pd
+import pytest
+
+from tests.e2e.test_cli import mmocap, overrides
+
+
+def sweep_args(data_root, sweep_dir, **extra):
+    """A multirun over the session's tiny sequence into ``sweep_dir``."""
+    settings = {"overlays": 0, "tracking.evaluations": 100, "hydra.sweep.dir": str(sweep_dir), **extra}
+    return ["-m", *overrides(data_root, **settings)]
+
+
+def records(sweep_dir):
+    folder = sweep_dir / "records"
+    return sorted(folder.glob("*.json")) if folder.is_dir() else []
+
+
+def test_joblib_sweep_records_every_run_once_with_provenance(tiny_sequence, tmp_path):
+    sweep = tmp_path / "sweep"
+    out = mmocap(*sweep_args(tiny_sequence.parent, sweep, seed="0,1"), cwd=tmp_path)
+    assert out.returncode == 0, out.stderr
+    assert "JoblibLauncher" in json.loads((sweep / "sweep.json").read_text())["launcher"]
+    assert len(records(sweep)) == 2
+    runs = pd.read_csv(sweep / "runs.csv")
+    frames = pd.read_csv(sweep / "frames.csv")
+    assert sorted(runs["seed"]) == [0, 1] and set(runs["algorithm"]) == {"cmaes-holistic"}
+    assert len(frames) == 2 * 2 and set(frames["run_id"]) == set(runs["run_id"])
+    assert (runs["evaluation_seconds_per_frame"] <= runs["seconds_per_frame"]).all()
+    info = json.loads((sweep / "sweep.json").read_text())
+    assert info["jobs"] == 2 and "seed=0,1" in info["overrides"]
+    assert len(info["provenance"]["git_commit"] or "x" * 40) == 40 and info["provenance"]["versions"]["numpy"]
+    record = json.loads(records(sweep)[0].read_text())
+    assert record["config"]["tracking"]["evaluations"] == 100 and record["provenance"]["host"]
+    log = out.stdout + out.stderr
+    assert "sweep: 2/2 runs done (0 found in the store)" in log and "sweep: 1/2 runs done" in log
+
+    again = mmocap(*sweep_args(tiny_sequence.parent, sweep, seed="0,1,2"), cwd=tmp_path)
+    assert again.returncode == 0, again.stderr
+    assert (again.stdout + again.stderr).count("already finished") == 2
+    assert "sweep: 3/3 runs done (2 found in the store)" in again.stdout + again.stderr
+    assert len(pd.read_csv(sweep / "runs.csv")) == 3
+
+
+@pytest.mark.slow
+def test_a_killed_sweep_resumes_without_losing_or_repeating_runs(tiny_sequence, tmp_path):
+    """SIGKILL the whole sweep (launcher and workers) once its first record is written."""
+    sweep = tmp_path / "sweep"
+    args = sweep_args(tiny_sequence.parent, sweep, seed="range(6)", **{"tracking.evaluations": 600,
+                                                                       "body.vertices": 13695})
+    proc = subprocess.Popen([sys.executable, "-m", "mmocap", *args], cwd=tmp_path, start_new_session=True,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.monotonic() + 300
+    while not records(sweep) and proc.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.02)
+    os.killpg(proc.pid, signal.SIGKILL)
+    proc.wait()
+    finished = {p.name: p.read_bytes() for p in records(sweep)}
+    assert 1 <= len(finished) < 6, "the sweep was not killed midway"
+
+    out = mmocap(*args, cwd=tmp_path)
+    assert out.returncode == 0, out.stderr
+    log = out.stdout + out.stderr
+    assert log.count("already finished") == len(finished)
+    assert f"sweep: 6/6 runs done ({len(finished)} found in the store)" in log
+    after = {p.name: p.read_bytes() for p in records(sweep)}
+    assert len(after) == 6 and all(after[name] == data for name, data in finished.items())
+    runs = pd.read_csv(sweep / "runs.csv")
+    assert sorted(runs["seed"]) == list(range(6)) and runs["run_id"].is_unique
+    assert len(pd.read_csv(sweep / "frames.csv")) == 6 * 2
+    assert not list(sweep.rglob("*.tmp"))
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(importlib.util.find_spec("hydra_plugins.hydra_submitit_launcher") is None,
+                    reason="hydra-submitit-launcher not installed (pip install mmocap[slurm])")
+def test_submitit_local_launcher(tiny_sequence, tmp_path):
+    sweep = tmp_path / "sweep"
+    out = mmocap(*sweep_args(tiny_sequence.parent, sweep, seed="0,1"), "hydra/launcher=submitit_local",
+                 "hydra.launcher.timeout_min=5", cwd=tmp_path)
+    assert out.returncode == 0, out.stderr
+    assert "hydra_submitit_launcher" in json.loads((sweep / "sweep.json").read_text())["launcher"]
+    assert sorted(pd.read_csv(sweep / "runs.csv")["seed"]) == [0, 1]
+
+
+@pytest.mark.slow
+def test_an_experiment_runs_on_the_tiny_sequence(tiny_sequence, tmp_path):
+    """Fig. 10 at the smoke scale: four holistic algorithms, one run each."""
+    sweep = tmp_path / "fig10"
+    out = mmocap("-m", "+experiment=fig10", "scale=smoke", *overrides(tiny_sequence.parent),
+                 "overlays=0", f"hydra.sweep.dir={sweep}", cwd=tmp_path)
+    assert out.returncode == 0, out.stderr
+    runs = pd.read_csv(sweep / "runs.csv")
+    assert sorted(runs["algorithm"]) == ["apf-holistic", "cmaes-holistic", "de-holistic", "pso-holistic"]
+    # the command line (tracking.evaluations=300, tracking.frames=2) wins over the experiment
+    assert set(runs["evaluations"]) == {300} and set(runs["frames"]) == {2}
+
+
+BAD_SWEEPS = [
+    (["optimizer=cmaes,nope"], "optimizer/nope"),
+    (["optimizer.name=cmaes,nope"], "unknown optimizer 'nope'; installed optimizers:"),
+    (["+experiment=table4", "scale=huge"], "scale/huge"),
+    (["+experiment=table99"], "experiment/table99"),
+]
+
+
+@pytest.mark.parametrize("extra, message", BAD_SWEEPS, ids=[" ".join(b[0]) for b in BAD_SWEEPS])
+def test_a_bad_sweep_fails_before_any_job(tiny_sequence, tmp_path, extra, message):
+    sweep = tmp_path / "sweep"
+    out = mmocap(*sweep_args(tiny_sequence.parent, sweep), *extra, cwd=tmp_path)
+    assert out.returncode != 0
+    assert message in out.stderr
+    assert "Traceback" not in out.stderr
+    assert not records(sweep) and not (sweep / "0").exists()

@@ -1,0 +1,184 @@
+"""Results store, run keys, the runs/frames tables, and the experiment x scale sweeps."""
+import json
+import math
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from hydra import compose, initialize_config_dir
+from omegaconf import open_dict
+
+from mmocap.cli import CONFIG_PATH
+from mmocap.errors import ConfigError, DataError
+from mmocap.stages import results
+from mmocap.stages.results import ResultsStore, export, load_runs, make_record, run_key
+from mmocap.sweep import check_plugins, format_seconds, progress_line, sweep_overrides
+
+EXPERIMENTS = sorted(p.stem for p in (Path(CONFIG_PATH) / "experiment").glob("*.yaml") if p.stem != "demo")
+
+
+def config(*overrides, hydra=False):
+    with initialize_config_dir(config_dir=CONFIG_PATH, version_base="1.3"):
+        return compose("config", list(overrides), return_hydra_config=hydra)
+
+
+def summary_of(cfg, errors):
+    """A summary as the pipeline writes it, for a run of ``cfg`` with these frame errors."""
+    return {"mean_marker_error_mm": float(np.mean(errors)), "frames": len(errors),
+            "evaluations_per_frame": int(cfg.tracking.evaluations), "optimizer": cfg.optimizer.name,
+            "strategy": "hierarchical" if "Hierarchical" in cfg.strategy._target_ else "holistic",
+            "dof": cfg.body.dof, "backend": cfg.evaluator.name, "vertices": cfg.body.vertices,
+            "subject": cfg.dataset.subject, "action": cfg.dataset.action, "seed": cfg.seed}
+
+
+def record_of(cfg, errors, wall=2.0, evaluation=1.5):
+    frames = [{"frame": k, "marker_error_mm": e, "fitness": 0.1, "evaluations": 10, "seconds": 0.5}
+              for k, e in enumerate(errors)]
+    return make_record(cfg, summary_of(cfg, errors), frames, wall, evaluation, results.now(), Path("run"))
+
+
+def test_run_key_ignores_outputs_and_presentation_only():
+    base = run_key(config())
+    assert base == run_key(config())
+    assert len(base) == 16 and int(base, 16) >= 0
+    for same in (["progress=false"], ["overlays=0"], ["results.store=/x"], ["results.reuse=[/y]"],
+                 ["hydra.run.dir=/elsewhere"]):
+        assert run_key(config(*same)) == base, same
+    changed = {run_key(config(o)) for o in ("seed=1", "tracking.evaluations=500", "body.dof=28",
+                                             "optimizer=pso", "dataset.action=boxing", "body.vertices=20544")}
+    assert base not in changed and len(changed) == 6
+
+
+def test_scale_presets_do_not_enter_the_key_but_their_values_do():
+    smoke = config("+experiment=fig10", "scale=smoke")
+    same_values = config("+experiment=fig10", "scale=smoke", "scale.seeds=7")
+    assert run_key(smoke) == run_key(same_values)
+    assert run_key(smoke) != run_key(config("+experiment=fig10", "scale=default"))
+
+
+def test_store_put_get_and_records(tmp_path):
+    cfg = config("seed=3")
+    store = ResultsStore(tmp_path)
+    assert store.get(run_key(cfg)) is None
+    path = store.put(record_of(cfg, [10.0, 20.0]))
+    assert path == tmp_path / "records" / f"{run_key(cfg)}.json"
+    assert not list(tmp_path.rglob("*.tmp"))
+    record = store.get(run_key(cfg))
+    assert record["seed"] == 3 and record["summary"]["frames"] == 2
+    assert record["provenance"]["python"] and "numpy" in record["provenance"]["versions"]
+    assert record["timings"]["evaluation_seconds_per_frame"] == pytest.approx(0.75)
+    assert record["config"]["seed"] == 3 and "hydra" not in record["key_config"]
+    store.put(record_of(config("seed=4"), [1.0]))
+    assert sorted(r["seed"] for r in store.records()) == [3, 4]
+
+
+def test_adopt_copies_a_finished_run_from_another_store(tmp_path):
+    cfg = config("seed=5")
+    ResultsStore(tmp_path / "a").put(record_of(cfg, [12.0]))
+    mine = ResultsStore(tmp_path / "b")
+    assert mine.adopt(run_key(config("seed=6")), [tmp_path / "a"]) is None
+    assert mine.adopt(run_key(cfg), [tmp_path / "missing", tmp_path / "a"])["seed"] == 5
+    assert mine.get(run_key(cfg))["summary"]["mean_marker_error_mm"] == 12.0
+
+
+def test_a_damaged_record_is_a_clear_error(tmp_path):
+    store = ResultsStore(tmp_path)
+    store.records_dir.mkdir()
+    (store.records_dir / "0123456789abcdef.json").write_text('{"run_id": ')
+    with pytest.raises(DataError, match=r"0123456789abcdef.json is not valid JSON"):
+        store.get("0123456789abcdef")
+
+
+def test_load_runs_gives_the_contract_tables(tmp_path):
+    store = ResultsStore(tmp_path)
+    store.put(record_of(config("seed=0", "algorithm=cmaes-hierarchical", "+experiment=fig10"), [10.0, 30.0]))
+    store.put(record_of(config("seed=1", "body.dof=28", "evaluator=opencl"), [5.0, 7.0, 9.0]))
+    runs, frames = load_runs(tmp_path)
+    assert list(runs.columns[:16]) == [
+        "run_id", "subject", "action", "sequence", "seed", "optimizer", "strategy", "algorithm", "dof",
+        "evaluations", "vertices", "backend", "frames", "mean_marker_error_mm", "seconds_per_frame",
+        "evaluation_seconds_per_frame"]
+    assert runs["run_id"].is_unique and len(runs) == 2
+    first = runs.set_index("seed").loc[0]
+    assert first["algorithm"] == "cmaes-hierarchical" and first["sequence"] == "S1_walking"
+    assert first["mean_marker_error_mm"] == 20.0 and first["frames"] == 2
+    assert runs.set_index("seed").loc[1, "backend"] == "opencl"
+    assert runs["dof"].dtype.kind == "i" and runs["seconds_per_frame"].dtype.kind == "f"
+    assert list(frames.columns) == ["run_id", "frame", "marker_error_mm"] and len(frames) == 5
+    assert frames.groupby("run_id")["marker_error_mm"].mean().to_dict() == \
+        runs.set_index("run_id")["mean_marker_error_mm"].to_dict()
+
+
+def test_export_writes_csv_and_an_empty_store_is_an_error(tmp_path, capsys):
+    with pytest.raises(DataError, match=str(tmp_path / "records")):
+        load_runs(tmp_path)
+    assert results.main([str(tmp_path)]) == 2
+    assert "no run records" in capsys.readouterr().err
+    ResultsStore(tmp_path).put(record_of(config(), [4.0]))
+    runs_csv, frames_csv = export(tmp_path)
+    assert pd.read_csv(runs_csv)["mean_marker_error_mm"].tolist() == [4.0]
+    assert pd.read_csv(frames_csv).shape == (1, 3)
+    assert results.main([str(tmp_path)]) == 0
+
+
+# Jobs per experiment and scale: the product of the sweep's value counts.
+JOBS = {
+    ("table4", "smoke"): 8 * 3 * 2, ("table4", "paper"): 8 * 3 * 9 * 30,
+    ("table6", "default"): 4 * 2 * 3 * 3 * 2, ("fig10", "paper"): 4,
+    ("cano_table3", "paper"): 3 * 4 * 6 * 10, ("fig4", "smoke"): 2 * 3 * 2 * 2,
+}
+
+
+@pytest.mark.parametrize("experiment", EXPERIMENTS)
+@pytest.mark.parametrize("scale", ["smoke", "default", "paper"])
+def test_every_experiment_composes_at_every_scale(experiment, scale):
+    cfg = config(f"+experiment={experiment}", f"scale={scale}", hydra=True)
+    values = sweep_overrides(cfg)
+    assert cfg.hydra.sweep.dir == f"outputs/sweeps/{experiment}/{scale}"
+    assert cfg.dataset.root == f"outputs/data/{scale}"
+    assert all(v and "$" not in "".join(v) for v in values.values()), values
+    jobs = math.prod(len(v) for v in values.values())
+    if (experiment, scale) in JOBS:
+        assert jobs == JOBS[experiment, scale]
+    if scale == "paper" and "seed" in values and experiment != "fig10":
+        assert len(values["seed"]) in (10, 30)
+
+
+def test_the_yeguas_algorithms_are_the_papers_eight():
+    values = sweep_overrides(config("+experiment=table4", hydra=True))
+    assert len(values["algorithm"]) == 8
+    for name in values["algorithm"]:
+        cfg = config(f"algorithm={name}", "+experiment=table4")
+        optimizer, strategy = name.split("-")
+        assert cfg.optimizer.name == optimizer and strategy.capitalize() in cfg.strategy._target_
+
+
+def test_command_line_values_replace_the_sweepers():
+    cfg = config("+experiment=table4", "scale=smoke", hydra=True)
+    with open_dict(cfg):
+        cfg.hydra.overrides.task = ["+experiment=table4", "seed=0,1,2", "body.dof=28"]
+    values = sweep_overrides(cfg)
+    assert values["seed"] == ["0", "1", "2"] and values["body.dof"] == ["28"]
+
+
+def test_unknown_optimizer_in_a_sweep_is_caught():
+    check_plugins({"optimizer.name": ["cmaes", "pso"]})
+    with pytest.raises(ConfigError, match="unknown optimizer 'nope'; installed optimizers: .*cmaes"):
+        check_plugins({"optimizer.name": ["cmaes", "nope"]})
+    with pytest.raises(ConfigError, match="unknown evaluator 'gpu9'"):
+        check_plugins({"evaluator.name": ["gpu9"]})
+
+
+def test_progress_line_counts_this_session_and_estimates_time_left(tmp_path):
+    info = {"session": "s2", "jobs": 10, "started": 0.0}
+    lines = [{"session": "s1", "job": 0, "ran": True}] + \
+            [{"session": "s2", "job": k, "ran": k >= 2} for k in range(4)]
+    path = tmp_path / "progress.jsonl"
+    path.write_text("".join(json.dumps(line) + "\n" for line in lines))
+    info["started"] = time.time() - 100  # 100 s for 2 runs: 50 s per run, 6 left
+    text = progress_line(path, info)
+    assert text.startswith("sweep: 4/10 runs done (2 found in the store), about 5 min 0")
+    assert format_seconds(7) == "7 s" and format_seconds(125) == "2 min 05 s"
+    assert format_seconds(3725) == "1 h 02 min"
