@@ -207,8 +207,8 @@ class HorprasertBackground(BackgroundModel):
 
     Each pixel's background is its mean colour ``E`` and spread ``s`` per channel over the
     background frames. An observed colour ``I`` is compared with it by the brightness
-    distortion ``alpha`` (the scale of ``E`` nearest to ``I``, in units of ``s``) and the
-    chromaticity distortion ``CD`` (the distance left, in units of ``s``)::
+    distortion ``alpha`` (the scale of ``E`` nearest to ``I``, 1 = as bright as the
+    background) and the chromaticity distortion ``CD`` (the distance left, in units of ``s``)::
 
         alpha = sum(I E / s^2) / sum(E^2 / s^2),   CD^2 = sum((I - alpha E)^2 / s^2)
 
@@ -222,12 +222,22 @@ class HorprasertBackground(BackgroundModel):
     its thresholds, shadow if below them, highlight if above. Shadows and highlights are
     background in the mask.
 
+    Estimation from few frames (HumanEva-like sets have about 10): ``s^2``, ``rms(alpha - 1)``
+    and ``rms(CD)`` are averaged over a Gaussian of ``RMS_SMOOTHING_PX`` around each pixel,
+    and each background frame is compared with the mean of the other frames. Without this,
+    a frame's distortions, normalised by statistics of the same few frames, stay small
+    (``CD_n`` cannot exceed sqrt(frames)) and give thresholds that new frames exceed often.
+
     One channel: there ``alpha = I / E`` fits the single value exactly and ``CD`` is always 0,
-    so chromaticity is undefined. On greyscale images this model uses the values of a
-    ``grey_window_px`` square neighbourhood as the vector instead of the colour channels: a
-    soft shadow scales the local texture of the background, which ``alpha`` absorbs, while
-    a person replaces it, which ``CD`` measures (``grey_window_px=1`` turns this off and
-    leaves brightness alone to decide). Colour images use one pixel's channels, as the paper.
+    so chromaticity is undefined. On greyscale images ``CD`` is measured over the values of
+    the ``grey_window_px`` square around the pixel instead of the colour channels: a soft
+    shadow scales the local texture of the background, which the window's own brightness
+    factor absorbs, while a person replaces it, which ``CD`` measures. ``alpha`` stays the
+    pixel's own, and a pixel as bright as its background (``alpha_n`` between the thresholds)
+    is background whatever the window's ``CD``, so the mask does not grow by half a window
+    around the person. A hard shadow edge across strong texture can still show as a thin
+    line. ``grey_window_px=1`` leaves brightness alone to decide. Colour images use one
+    pixel's channels, as the paper.
 
     Departures from the paper: the bounds on ``alpha`` are in raw brightness (the paper's
     ``tau_alpha_lo`` is on the normalised one) and there is also an upper bound, so a white
@@ -249,7 +259,7 @@ class HorprasertBackground(BackgroundModel):
     min_frames = 3
     MIN_ALPHA_RMS = 1e-3   # floor of rms(alpha - 1): a fraction of the brightness
     MIN_CD_RMS = 0.1       # floor of rms(CD): in units of the spread s
-    RMS_SMOOTHING_PX = 2.0
+    RMS_SMOOTHING_PX = 2.0  # sigma of the averaging of s^2 and of the RMS, pixels
 
     def __init__(self, detection_rate: float = 0.999, min_sigma: float = 2.0,
                  shadow_min_alpha: float = 0.55, highlight_max_alpha: float = 1.5,

@@ -189,3 +189,25 @@ def test_undistorted_masks_match_a_distortion_free_rendering(tmp_path):
         # at 320x240 a pixel of the outline is ~2 % of a silhouette's area
         assert iou(undistorted, truth) > max(0.94, iou(through_lens, truth)), cam.name
         assert iou(lens_fg.masks(0)[c], ideal_fg.masks(0)[c]) > 0.85, cam.name
+
+
+@pytest.mark.slow
+def test_tracking_through_the_lens_matches_a_distortion_free_rendering(tmp_path, monkeypatch):
+    """The demo's tracking on the same sequence rendered with its lens distortion (masks
+    undistorted by this stage) and through ideal pin-holes: the errors agree within 3 mm."""
+    from hydra import compose, initialize_config_dir
+
+    from mmocap.cli import CONFIG_PATH
+    from mmocap.pipeline import run
+
+    monkeypatch.chdir(tmp_path)
+    errors = {}
+    for distortion in (1.0, 0.0):
+        with initialize_config_dir(config_dir=CONFIG_PATH, version_base="1.3"):
+            cfg = compose("config", overrides=[
+                "+experiment=demo", f"dataset.root={tmp_path / f'data{distortion}'}",
+                f"dataset.distortion={distortion}", "dataset.frames=20",
+                "dataset.all_cameras=${dataset.cameras}", "overlays=0", "progress=false"])
+        errors[distortion] = run(cfg, tmp_path / f"run{distortion}")["mean_marker_error_mm"]
+    assert errors[0.0] < 25
+    assert abs(errors[1.0] - errors[0.0]) < 3, errors
