@@ -51,10 +51,10 @@ table1: $(STAMP) ## Cano Table 1 and Fig. 3 for this machine: CMA-ES frame times
 table2: $(STAMP) ## Cano Table 2 for this machine: time per model-view per backend and mesh; outputs/tables/table2.*
 	$(BENCH) table2
 
-# Paper tables and figures: each runs (or resumes) its sweep into outputs/sweeps/<name>/<scale>/
-# (which ends by writing runs.csv and frames.csv there), then makes the table or figure. SCALE=smoke|default|paper;
-# SWEEP_ARGS adds overrides (e.g. hydra/launcher=slurm). The Cano targets time their runs,
-# so they run one job at a time.
+# Paper tables and figures: each runs (or resumes) its sweep into outputs/sweeps/<name>/<scale>/,
+# which ends by writing runs.csv and frames.csv there, then makes the table or figure.
+# SCALE=smoke|default|paper; SWEEP_ARGS adds overrides (e.g. hydra/launcher=slurm). The Cano
+# targets time their runs, so they run one job at a time.
 SCALE      ?= smoke
 SWEEP_ARGS ?=
 define paper_sweep

@@ -28,9 +28,11 @@ from omegaconf import DictConfig
 
 from mmocap import registry
 from mmocap.cli import _guarded
+from mmocap.stages.evaluation import write_json_atomic
 from mmocap.stages.results import ResultsStore, export, now, provenance, run_key, store_folder
 
 log = logging.getLogger(__name__)
+
 
 def sweep_overrides(config: DictConfig) -> dict[str, list[str]]:
     """The values each key of the sweep takes, as the basic sweeper combines them: the
@@ -61,12 +63,12 @@ class SweepProgress(Callback):
 
     def on_multirun_start(self, config: DictConfig, **kwargs) -> None:
         sweep_dir = Path(config.hydra.sweep.dir)
-        values = _guarded(lambda: sweep_overrides(config))
+        values = sweep_overrides(config)
         _guarded(lambda: check_plugins(values))
         total = math.prod(len(v) for v in values.values())
         sweep_dir.mkdir(parents=True, exist_ok=True)
         store = ResultsStore(store_folder(config, sweep_dir))
-        already = len(list(store.records_dir.glob("*.json"))) if store.records_dir.is_dir() else 0
+        already = len(store.run_ids())
         info = {
             "session": f"{now()}-{os.getpid()}",
             "started": time.time(),
@@ -78,8 +80,7 @@ class SweepProgress(Callback):
             "launcher": config.hydra.launcher.get("_target_"),
             "provenance": provenance(),
         }
-        (sweep_dir / "sweep.json.tmp").write_text(json.dumps(info, indent=2))
-        os.replace(sweep_dir / "sweep.json.tmp", sweep_dir / "sweep.json")
+        write_json_atomic(sweep_dir / "sweep.json", info)
         log.info("sweep of %d runs into %s (%d records already in the store)", total, sweep_dir, already)
 
     def on_job_end(self, config: DictConfig, job_return: JobReturn, **kwargs) -> None:
@@ -100,7 +101,7 @@ class SweepProgress(Callback):
 
     def on_multirun_end(self, config: DictConfig, **kwargs) -> None:
         folder = store_folder(config, config.hydra.sweep.dir)
-        if ResultsStore(folder).records():
+        if ResultsStore(folder).run_ids():
             runs_csv, frames_csv = export(folder)
             log.info("sweep done: %s, %s", runs_csv, frames_csv)
 

@@ -24,7 +24,6 @@ import datetime
 import hashlib
 import importlib.metadata
 import json
-import logging
 import platform
 import socket
 import subprocess
@@ -38,8 +37,6 @@ from omegaconf import DictConfig, OmegaConf
 
 from mmocap.errors import DataError
 from mmocap.stages.evaluation import write_json_atomic
-
-log = logging.getLogger(__name__)
 
 # Top-level config keys that do not change a run's result.
 NOT_IN_KEY = ("hydra", "progress", "overlays", "results", "scale")
@@ -137,10 +134,13 @@ class ResultsStore:
                 return record
         return None
 
+    def run_ids(self) -> list[str]:
+        """The run_id of every finished run, sorted."""
+        return sorted(p.stem for p in self.records_dir.glob("*.json")) if self.records_dir.is_dir() else []
+
     def records(self) -> list[dict]:
         """Every record, in run_id order."""
-        paths = sorted(self.records_dir.glob("*.json")) if self.records_dir.is_dir() else []
-        return [self.get(p.stem) for p in paths]
+        return [self.get(run_id) for run_id in self.run_ids()]
 
 
 def make_record(cfg: DictConfig, summary: dict, frames: list[dict], wall_seconds: float,
