@@ -50,8 +50,12 @@ FRAME_COLUMNS = ["run_id", "frame", "marker_error_mm"]
 
 def key_config(cfg: DictConfig) -> dict:
     """The resolved config that identifies a run: everything but ``NOT_IN_KEY``."""
-    resolved = OmegaConf.to_container(cfg, resolve=True)
-    return {k: v for k, v in resolved.items() if k not in NOT_IN_KEY}
+    kept = {}
+    for key in cfg:
+        if key not in NOT_IN_KEY:
+            node = cfg[key]  # interpolations resolve against the whole config
+            kept[key] = OmegaConf.to_container(node, resolve=True) if OmegaConf.is_config(node) else node
+    return kept
 
 
 def run_key(cfg: DictConfig) -> str:
