@@ -9,7 +9,9 @@ import time
 
 import pandas as pd
 import pytest
+from hydra import compose, initialize_config_dir
 
+from mmocap.cli import CONFIG_PATH
 from tests.e2e.test_cli import mmocap, overrides
 
 
@@ -120,3 +122,18 @@ def test_a_bad_sweep_fails_before_any_job(tiny_sequence, tmp_path, extra, messag
     assert message in out.stderr
     assert "Traceback" not in out.stderr
     assert not records(sweep) and not (sweep / "0").exists()
+
+
+# conf/hydra/launcher/<name>, the plugin it extends, its launcher class, the extra installing it
+LAUNCHERS = [("local", "hydra_joblib_launcher", "JoblibLauncher", None),
+             ("slurm", "hydra_submitit_launcher", "SlurmLauncher", "slurm"),
+             ("ray_cpu", "hydra_ray_launcher", "RayLauncher", "ray")]
+
+
+@pytest.mark.parametrize("name, plugin, target, extra", LAUNCHERS, ids=[launcher[0] for launcher in LAUNCHERS])
+def test_launcher_configs_compose(name, plugin, target, extra):
+    if importlib.util.find_spec(f"hydra_plugins.{plugin}") is None:
+        pytest.skip(f"{plugin} not installed (pip install mmocap[{extra}])")
+    with initialize_config_dir(config_dir=CONFIG_PATH, version_base="1.3"):
+        cfg = compose("config", ["+experiment=table4", f"hydra/launcher={name}"], return_hydra_config=True)
+    assert cfg.hydra.launcher._target_.endswith(target)
