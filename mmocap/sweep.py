@@ -2,8 +2,8 @@
 
 Configured in ``conf/config.yaml`` under ``hydra.callbacks``. For a multirun it
 
-- checks, before any job starts, that every optimiser and evaluator named in the sweep is
-  installed, and that the sweep folder is not a single run's;
+- checks, before any job starts, that every optimiser and evaluator the sweep names
+  (``optimizer.name=...``, ``evaluator.name=...``) is installed;
 - writes ``sweep.json`` into the sweep folder: the number of jobs, the command-line
   overrides, the sweeper's parameters, the launcher, git commit, package versions, host;
 - logs after each job how many runs of the sweep are done and about how long is left
