@@ -3,7 +3,8 @@
 Configured in ``conf/config.yaml`` under ``hydra.callbacks``. For a multirun it
 
 - checks, before any job starts, that every optimiser and evaluator the sweep names
-  (``optimizer.name=...``, ``evaluator.name=...``) is installed;
+  (``optimizer.name=...``, ``evaluator.name=...``) is installed, and that the launcher can
+  run its evaluators;
 - writes ``sweep.json`` into the sweep folder: the number of jobs, the command-line
   overrides, the sweeper's parameters, the launcher, git commit, package versions, host;
 - logs after each job how many runs of the sweep are done and about how long is left
@@ -28,6 +29,7 @@ from omegaconf import DictConfig
 
 from mmocap import registry
 from mmocap.cli import _guarded
+from mmocap.errors import ConfigError
 from mmocap.stages.evaluation import write_json_atomic
 from mmocap.stages.results import ResultsStore, export, now, provenance, run_key, store_folder
 
@@ -49,13 +51,19 @@ def sweep_overrides(config: DictConfig) -> dict[str, list[str]]:
     return values
 
 
-def check_plugins(values: dict[str, list[str]]) -> None:
-    """ConfigError naming the first optimiser or evaluator name in the sweep
-    (``optimizer.name=...``, ``evaluator.name=...``) that is not installed. Config-group
-    choices (``optimizer=nope``) Hydra checks itself when it composes the jobs."""
+def check_sweep(config: DictConfig, values: dict[str, list[str]]) -> None:
+    """ConfigError, before any job starts, for a sweep that cannot run: an optimiser or
+    evaluator name (``optimizer.name=...``, ``evaluator.name=...``) that is not installed, or
+    the multiprocessing evaluator under the joblib launcher, whose worker processes cannot
+    start a pool of their own. Config-group choices (``optimizer=nope``) Hydra checks itself
+    when it composes the jobs."""
     for kind in ("optimizer", "evaluator"):
         for name in values.get(f"{kind}.name", []):
             registry.load(kind, name)
+    evaluators = set(values.get("evaluator", []) + values.get("evaluator.name", [])) or {config.evaluator.name}
+    if "multiprocessing" in evaluators and "joblib" in str(config.hydra.launcher.get("_target_")):
+        raise ConfigError("evaluator=multiprocessing cannot start its workers inside the joblib launcher's "
+                          "processes: add hydra/launcher=basic (jobs in turn) or choose another evaluator")
 
 
 class SweepProgress(Callback):
@@ -64,7 +72,7 @@ class SweepProgress(Callback):
     def on_multirun_start(self, config: DictConfig, **kwargs) -> None:
         sweep_dir = Path(config.hydra.sweep.dir)
         values = sweep_overrides(config)
-        _guarded(lambda: check_plugins(values))
+        _guarded(lambda: check_sweep(config, values))
         total = math.prod(len(v) for v in values.values())
         sweep_dir.mkdir(parents=True, exist_ok=True)
         store = ResultsStore(store_folder(config, sweep_dir))

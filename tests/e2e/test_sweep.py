@@ -109,6 +109,7 @@ def test_an_experiment_runs_on_the_tiny_sequence(tiny_sequence, tmp_path):
 BAD_SWEEPS = [
     (["optimizer=cmaes,nope"], "optimizer/nope"),
     (["optimizer.name=cmaes,nope"], "unknown optimizer 'nope'; installed optimizers:"),
+    (["evaluator=numpy,multiprocessing"], "evaluator=multiprocessing cannot start its workers"),
     (["+experiment=table4", "scale=huge"], "scale/huge"),
     (["+experiment=table99"], "experiment/table99"),
 ]

@@ -14,7 +14,7 @@ from mmocap.cli import CONFIG_PATH
 from mmocap.errors import ConfigError, DataError
 from mmocap.stages import results
 from mmocap.stages.results import ResultsStore, export, load_runs, make_record, run_key
-from mmocap.sweep import check_plugins, format_seconds, progress_line, sweep_overrides
+from mmocap.sweep import check_sweep, format_seconds, progress_line, sweep_overrides
 
 EXPERIMENTS = sorted(p.stem for p in (Path(CONFIG_PATH) / "experiment").glob("*.yaml") if p.stem != "demo")
 
@@ -163,12 +163,18 @@ def test_command_line_values_replace_the_sweepers():
     assert values["seed"] == ["0", "1", "2"] and values["body.dof"] == ["28"]
 
 
-def test_unknown_optimizer_in_a_sweep_is_caught():
-    check_plugins({"optimizer.name": ["cmaes", "pso"]})
+def test_a_sweep_that_cannot_run_is_caught():
+    cfg = config("+experiment=table4", hydra=True)
+    check_sweep(cfg, {"optimizer.name": ["cmaes", "pso"]})
     with pytest.raises(ConfigError, match="unknown optimizer 'nope'; installed optimizers: .*cmaes"):
-        check_plugins({"optimizer.name": ["cmaes", "nope"]})
+        check_sweep(cfg, {"optimizer.name": ["cmaes", "nope"]})
     with pytest.raises(ConfigError, match="unknown evaluator 'gpu9'"):
-        check_plugins({"evaluator.name": ["gpu9"]})
+        check_sweep(cfg, {"evaluator.name": ["gpu9"]})
+    with pytest.raises(ConfigError, match="evaluator=multiprocessing cannot start .* hydra/launcher=basic"):
+        check_sweep(cfg, {"evaluator": ["numpy", "multiprocessing"]})
+    with pytest.raises(ConfigError, match="evaluator=multiprocessing"):
+        check_sweep(config("+experiment=table4", "evaluator=multiprocessing", hydra=True), {})
+    check_sweep(config("+experiment=table4", "hydra/launcher=basic", hydra=True), {"evaluator": ["multiprocessing"]})
 
 
 def test_progress_line_counts_this_session_and_estimates_time_left(tmp_path):
