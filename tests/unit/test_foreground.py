@@ -84,6 +84,29 @@ def test_opencl_uploads_the_packed_rows_as_they_are():
                                   reference_bits(mask).ravel())
 
 
+def test_opencl_counts_the_same_from_foreground_masks():
+    pytest.importorskip("pyopencl")
+    from mmocap.errors import ConfigError
+    from mmocap.evaluators import opencl
+    from mmocap.testing.evaluators import RIGS, BlobBody, masks, test_poses
+
+    try:
+        ev = opencl.OpenCLEvaluator()
+    except ConfigError:
+        pytest.skip("no OpenCL platform on this machine")
+    rig = "front-side-near"
+    plain = masks(rig, "true")
+    X = test_poses()
+    ev.setup(BlobBody(), RIGS[rig], plain)
+    expected = ev.counts(X)
+    foreground = [ForegroundMask(m) for m in plain]
+    ev.setup(BlobBody(), RIGS[rig], foreground)
+    assert all(p is m.packed for p, m in zip(ev._packed, foreground))    # used as they are
+    for got, want in zip(ev.counts(X), expected):
+        np.testing.assert_array_equal(got, want)
+    ev.close()
+
+
 def test_masks_are_undistorted_foreground_with_areas(sequence):
     fg = Foreground(sequence, HorprasertBackground, cache_dir=None)
     assert all(not cam.dist.any() for cam in fg.cameras)
@@ -206,8 +229,33 @@ def test_tracking_through_the_lens_matches_a_distortion_free_rendering(tmp_path,
         with initialize_config_dir(config_dir=CONFIG_PATH, version_base="1.3"):
             cfg = compose("config", overrides=[
                 "+experiment=demo", f"dataset.root={tmp_path / f'data{distortion}'}",
-                f"dataset.distortion={distortion}", "dataset.frames=20",
+                f"dataset.distortion={distortion}", "dataset.frames=10",
                 "dataset.all_cameras=${dataset.cameras}", "overlays=0", "progress=false"])
         errors[distortion] = run(cfg, tmp_path / f"run{distortion}")["mean_marker_error_mm"]
     assert errors[0.0] < 25
     assert abs(errors[1.0] - errors[0.0]) < 3, errors
+
+
+def test_quality_table_scores_each_method_per_camera(sequence):
+    from mmocap.stages.background import GaussianBackground
+    from mmocap.stages.foreground_quality import confusion, quality_table, scores, to_markdown
+
+    truth = np.zeros((4, 5), bool)
+    truth[1:3, 1:4] = True                     # 6 px
+    mask = np.zeros((4, 5), bool)
+    mask[1:3, 2:5] = True                      # 6 px, 4 of them on the truth
+    np.testing.assert_array_equal(confusion(mask, truth), [4, 2, 2])
+    np.testing.assert_allclose(scores(np.array([4, 2, 2])), [4 / 6, 4 / 6, 4 / 8])
+    assert np.isnan(scores(np.zeros(3))).all()
+
+    table = quality_table(sequence, {"horprasert": HorprasertBackground,
+                                     "gaussian": GaussianBackground}, frames=[0, 3])
+    names = [cam.name for cam in sequence.cameras]
+    assert list(table["camera"]) == [*names, "all"] * 2
+    assert list(table["method"]) == ["horprasert"] * 4 + ["gaussian"] * 4
+    assert table[["precision", "recall", "iou"]].stack().between(0, 1).all()
+    ours = table[table["method"] == "horprasert"].set_index("camera")
+    assert ours.loc["all", "iou"] > 0.7
+    text = to_markdown(table)
+    assert text.splitlines()[0] == "| camera | horprasert P / R / IoU | gaussian P / R / IoU |"
+    assert len(text.splitlines()) == 2 + len(names) + 1
