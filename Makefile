@@ -27,8 +27,10 @@ install: $(STAMP) ## Create .venv; install mmocap, its test dependencies and the
 demo: $(STAMP) ## Generate synthetic S1 walking, track it with CMA-ES, write outputs/demo/
 	$(PY) -m mmocap +experiment=demo
 
+# FOREGROUND_ARGS adds overrides, e.g. FOREGROUND_ARGS="dataset.subject=S2 dataset.action=gestures".
+FOREGROUND_ARGS ?=
 foreground: $(STAMP) ## Precision, recall and IoU of each background method per camera on the demo sequence; outputs/tables/foreground.*
-	$(PY) -m mmocap.stages.foreground_quality progress=false 'dataset.cameras=$${dataset.all_cameras}'
+	$(PY) -m mmocap.stages.foreground_quality progress=false 'dataset.cameras=$${dataset.all_cameras}' $(FOREGROUND_ARGS)
 
 optimizers: $(STAMP) ## Demo sequence with every built-in optimiser, holistic and hierarchical; table in outputs/tables/
 	rm -rf outputs/optimizers
