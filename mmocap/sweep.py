@@ -61,9 +61,11 @@ def check_sweep(config: DictConfig, values: dict[str, list[str]]) -> None:
         for name in values.get(f"{kind}.name", []):
             registry.load(kind, name)
     evaluators = set(values.get("evaluator", []) + values.get("evaluator.name", [])) or {config.evaluator.name}
-    if "multiprocessing" in evaluators and "joblib" in str(config.hydra.launcher.get("_target_")):
+    launcher = config.hydra.launcher
+    if "multiprocessing" in evaluators and "joblib" in str(launcher.get("_target_")) and launcher.n_jobs != 1:
         raise ConfigError("evaluator=multiprocessing cannot start its workers inside the joblib launcher's "
-                          "processes: add hydra/launcher=basic (jobs in turn) or choose another evaluator")
+                          "processes: add hydra.launcher.n_jobs=1 (jobs in turn, in this process) or "
+                          "choose another evaluator")
 
 
 class SweepProgress(Callback):

@@ -170,10 +170,11 @@ def test_a_sweep_that_cannot_run_is_caught():
         check_sweep(cfg, {"optimizer.name": ["cmaes", "nope"]})
     with pytest.raises(ConfigError, match="unknown evaluator 'gpu9'"):
         check_sweep(cfg, {"evaluator.name": ["gpu9"]})
-    with pytest.raises(ConfigError, match="evaluator=multiprocessing cannot start .* hydra/launcher=basic"):
+    with pytest.raises(ConfigError, match="evaluator=multiprocessing cannot start .* hydra.launcher.n_jobs=1"):
         check_sweep(cfg, {"evaluator": ["numpy", "multiprocessing"]})
     with pytest.raises(ConfigError, match="evaluator=multiprocessing"):
         check_sweep(config("+experiment=table4", "evaluator=multiprocessing", hydra=True), {})
+    check_sweep(config("+experiment=table4", "hydra.launcher.n_jobs=1", hydra=True), {"evaluator": ["multiprocessing"]})
     check_sweep(config("+experiment=table4", "hydra/launcher=basic", hydra=True), {"evaluator": ["multiprocessing"]})
 
 
