@@ -17,11 +17,11 @@ def minimise(f, space, seed, opt=None, asked=None):
     return objectives.minimise(f, space, seed, opt or DifferentialEvolution(), asked)
 
 
-def test_defaults_follow_table_3_and_the_yaml():
+def test_defaults_follow_table_3_but_cr_and_init_spread_and_the_yaml():
     opt = DifferentialEvolution()
     assert (opt.popsize, opt.n_placing, opt.n_leading, opt.n_correcting) == (10, 5, 5, 5)
-    assert (opt.cr, opt.f) == (0.9, 0.5)
-    assert (opt.init_spread, opt.include_x0) == (1.0, True)
+    assert (opt.cr, opt.f) == (0.5, 0.5)
+    assert (opt.init_spread, opt.include_x0) == (0.3, True)
     assert isinstance(opt, Optimizer)
     cfg = OmegaConf.load(Path(__file__).resolve().parents[2] / "conf/optimizer/de.yaml")
     built = make_optimizer(**{k: v for k, v in cfg.items() if k != "_target_"})
@@ -30,17 +30,17 @@ def test_defaults_follow_table_3_and_the_yaml():
 
 @pytest.mark.parametrize("name", TRACKING_LIKE)
 def test_default_setting_beats_random_search_and_f0(name):
-    # Means over 3 seeds at the tracking budget. N = 10 in 39-D converges early (from
-    # f(x0) = 1.56 / 240 / 867 to 0.96 / 100 / 462), yet far below random search in the box
-    # (7.9 / 636 / 2910); with F ~ 0 the donor is the placing vector, no new directions are
-    # made and DE stays near f(x0) (1.55 / 235 / 834).
+    # Means over 3 seeds at the tracking budget: from f(x0) = 1.56 / 240 / 867 to
+    # 0.14 / 5.5 / 70, far below random search in the box (7.9 / 636 / 2910); with F ~ 0
+    # the donor is the placing vector, few new directions are made and DE stalls
+    # (0.87 / 73 / 428).
     f = TRACKING_LIKE[name]
     space = box(D, 0.0, 1.0, 1.0, 1500)
     de = np.mean([minimise(f, space, s).fbest for s in range(3)])
     rand = np.mean([random_search(f, space, s) for s in range(3)])
     no_f = np.mean([minimise(f, space, s, DifferentialEvolution(f=1e-9)).fbest for s in range(3)])
     assert de < rand / 5
-    assert de < no_f / 1.2
+    assert de < no_f / 3
     assert de < 0.8 * f(np.zeros((1, D)))[0]
 
 
