@@ -22,7 +22,7 @@ from pathlib import Path
 
 from hydra.core.hydra_config import HydraConfig
 from hydra.core.override_parser.overrides_parser import OverridesParser
-from hydra.core.utils import JobReturn
+from hydra.core.utils import JobReturn, JobStatus
 from hydra.experimental.callback import Callback
 from hydra.types import RunMode
 from omegaconf import DictConfig
@@ -82,7 +82,6 @@ class SweepProgress(Callback):
         info = {
             "session": f"{now()}-{os.getpid()}",
             "started": time.time(),
-            "started_utc": now(),
             "jobs": total,
             "store": str(store.folder),
             "overrides": list(config.hydra.overrides.task),
@@ -93,6 +92,13 @@ class SweepProgress(Callback):
         write_json_atomic(sweep_dir / "sweep.json", info)
         log.info("sweep of %d runs into %s (%d records already in the store)", total, sweep_dir, already)
 
+    def on_job_start(self, config: DictConfig, **kwargs) -> None:
+        if HydraConfig.get().mode != RunMode.MULTIRUN:
+            return
+        run_id = run_key(config)
+        stores = [store_folder(config, HydraConfig.get().sweep.dir), *config.results.reuse]
+        self.found = any(ResultsStore(folder).path(run_id).is_file() for folder in stores)
+
     def on_job_end(self, config: DictConfig, job_return: JobReturn, **kwargs) -> None:
         if HydraConfig.get().mode != RunMode.MULTIRUN:
             return
@@ -101,8 +107,7 @@ class SweepProgress(Callback):
         if not info_path.is_file():
             return
         info = json.loads(info_path.read_text())
-        record = ResultsStore(store_folder(config, sweep_dir)).get(run_key(config))
-        ran = record is not None and record["finished"] >= info["started_utc"]
+        ran = not self.found and job_return.status == JobStatus.COMPLETED
         line = {"session": info["session"], "job": HydraConfig.get().job.num,
                 "status": job_return.status.name, "ran": ran}
         with open(sweep_dir / "progress.jsonl", "a") as handle:
