@@ -230,14 +230,16 @@ class HorprasertBackground(BackgroundModel):
 
     One channel: there ``alpha = I / E`` fits the single value exactly and ``CD`` is always 0,
     so chromaticity is undefined. On greyscale images ``CD`` is measured over the values of
-    the ``grey_window_px`` square around the pixel instead of the colour channels: a soft
-    shadow scales the local texture of the background, which the window's own brightness
-    factor absorbs, while a person replaces it, which ``CD`` measures. ``alpha`` stays the
-    pixel's own, and a pixel as bright as its background (``alpha_n`` between the thresholds)
-    is background whatever the window's ``CD``, so the mask does not grow by half a window
-    around the person. A hard shadow edge across strong texture can still show as a thin
-    line. ``grey_window_px=1`` leaves brightness alone to decide. Colour images use one
-    pixel's channels, as the paper.
+    the ``grey_window_px`` square around the pixel instead of the colour channels, after
+    fitting the background's values there with a brightness that may vary linearly across
+    the window, ``(a + b dx + c dy) E`` (weighted least squares, ``dx, dy`` the offsets from
+    the pixel): a soft shadow, penumbra included, scales the local texture of the
+    background, which the fit absorbs, while a person replaces it, which ``CD`` measures.
+    ``alpha`` stays the pixel's own, and a pixel as bright as its background (``alpha_n``
+    between the thresholds) is background whatever the window's ``CD``, so the mask does not
+    grow by half a window around the person. A hard shadow edge across strong texture can
+    still show as a thin line. ``grey_window_px=1`` leaves brightness alone to decide.
+    Colour images use one pixel's channels, as the paper.
 
     Departures from the paper: the bounds on ``alpha`` are in raw brightness (the paper's
     ``tau_alpha_lo`` is on the normalised one) and there is also an upper bound, so a white
@@ -263,7 +265,7 @@ class HorprasertBackground(BackgroundModel):
 
     def __init__(self, detection_rate: float = 0.999, min_sigma: float = 2.0,
                  shadow_min_alpha: float = 0.55, highlight_max_alpha: float = 1.5,
-                 grey_window_px: int = 3, open_px: int = 0, close_px: int = 3,
+                 grey_window_px: int = 5, open_px: int = 0, close_px: int = 3,
                  min_area_px: int = 50, largest_only: bool = False):
         self.detection_rate = _check_fraction("detection_rate", detection_rate)
         self.min_sigma = _check_positive("min_sigma", min_sigma)
@@ -288,10 +290,12 @@ class HorprasertBackground(BackgroundModel):
     def _window(self) -> int:
         return self.grey_window_px if self.mean.shape[2] == 1 else 1
 
-    def _box(self, x: np.ndarray) -> np.ndarray:
-        """(H, W) -> (H, W) sums over the ``_window()`` square around each pixel."""
-        w = self._window()
-        return cv2.boxFilter(x, -1, (w, w), normalize=False, borderType=cv2.BORDER_REFLECT)
+    def _window_sums(self, x: np.ndarray, kernels) -> np.ndarray:
+        """(H, W) -> (H, W, K): per pixel, the sum over its window of ``x`` times each of the
+        K (w, w) ``kernels`` (functions of the offset from the pixel)."""
+        x = x.astype(np.float64)
+        return np.stack([cv2.filter2D(x, -1, k, borderType=cv2.BORDER_REFLECT) for k in kernels],
+                        axis=-1)
 
     def _prepare(self) -> None:
         """Per-pixel terms of alpha and CD that depend on the background only."""
@@ -299,7 +303,19 @@ class HorprasertBackground(BackgroundModel):
         self._e_over_var = self.mean * self._inv_var
         e2 = (self.mean * self._e_over_var).sum(axis=2)
         self._e2 = np.maximum(e2, 1e-6)
-        self._e2_window = np.maximum(self._box(e2), 1e-6) if self._window() > 1 else self._e2
+        w = self._window()
+        if w > 1:
+            # brightness plane 1, dx, dy over the window: its weighted normal matrix, inverted
+            r = w // 2
+            dy, dx = np.mgrid[-r:r + 1, -r:r + 1].astype(np.float64)
+            self._plane = (np.ones((w, w)), dx, dy)
+            pairs = [(k, l) for k in range(3) for l in range(k, 3)]
+            sums = self._window_sums(self._e2, [self._plane[k] * self._plane[l] for k, l in pairs])
+            normal = np.empty(sums.shape[:2] + (3, 3))
+            for n, (k, l) in enumerate(pairs):
+                normal[..., k, l] = normal[..., l, k] = sums[..., n]
+            normal += 1e-9 * sums[..., :1, None] * np.eye(3)
+            self._plane_inverse = np.linalg.inv(normal).astype(np.float32)
 
     def distortions(self, image: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Brightness distortion ``alpha`` of each pixel and chromaticity distortion ``CD``
@@ -308,10 +324,14 @@ class HorprasertBackground(BackgroundModel):
         ie = (f * self._e_over_var).sum(axis=2)
         i2 = (f * f * self._inv_var).sum(axis=2)
         alpha = ie / self._e2
-        if self._window() > 1:
-            ie, i2 = self._box(ie), self._box(i2)
-        cd = np.sqrt(np.maximum(i2 - ie * ie / self._e2_window, 0.0))   # the vector's alpha
-        return alpha, cd
+        if self._window() == 1:
+            cd2 = i2 - alpha * ie                                   # sum((I - alpha E)^2 / s^2)
+        else:
+            # sum((I - (a + b dx + c dy) E)^2 / s^2) at the weighted least-squares a, b, c
+            v = self._window_sums(ie, self._plane)
+            fit = np.einsum("...ij,...j->...i", self._plane_inverse, v)
+            cd2 = self._window_sums(i2, self._plane[:1])[..., 0] - np.einsum("...i,...i->...", fit, v)
+        return alpha, np.sqrt(np.maximum(cd2, 0.0)).astype(np.float32)
 
     def _fit(self, frames: list[np.ndarray]) -> None:
         self.mean, std = _mean_std(frames, 0.0)

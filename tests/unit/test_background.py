@@ -204,3 +204,13 @@ def test_short_or_inconsistent_background_sets_name_the_camera(make):
 def test_bad_config_values_name_the_parameter(make, kwargs):
     with pytest.raises(ConfigError, match=f"background.{next(iter(kwargs))}"):
         make(**kwargs)
+
+
+def test_horprasert_greyscale_absorbs_a_penumbra_across_the_window():
+    model, background, rng = fitted(HorprasertBackground(close_px=0, min_area_px=0), 1)
+    light = np.full((H, W), 0.6)
+    light[:, :40] = 1.0
+    light[:, 40:80] = np.linspace(1.0, 0.6, 40)       # brightness falls 1 % per pixel
+    labels = model.classify(noisy(background * light, rng))
+    assert np.mean(labels[:, 50:] == SHADOW) > 0.95
+    assert np.mean(labels == FOREGROUND) < 0.005
