@@ -90,7 +90,7 @@ def main(argv=None) -> None:
     parser.add_argument("--csv", type=Path, default=Path("outputs/tables/foreground.csv"))
     parser.add_argument("--md", type=Path, default=Path("outputs/tables/foreground.md"))
     parser.add_argument("overrides", nargs="*", help="Hydra overrides, e.g. dataset.action=boxing")
-    args = parser.parse_args(argv)
+    args = parser.parse_intermixed_args(argv)
 
     def job():
         with initialize_config_dir(config_dir=CONFIG_PATH, version_base="1.3"):
