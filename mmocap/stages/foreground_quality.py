@@ -21,11 +21,12 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 from hydra import compose, initialize_config_dir
+from hydra.errors import ConfigCompositionException
 from hydra.utils import instantiate
 from tqdm.auto import tqdm
 
 from mmocap.cli import CONFIG_PATH, _guarded
-from mmocap.errors import DataError
+from mmocap.errors import ConfigError, DataError
 
 METHODS = ("horprasert", "gaussian", "mog2", "knn")
 COLUMNS = ["method", "camera", "precision", "recall", "iou"]
@@ -93,9 +94,14 @@ def main(argv=None) -> None:
     args = parser.parse_intermixed_args(argv)
 
     def job():
+        configs = {}
         with initialize_config_dir(config_dir=CONFIG_PATH, version_base="1.3"):
-            configs = {m: compose("config", overrides=[*args.overrides, f"background={m}"])
-                       for m in args.methods.split(",")}
+            for m in args.methods.split(","):
+                try:
+                    configs[m] = compose("config", overrides=[*args.overrides, f"background={m}"])
+                except ConfigCompositionException as exc:
+                    raise ConfigError(f"background={m}: {str(exc).splitlines()[0]} (the overrides "
+                                      "apply to every method of --methods)") from None
         cfg = next(iter(configs.values()))
         sequence = instantiate(cfg.dataset).open(progress=cfg.progress)
         if not (sequence.root / "silhouettes").is_dir():

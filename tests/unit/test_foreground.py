@@ -8,6 +8,7 @@ from pathlib import Path
 
 import cv2
 import numpy as np
+import pandas as pd
 import pytest
 
 from mmocap.data.sequence import Sequence
@@ -259,3 +260,32 @@ def test_quality_table_scores_each_method_per_camera(sequence):
     text = to_markdown(table)
     assert text.splitlines()[0] == "| camera | horprasert P / R / IoU | gaussian P / R / IoU |"
     assert len(text.splitlines()) == 2 + len(names) + 1
+
+
+def test_quality_command_writes_the_tables(tiny_sequence, tmp_path, capsys):
+    from mmocap.stages.foreground_quality import main
+    from tests.conftest import TINY
+
+    shutil.copytree(tiny_sequence, tmp_path / "data" / "S1_walking")
+    cameras = "[" + ",".join(TINY["cameras"]) + "]"
+    overrides = [f"dataset.root={tmp_path / 'data'}", f"dataset.frames={TINY['frames']}",
+                 f"dataset.cameras={cameras}", f"dataset.all_cameras={cameras}",
+                 f"dataset.width={TINY['width']}", f"dataset.height={TINY['height']}",
+                 f"dataset.background_frames={TINY['background_frames']}",
+                 f"dataset.seed={TINY['seed']}", "progress=false"]
+    csv, md = tmp_path / "t" / "fg.csv", tmp_path / "t" / "fg.md"
+    # options and overrides intermixed
+    main([*overrides[:3], "--methods", "horprasert,mog2", "--csv", str(csv), *overrides[3:],
+          "--md", str(md)])
+    table = pd.read_csv(csv)
+    assert list(table.columns) == ["method", "camera", "precision", "recall", "iou"]
+    assert len(table) == 2 * (len(TINY["cameras"]) + 1)
+    assert md.read_text() == capsys.readouterr().out
+    assert "S1 walking (4 frames)" in md.read_text()
+    for args in (["--methods", "horprasert", "background.detection_rate=2"],   # out of range
+                 ["background.detection_rate=0.99"]):                          # not in mog2
+        with pytest.raises(SystemExit) as exc:
+            main([*overrides, "--csv", str(csv), "--md", str(md), *args])
+        assert exc.value.code == 2
+        err = capsys.readouterr().err
+        assert err.startswith("mmocap: error:") and "background.detection_rate" in err
