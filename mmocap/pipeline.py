@@ -42,7 +42,8 @@ def run(cfg: DictConfig, output_dir: Path) -> dict:
     run_id = run_key(cfg)
     done = store.get(run_id) or store.adopt(run_id, cfg.results.reuse)
     if done is not None:
-        log.info("run %s already finished (record %s): skipped", run_id, store.path(run_id))
+        log.info("run %s already finished (record %s): skipped; delete the record to run it again",
+                 run_id, store.path(run_id))
         return done["summary"]
     started = now()
 
@@ -58,7 +59,7 @@ def run(cfg: DictConfig, output_dir: Path) -> dict:
         sequence = dataset.open(progress=cfg.progress)
     if body.subject.name != sequence.subject:
         raise ConfigError(f"body.subject is {body.subject.name} but the sequence shows {sequence.subject}")
-    foreground = Foreground(sequence, instantiate(cfg.background))
+    foreground = Foreground(sequence, instantiate(cfg.background), cache_dir=cfg.foreground_cache)
     truth = sequence.markers()
     n_frames = sequence.n_frames if cfg.tracking.frames is None else int(cfg.tracking.frames)
 

@@ -39,7 +39,7 @@ from mmocap.errors import DataError
 from mmocap.stages.evaluation import write_json_atomic
 
 # Top-level config keys that do not change a run's result.
-NOT_IN_KEY = ("hydra", "progress", "overlays", "results", "scale")
+NOT_IN_KEY = ("hydra", "progress", "overlays", "results", "scale", "foreground_cache")
 
 RUN_COLUMNS = ["run_id", "subject", "action", "sequence", "seed", "optimizer", "strategy",
                "algorithm", "dof", "evaluations", "vertices", "backend", "frames",

@@ -18,7 +18,7 @@ def test_tracking_recovers_the_pose_from_a_perturbed_start(tiny_sequence, tmp_pa
     seq = Sequence.open(tiny_sequence)
     seq.meta["x0"] = (seq.x0 + np.r_[30.0, -20.0, 25.0, np.full(48, 0.06)]).tolist()
     body = BodyModel("S1", vertices=13695)
-    fg = Foreground(seq, functools.partial(GaussianBackground))
+    fg = Foreground(seq, functools.partial(GaussianBackground), cache_dir=tmp_path / "cache")
     truth = seq.markers()
     start_error = marker_error(body.markers(body.clip(seq.x0[None])), truth[:1])[0]
     log = FrameLog(tmp_path / "frames.csv")
