@@ -24,7 +24,9 @@ $(STAMP): pyproject.toml $(PLUGIN_FILES)
 
 install: $(STAMP) ## Create .venv; install mmocap, its test dependencies and the example plugins
 
+# The demo tracks afresh each time (a run's record would otherwise make it a no-op).
 demo: $(STAMP) ## Generate synthetic S1 walking, track it with CMA-ES, write outputs/demo/
+	rm -rf outputs/demo
 	$(PY) -m mmocap +experiment=demo
 
 # FOREGROUND_ARGS adds overrides, e.g. FOREGROUND_ARGS="dataset.subject=S2 dataset.action=gestures".
@@ -33,7 +35,7 @@ foreground: $(STAMP) ## Precision, recall and IoU of each background method per 
 	$(PY) -m mmocap.stages.foreground_quality progress=false 'dataset.cameras=$${dataset.all_cameras}' $(FOREGROUND_ARGS)
 
 # The OpenCL evaluator counts exactly as numpy does (the conformance suite) and is faster.
-optimizers: $(STAMP) ## Demo sequence with every built-in optimiser, holistic and hierarchical (about 8 min); table in outputs/tables/
+optimizers: $(STAMP) ## Demo sequence with every built-in optimiser, holistic and hierarchical (about 3 min); table in outputs/tables/
 	rm -rf outputs/optimizers
 	$(PY) -m mmocap -m +experiment=demo optimizer=cmaes,de,pso,apf,psapf strategy=holistic,hierarchical \
 		evaluator=opencl overlays=0 progress=false hydra.sweep.dir=outputs/optimizers
