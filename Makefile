@@ -10,7 +10,7 @@ PLUGIN_FILES  := $(shell find $(PLUGINS) -name '*.py' -o -name '*.toml' -o -name
 
 .DEFAULT_GOAL := help
 .PHONY: help install demo foreground optimizers test test-all clean bench table1 table2
-.PHONY: tables table4 table5 table6 table7 fig7 fig10 cano_table3 fig4
+.PHONY: tables table4 table5 table6 table7 fig7 fig10 cano_table3 fig4 fig5
 
 help: ## Show this help
 	@grep -hE '^[a-zA-Z0-9_-]+:.*## ' $(MAKEFILE_LIST) | awk 'BEGIN {FS = ":.*## "}; {printf "  \033[36m%-12s\033[0m %s\n", $$1, $$2}'
@@ -67,7 +67,7 @@ define paper_sweep
 	$(PY) -m mmocap.report.paper $(1) outputs/sweeps/$(1)/$(SCALE)
 endef
 
-tables: table4 table5 table6 table7 fig7 fig10 cano_table3 fig4 ## Every paper table and figure at SCALE (smoke: minutes)
+tables: table4 table5 table6 table7 fig7 fig10 cano_table3 fig4 fig5 ## Every paper table and figure at SCALE (smoke: minutes)
 
 table4: $(STAMP) ## Yeguas Table 4: ranks of the 8 algorithms, 39 DOF, per budget
 	$(call paper_sweep,table4)
@@ -92,6 +92,12 @@ cano_table3: $(STAMP) ## Cano Table 3: CMA-ES error per mesh level x evaluations
 
 fig4: $(STAMP) ## Cano Fig. 4: time vs error per mesh x evaluations x backend, Pareto front (reuses cano_table3 runs)
 	$(call paper_sweep,fig4,hydra.launcher.n_jobs=1)
+
+fig5: $(STAMP) ## Cano Fig. 5: the tracked model over S1 walking, first and last of 20 frames (one run, any SCALE)
+	rm -rf outputs/fig5
+	$(PY) -m mmocap +experiment=fig5 progress=false
+	@mkdir -p outputs/figures
+	for f in outputs/fig5/overlays/*.png; do cp $$f outputs/figures/fig5_$$(basename $$f); done
 
 test: $(STAMP) ## Run the fast test suite
 	$(PY) -m pytest -q

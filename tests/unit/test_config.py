@@ -42,6 +42,14 @@ def test_demo_experiment_composes():
     assert cfg.tracking.evaluations == 1500 and cfg.body.dof == 39
 
 
+def test_fig5_experiment_is_the_cano_recommended_configuration():
+    with initialize_config_dir(config_dir=str(CONF), version_base="1.3"):
+        cfg = compose("config", overrides=["+experiment=fig5"], return_hydra_config=True)
+    assert cfg.hydra.run.dir == "outputs/fig5" and cfg.overlays == 2
+    assert (cfg.body.vertices, cfg.tracking.evaluations, cfg.evaluator.name) == (27393, 1500, "opencl")
+    assert (cfg.dataset.subject, cfg.dataset.action) == ("S1", "walking")
+
+
 def test_builtins_are_registered_as_entry_points():
     assert {"cmaes"} <= set(registry.available("optimizer"))
     assert {"naive", "numpy"} <= set(registry.available("evaluator"))

@@ -16,7 +16,9 @@ from mmocap.stages import results
 from mmocap.stages.results import ResultsStore, export, load_runs, make_record, run_key
 from mmocap.sweep import check_sweep, format_seconds, progress_line, sweep_overrides
 
-EXPERIMENTS = sorted(p.stem for p in (Path(CONFIG_PATH) / "experiment").glob("*.yaml") if p.stem != "demo")
+SINGLE_RUNS = ("demo", "fig5")   # experiments that are one run, not a sweep
+EXPERIMENTS = sorted(p.stem for p in (Path(CONFIG_PATH) / "experiment").glob("*.yaml")
+                     if p.stem not in SINGLE_RUNS)
 
 
 def config(*overrides, hydra=False):
