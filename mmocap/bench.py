@@ -35,6 +35,7 @@ import pandas as pd
 from mmocap import registry
 from mmocap.body.model import BodyModel
 from mmocap.data.synthetic import CAMERA_RING, camera_rig
+from mmocap.pipeline import TimedEvaluator
 from mmocap.stages.tracking import Holistic
 
 BACKENDS = ("naive", "numpy", "multiprocessing", "opencl", "multidevice")
@@ -77,20 +78,6 @@ def model_view_us(ev, scene: Scene, population: int, repeats: int) -> float:
     return best / population * 1e6
 
 
-class _Timed:
-    """An evaluator wrapper that adds up the time spent in calls."""
-
-    def __init__(self, ev):
-        self.ev, self.seconds = ev, 0.0
-
-    def __call__(self, X: np.ndarray) -> np.ndarray:
-        start = time.perf_counter()
-        try:
-            return self.ev(X)
-        finally:
-            self.seconds += time.perf_counter() - start
-
-
 def frame_ms(ev, scene: Scene, budget: int, frames: int) -> tuple[float, float]:
     """Mean (frame, solutions) time in ms of CMA-ES on ``frames`` frames of ``budget``."""
     strategy, total, solutions = Holistic(), 0.0, 0.0
@@ -99,7 +86,7 @@ def frame_ms(ev, scene: Scene, budget: int, frames: int) -> tuple[float, float]:
     ev(scene.candidates(2))  # warm-up: kernels, caches, workers
     for _ in range(frames):
         optimizer = registry.make_optimizer("cmaes")
-        timed = _Timed(ev)
+        timed = TimedEvaluator(ev)
         x_prev = scene.pose + scene.noise(rng, 1, 0.05)[0]
         start = time.perf_counter()
         ev.setup(scene.body, scene.cameras, scene.foreground)
