@@ -42,6 +42,7 @@ log = logging.getLogger(__name__)
 KERNEL = Path(__file__).with_name("kernels") / "silhouette.cl"
 _PID_VAR = "MMOCAP_POCL_CACHE_PID"
 _PAD = 16  # PAD of the kernel
+_BLOCK = 32  # BLOCK of the kernel: vertices per culling cone
 
 
 def _private_pocl_cache() -> None:
@@ -220,6 +221,7 @@ class OpenCLEvaluator(SilhouetteEvaluator):
 
     def _prepare(self) -> None:
         vertices, start = _vertex_arrays(self.body)
+        cones = _culling_cones(vertices)
         # a mask with a spare word (see the kernel's stamp) or a padded layer (see PAD),
         # whichever is larger, rounded up to a multiple of 8
         words = max(max((cam.width + 31) // 32 * cam.height + 1,
@@ -233,7 +235,7 @@ class OpenCLEvaluator(SilhouetteEvaluator):
                 raise ConfigError(f"a {max(cam.width for cam in self.cameras)} px wide mask needs "
                                   f"{4 * self._mask_words} bytes of local memory; "
                                   f"{lane.device.name.strip()!r} has {lane.device.local_mem_size}")
-            lane.upload(vertices=vertices, start=start, shapes=shapes,
+            lane.upload(vertices=vertices, start=start, cones=cones, shapes=shapes,
                         fg=np.concatenate([_pack_bits(m, self._mask_words, p) for m, p in
                                            zip(self.foreground, self._packed or [None] * len(self.foreground))]))
 
@@ -271,7 +273,7 @@ class OpenCLEvaluator(SilhouetteEvaluator):
             cl.enqueue_copy(lane.queue, geo, geometry[views], is_blocking=False)
             cl.enqueue_copy(lane.queue, sid, sides[views], is_blocking=False)
             f = lane.frame
-            lane.kernel.set_args(f["vertices"], f["start"], geo, sid, f["shapes"],
+            lane.kernel.set_args(f["vertices"], f["start"], f["cones"], geo, sid, f["shapes"],
                                  f["fg"], np.int32(C), np.int32(J),
                                  cl.LocalMemory(4 * self._mask_words), out,
                                  np.int32(write_masks), np.int32(self._mask_words), img)
@@ -327,8 +329,9 @@ class MultiDeviceEvaluator(OpenCLEvaluator):
 
 def _vertex_arrays(body) -> tuple[np.ndarray, np.ndarray]:
     """The body's vertices for the kernel: (7, N4) float64 rest x, y, z (mm), normal and
-    n . v, sorted by joint, then by normal direction; each joint's run padded to a multiple of 4 with zero-normal vertices
-    (always culled); (J + 1,) int32 first vertex of each joint, then N4."""
+    n . v, sorted by joint, then by normal direction; each joint's run padded to a multiple
+    of the kernel's BLOCK with zero-normal vertices (always culled); (J + 1,) int32 first
+    vertex of each joint, then N4."""
     joint = np.asarray(body.vertex_joint)
     J = len(body.joint_rest_positions)
     normals = np.asarray(body.rest_normals, np.float64)
@@ -338,7 +341,7 @@ def _vertex_arrays(body) -> tuple[np.ndarray, np.ndarray]:
     elevation = np.floor((np.clip(normals[:, 1], -1, 1) + 1) * 4)
     order = np.lexsort((elevation, azimuth, joint))
     sizes = np.bincount(joint, minlength=J)
-    padded = (sizes + 3) // 4 * 4
+    padded = (sizes + _BLOCK - 1) // _BLOCK * _BLOCK
     start = np.r_[0, np.cumsum(padded)].astype(np.int32)
     slots = start[joint[order]] + (np.arange(len(order)) - np.r_[0, np.cumsum(sizes)][joint[order]])
     points = np.asarray(body.rest_vertices, np.float64)[order]
@@ -347,6 +350,39 @@ def _vertex_arrays(body) -> tuple[np.ndarray, np.ndarray]:
     vertices[3:6, slots] = normals[order].T
     vertices[6, slots] = np.einsum("na,na->n", normals[order], points)
     return vertices, start
+
+
+def _culling_cones(vertices: np.ndarray) -> np.ndarray:
+    """(N4 / BLOCK, 9) float64 per block of BLOCK vertices of :func:`_vertex_arrays`: unit
+    axis a (3) and cos, sin of the half-angle of a cone holding the block's normals, then
+    the centre c (3, mm) and radius r (mm) of a sphere holding its positions.
+
+    Every vertex of a block is a back face when ``(a . d) cos - |a x d| sin > r`` for
+    ``d = c + R^T t`` (then ``n . (v + R^T t) >= n . d - r > 0`` for each of its normals n and
+    positions v), which the kernel tests once per block. A block whose normals span a half
+    space or more, or that holds only padding, gets r = +inf (never skipped) or -inf (always
+    skipped, as every padding vertex is culled) respectively. Cone and sphere are widened a
+    little, so that rounding cannot make the block test skip a vertex the per-vertex test
+    would keep."""
+    blocks = vertices.shape[1] // _BLOCK
+    points = vertices[:3].T.reshape(blocks, _BLOCK, 3)
+    normals = vertices[3:6].T.reshape(blocks, _BLOCK, 3)
+    real = np.any(normals != 0, axis=2)                                   # (blocks, BLOCK)
+    count = real.sum(axis=1)
+    mean = normals.sum(axis=1)
+    length = np.linalg.norm(mean, axis=1)
+    axis = mean / np.where(length > 0, length, 1.0)[:, None]
+    cos_to_axis = np.where(real, np.einsum("bka,ba->bk", normals, axis), 1.0)
+    half_angle = np.arccos(np.clip(cos_to_axis.min(axis=1), -1.0, 1.0)) + 1e-6
+    lo = np.where(real[..., None], points, np.inf).min(axis=1)
+    hi = np.where(real[..., None], points, -np.inf).max(axis=1)
+    with np.errstate(invalid="ignore"):                                   # inf - inf: padding only
+        centre = np.where(count[:, None] > 0, 0.5 * (lo + hi), 0.0)
+    radius = np.where(real, np.linalg.norm(points - centre[:, None], axis=2), 0.0).max(axis=1)
+    radius = radius * (1 + 1e-9) + 1e-6
+    radius[half_angle >= np.pi / 2] = np.inf
+    radius[count == 0] = -np.inf
+    return np.c_[axis, np.cos(half_angle), np.sin(half_angle), centre, radius]
 
 
 def _projections(M: np.ndarray, K: np.ndarray) -> np.ndarray:

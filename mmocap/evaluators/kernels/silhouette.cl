@@ -23,9 +23,14 @@
 #define ADD_INT(p, x) atomic_add((p), (x))
 #endif
 
+// Each joint's vertices come in blocks of BLOCK, each with a cone holding its normals and a
+// sphere holding its positions (see _culling_cones in opencl.py): a block that is certainly
+// all back faces is skipped with one test; the others are culled vertex by vertex.
+#define BLOCK 32
+
 // Vertices are processed 4 at a time in double4 (one AVX2 register on a CPU; PoCL warns
 // that double8 changes the ABI of its builtins on CPUs without AVX-512): the
-// vertex arrays are structures of arrays, each joint's run padded to a multiple of 4 with
+// vertex arrays are structures of arrays, each joint's run padded to a multiple of BLOCK with
 // zero-normal vertices, which the culling test always rejects.
 
 // Views whose joints all have one patch side s <= 32 (the usual case) take the layered
@@ -93,7 +98,9 @@ inline uint8 bit_count(uint8 v)
 __kernel __attribute__((reqd_work_group_size(LOCAL_SIZE, 1, 1)))
 void silhouette_counts(
     __global const double *vertices,   // (7, N4) rest x, y, z (mm), normal x, y, z, n . v
-    __global const int *joint_start,   // (J + 1,) first vertex of each joint (multiples of 4)
+    __global const int *joint_start,   // (J + 1,) first vertex of each joint (multiples of BLOCK)
+    __global const double *cones,      // (N4 / BLOCK, 9) normal cone axis (3), cos, sin,
+                                       // sphere centre (3, mm), radius (mm)
     __global const double *geometry,   // (nV, J, 16) A = [K[0] M; K[1] M; M[2]] (3x4,
                                        // row-major) and b = R^T t (3), 0, for M = [R t]
     __global const int *sides,         // (nV, J) patch side in px, 0 = joint dropped
@@ -140,60 +147,69 @@ void silhouette_counts(
                      a20 = m[8], a21 = m[9], a22 = m[10], a23 = m[11],
                      b0 = m[12], b1 = m[13], b2 = m[14];
         const int before = (s - 1) / 2, after = s / 2;
-        for (int v = joint_start[j] + 4 * lid; v < joint_start[j + 1]; v += 4 * LOCAL_SIZE) {
-            // culling first: n' . p = n . v + n . (R^T t); 4 back faces: nothing else to do
-            const double4 nx = vload4(0, vertices + 3 * N4 + v),
-                          ny = vload4(0, vertices + 4 * N4 + v),
-                          nz = vload4(0, vertices + 5 * N4 + v),
-                          nv = vload4(0, vertices + 6 * N4 + v);
-            const long4 facing = nv + (nx * b0 + ny * b1 + nz * b2) < 0.0;
-            if (!any(facing)) continue;
-            const double4 x = vload4(0, vertices + v), y = vload4(0, vertices + N4 + v),
-                          z = vload4(0, vertices + 2 * N4 + v);
-            const double4 pz = a20 * x + a21 * y + a22 * z + a23;
-            const long4 keep = facing & (pz > NEAR_MM);
-            if (!any(keep)) continue;
-            const double4 u = (a00 * x + a01 * y + a02 * z + a03) / pz;
-            const double4 w = (a10 * x + a11 * y + a12 * z + a13) / pz;
-            const int4 cx = floor_int(u + 0.5), cy = floor_int(w + 0.5);
-            if (layered) {
-                const int4 px = cx + PAD, py = cy + PAD;
-                const int4 in = convert_int4(keep) & (px >= 0) & (px < width + 2 * PAD)
-                                & (py >= 0) & (py < height + 2 * PAD);
-                lo4 = min(lo4, in ? py : lo4);
-                hi4 = max(hi4, in ? py : -1);
-                left4 = min(left4, in ? px : left4);
-                right4 = max(right4, in ? px : -1);
-                const int4 k = in ? py * pstride + (px >> 5) : 0;
-                const uint4 bit = as_uint4(in) & ((uint4)(1u) << (convert_uint4(px) & 31u));
-                OR_WORD(words + k.s0, bit.s0); OR_WORD(words + k.s1, bit.s1);
-                OR_WORD(words + k.s2, bit.s2); OR_WORD(words + k.s3, bit.s3);
-                continue;
-            }
-            if (s > 32) {  // large patches (a body part close to the camera): one by one
+        for (int blk = joint_start[j] / BLOCK + lid; blk < joint_start[j + 1] / BLOCK;
+             blk += LOCAL_SIZE) {
+            // the whole block behind its normals: n . (v + b) >= (a . d) cos - |a x d| sin - r > 0
+            __global const double *cone = cones + 9 * blk;
+            const double dx = cone[5] + b0, dy = cone[6] + b1, dz = cone[7] + b2;
+            const double ad = cone[0] * dx + cone[1] * dy + cone[2] * dz;
+            const double cross = sqrt(fmax(dx * dx + dy * dy + dz * dz - ad * ad, 0.0));
+            if (ad * cone[3] - cross * cone[4] > cone[8]) continue;
+            for (int v = BLOCK * blk; v < BLOCK * (blk + 1); v += 4) {
+                // culling first: n' . p = n . v + n . (R^T t); 4 back faces: nothing else to do
+                const double4 nx = vload4(0, vertices + 3 * N4 + v),
+                              ny = vload4(0, vertices + 4 * N4 + v),
+                              nz = vload4(0, vertices + 5 * N4 + v),
+                              nv = vload4(0, vertices + 6 * N4 + v);
+                const long4 facing = nv + (nx * b0 + ny * b1 + nz * b2) < 0.0;
+                if (!any(facing)) continue;
+                const double4 x = vload4(0, vertices + v), y = vload4(0, vertices + N4 + v),
+                              z = vload4(0, vertices + 2 * N4 + v);
+                const double4 pz = a20 * x + a21 * y + a22 * z + a23;
+                const long4 keep = facing & (pz > NEAR_MM);
+                if (!any(keep)) continue;
+                const double4 u = (a00 * x + a01 * y + a02 * z + a03) / pz;
+                const double4 w = (a10 * x + a11 * y + a12 * z + a13) / pz;
+                const int4 cx = floor_int(u + 0.5), cy = floor_int(w + 0.5);
+                if (layered) {
+                    const int4 px = cx + PAD, py = cy + PAD;
+                    const int4 in = convert_int4(keep) & (px >= 0) & (px < width + 2 * PAD)
+                                    & (py >= 0) & (py < height + 2 * PAD);
+                    lo4 = min(lo4, in ? py : lo4);
+                    hi4 = max(hi4, in ? py : -1);
+                    left4 = min(left4, in ? px : left4);
+                    right4 = max(right4, in ? px : -1);
+                    const int4 k = in ? py * pstride + (px >> 5) : 0;
+                    const uint4 bit = as_uint4(in) & ((uint4)(1u) << (convert_uint4(px) & 31u));
+                    OR_WORD(words + k.s0, bit.s0); OR_WORD(words + k.s1, bit.s1);
+                    OR_WORD(words + k.s2, bit.s2); OR_WORD(words + k.s3, bit.s3);
+                    continue;
+                }
+                if (s > 32) {  // large patches (a body part close to the camera): one by one
 #define STAMP(i) if (keep.s##i) stamp(words, stride, width, height, cx.s##i, cy.s##i, before, after, &lo, &hi)
+                    STAMP(0); STAMP(1); STAMP(2); STAMP(3);
+#undef STAMP
+                    continue;
+                }
+                // the 4 at once: clipping in int4, no branch per vertex; a rejected or
+                // clipped-away vertex gets an empty range of words [first, last]
+                const int4 col0 = max(cx - before, 0), col1 = min(cx + after, width - 1);
+                const int4 row0 = max(cy - before, 0), row1 = min(cy + after, height - 1);
+                const int4 ok = convert_int4(keep) & (col0 <= col1) & (row0 <= row1);
+                lo4 = min(lo4, ok ? row0 : height);
+                hi4 = max(hi4, ok ? row1 : -1);
+                const uint4 len = convert_uint4(clamp(col1 - col0 + 1, 1, 32));
+                const uint4 shift = convert_uint4(col0) & 31u;
+                const uint4 low = ((uint4)(0xffffffffu) >> (32u - len)) << shift;
+                // bits of the patch past word w0: (ones(len) << shift) >> 32, 0 when shift 0
+                const uint4 high = shift == 0u ? 0u : ((uint4)(0xffffffffu) >> (32u - len)) >> (32u - shift);
+                const int4 first = ok ? row0 * stride + (col0 >> 5) : 0;
+                const int4 last = ok ? row1 * stride + (col0 >> 5) : -1;
+#define STAMP(i) for (int k = first.s##i; k <= last.s##i; k += stride) { \
+                         OR_WORD(words + k, low.s##i); OR_WORD(words + k + 1, high.s##i); }
                 STAMP(0); STAMP(1); STAMP(2); STAMP(3);
 #undef STAMP
-                continue;
             }
-            // the 4 at once: clipping in int4, no branch per vertex; a rejected or
-            // clipped-away vertex gets an empty range of words [first, last]
-            const int4 col0 = max(cx - before, 0), col1 = min(cx + after, width - 1);
-            const int4 row0 = max(cy - before, 0), row1 = min(cy + after, height - 1);
-            const int4 ok = convert_int4(keep) & (col0 <= col1) & (row0 <= row1);
-            lo4 = min(lo4, ok ? row0 : height);
-            hi4 = max(hi4, ok ? row1 : -1);
-            const uint4 len = convert_uint4(clamp(col1 - col0 + 1, 1, 32));
-            const uint4 shift = convert_uint4(col0) & 31u;
-            const uint4 low = ((uint4)(0xffffffffu) >> (32u - len)) << shift;
-            // bits of the patch past word w0: (ones(len) << shift) >> 32, 0 when shift 0
-            const uint4 high = shift == 0u ? 0u : ((uint4)(0xffffffffu) >> (32u - len)) >> (32u - shift);
-            const int4 first = ok ? row0 * stride + (col0 >> 5) : 0;
-            const int4 last = ok ? row1 * stride + (col0 >> 5) : -1;
-#define STAMP(i) for (int k = first.s##i; k <= last.s##i; k += stride) { \
-                     OR_WORD(words + k, low.s##i); OR_WORD(words + k + 1, high.s##i); }
-            STAMP(0); STAMP(1); STAMP(2); STAMP(3);
-#undef STAMP
         }
     }
     lo = min(min(min(lo, lo4.s0), lo4.s1), min(lo4.s2, lo4.s3));
