@@ -42,7 +42,7 @@ log = logging.getLogger(__name__)
 KERNEL = Path(__file__).with_name("kernels") / "silhouette.cl"
 _PID_VAR = "MMOCAP_POCL_CACHE_PID"
 _PAD = 16  # PAD of the kernel
-_BLOCK = 32  # BLOCK of the kernel: vertices per culling cone
+_BLOCK = 32  # vertices per culling cone (the kernel's BLOCK)
 
 
 def _private_pocl_cache() -> None:
@@ -130,7 +130,7 @@ def program(ctx: cl.Context, local_size: int) -> cl.Program:
     """The kernel built for a context and work-group size, once per process."""
     key = (ctx.int_ptr, local_size)
     if key not in _PROGRAMS:
-        options = [f"-DLOCAL_SIZE={local_size}", f"-DNEAR_MM={NEAR_MM!r}"]
+        options = [f"-DLOCAL_SIZE={local_size}", f"-DNEAR_MM={NEAR_MM!r}", f"-DBLOCK={_BLOCK}"]
         _PROGRAMS[key] = cl.Program(ctx, KERNEL.read_text()).build(options=options)
     return _PROGRAMS[key]
 

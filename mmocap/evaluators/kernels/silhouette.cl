@@ -4,7 +4,7 @@
 // memory (1 bit per pixel, rows padded to 32-bit words) and count |M| and |M & F| with
 // popcounts against the camera's foreground bit mask, 8 words at a time.
 //
-// Compile-time constants: LOCAL_SIZE and NEAR_MM, so that a program is built once per
+// Compile-time constants: LOCAL_SIZE, NEAR_MM and BLOCK, so that a program is built once per
 // context. With LOCAL_SIZE 1 (CPU devices) a work-group is one work-item and plain
 // read-modify-writes replace the local atomics. With write_masks != 0 the kernel also
 // copies each view's mask to masks_out (nV, mask_words) for rendering.
@@ -26,7 +26,6 @@
 // Each joint's vertices come in blocks of BLOCK, each with a cone holding its normals and a
 // sphere holding its positions (see _culling_cones in opencl.py): a block that is certainly
 // all back faces is skipped with one test; the others are culled vertex by vertex.
-#define BLOCK 32
 
 // Vertices are processed 4 at a time in double4 (one AVX2 register on a CPU; PoCL warns
 // that double8 changes the ABI of its builtins on CPUs without AVX-512): the
