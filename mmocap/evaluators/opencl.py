@@ -353,13 +353,17 @@ def _vertex_arrays(body) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _culling_cones(vertices: np.ndarray) -> np.ndarray:
-    """(N4 / BLOCK, 9) float64 per block of BLOCK vertices of :func:`_vertex_arrays`: unit
-    axis a (3) and cos, sin of the half-angle of a cone holding the block's normals, then
-    the centre c (3, mm) and radius r (mm) of a sphere holding its positions.
+    """(N4 / BLOCK, 10) float64 per block of BLOCK vertices of :func:`_vertex_arrays`: unit
+    axis a (3) and cos, sin of the half-angle of a cone holding the block's normals, the
+    centre c (3, mm) and radius r (mm) of a sphere holding its positions, and 1 for a block
+    without padding (else 0).
 
     Every vertex of a block is a back face when ``(a . d) cos - |a x d| sin > r`` for
     ``d = c + R^T t`` (then ``n . (v + R^T t) >= n . d - r > 0`` for each of its normals n and
-    positions v), which the kernel tests once per block. A block whose normals span a half
+    positions v), and every vertex faces the camera when the largest ``n . d`` over the cone
+    plus r is negative; the kernel tests both once per block, and skips the block or the
+    per-vertex culling test. Padding is never facing, so only padding-free blocks take the
+    second shortcut. A block whose normals span a half
     space or more, or that holds only padding, gets r = +inf (never skipped) or -inf (always
     skipped, as every padding vertex is culled) respectively. Cone and sphere are widened a
     little, so that rounding cannot make the block test skip a vertex the per-vertex test
@@ -382,7 +386,8 @@ def _culling_cones(vertices: np.ndarray) -> np.ndarray:
     radius = radius * (1 + 1e-9) + 1e-6
     radius[half_angle >= np.pi / 2] = np.inf
     radius[count == 0] = -np.inf
-    return np.c_[axis, np.cos(half_angle), np.sin(half_angle), centre, radius]
+    full = (count == _BLOCK).astype(np.float64)
+    return np.c_[axis, np.cos(half_angle), np.sin(half_angle), centre, radius, full]
 
 
 def _projections(M: np.ndarray, K: np.ndarray) -> np.ndarray:

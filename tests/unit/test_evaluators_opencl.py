@@ -80,7 +80,7 @@ def test_multidevice_split_and_work_group_sizes_give_one_devices_counts(local_si
             np.testing.assert_array_equal(got, expected)
 
 
-def test_a_block_skipped_by_its_culling_cone_holds_only_back_faces():
+def test_culling_cones_skip_only_back_faces_and_pass_only_front_faces():
     from mmocap.body.model import BodyModel
     vertices, _ = opencl._vertex_arrays(BodyModel("S1", vertices=13695))
     cones = opencl._culling_cones(vertices)
@@ -89,7 +89,7 @@ def test_a_block_skipped_by_its_culling_cone_holds_only_back_faces():
     directions = rng.standard_normal((200, 3))
     bs = directions / np.linalg.norm(directions, axis=1, keepdims=True) * rng.uniform(500, 5000, (200, 1))
     blocks = vertices.shape[1] // opencl._BLOCK
-    skipped_total = 0
+    skipped_total = facing_total = 0
     for b in bs:
         d = cones[:, 5:8] + b
         ad = np.einsum("ka,ka->k", cones[:, :3], d)
@@ -98,5 +98,11 @@ def test_a_block_skipped_by_its_culling_cone_holds_only_back_faces():
         facing = (vertices[6] + vertices[3:6].T @ b < 0).reshape(blocks, opencl._BLOCK)
         assert not facing[skipped].any()
         skipped_total += skipped.sum()
+        dlen = np.linalg.norm(d, axis=1)
+        upper = np.where(ad <= dlen * cones[:, 3], ad * cones[:, 3] + cross * cones[:, 4], dlen)
+        all_facing = (cones[:, 9] != 0) & (upper + cones[:, 8] < 0)
+        assert facing[all_facing].all()
+        facing_total += all_facing.sum()
     # and the test is worth having: it skips about a quarter of the blocks (24 %)
     assert skipped_total > 0.2 * blocks * len(bs)
+    assert facing_total > 0.1 * blocks * len(bs)

@@ -25,7 +25,8 @@
 
 // Each joint's vertices come in blocks of BLOCK, each with a cone holding its normals and a
 // sphere holding its positions (see _culling_cones in opencl.py): a block that is certainly
-// all back faces is skipped with one test; the others are culled vertex by vertex.
+// all back faces is skipped with one test, one certainly all facing the camera skips the
+// per-vertex culling test; the others are culled vertex by vertex.
 
 // Vertices are processed 4 at a time in double4 (one AVX2 register on a CPU; PoCL warns
 // that double8 changes the ABI of its builtins on CPUs without AVX-512): the
@@ -98,8 +99,8 @@ __kernel __attribute__((reqd_work_group_size(LOCAL_SIZE, 1, 1)))
 void silhouette_counts(
     __global const double *vertices,   // (7, N4) rest x, y, z (mm), normal x, y, z, n . v
     __global const int *joint_start,   // (J + 1,) first vertex of each joint (multiples of BLOCK)
-    __global const double *cones,      // (N4 / BLOCK, 9) normal cone axis (3), cos, sin,
-                                       // sphere centre (3, mm), radius (mm)
+    __global const double *cones,      // (N4 / BLOCK, 10) normal cone axis (3), cos, sin,
+                                       // sphere centre (3, mm), radius (mm), 1 if no padding
     __global const double *geometry,   // (nV, J, 16) A = [K[0] M; K[1] M; M[2]] (3x4,
                                        // row-major) and b = R^T t (3), 0, for M = [R t]
     __global const int *sides,         // (nV, J) patch side in px, 0 = joint dropped
@@ -149,19 +150,27 @@ void silhouette_counts(
         for (int blk = joint_start[j] / BLOCK + lid; blk < joint_start[j + 1] / BLOCK;
              blk += LOCAL_SIZE) {
             // the whole block behind its normals: n . (v + b) >= (a . d) cos - |a x d| sin - r > 0
-            __global const double *cone = cones + 9 * blk;
+            __global const double *cone = cones + 10 * blk;
             const double dx = cone[5] + b0, dy = cone[6] + b1, dz = cone[7] + b2;
             const double ad = cone[0] * dx + cone[1] * dy + cone[2] * dz;
-            const double cross = sqrt(fmax(dx * dx + dy * dy + dz * dz - ad * ad, 0.0));
+            const double dd = dx * dx + dy * dy + dz * dz;
+            const double cross = sqrt(fmax(dd - ad * ad, 0.0));
             if (ad * cone[3] - cross * cone[4] > cone[8]) continue;
+            // the whole block, padding-free, facing: n . (v + b) <= max over the cone of n . d + r < 0
+            const double dlen = sqrt(dd);
+            const double upper = ad <= dlen * cone[3] ? ad * cone[3] + cross * cone[4] : dlen;
+            const int all_facing = cone[9] != 0.0 && upper + cone[8] < 0.0;
             for (int v = BLOCK * blk; v < BLOCK * (blk + 1); v += 4) {
                 // culling first: n' . p = n . v + n . (R^T t); 4 back faces: nothing else to do
-                const double4 nx = vload4(0, vertices + 3 * N4 + v),
-                              ny = vload4(0, vertices + 4 * N4 + v),
-                              nz = vload4(0, vertices + 5 * N4 + v),
-                              nv = vload4(0, vertices + 6 * N4 + v);
-                const long4 facing = nv + (nx * b0 + ny * b1 + nz * b2) < 0.0;
-                if (!any(facing)) continue;
+                long4 facing = (long4)(-1);
+                if (!all_facing) {
+                    const double4 nx = vload4(0, vertices + 3 * N4 + v),
+                                  ny = vload4(0, vertices + 4 * N4 + v),
+                                  nz = vload4(0, vertices + 5 * N4 + v),
+                                  nv = vload4(0, vertices + 6 * N4 + v);
+                    facing = nv + (nx * b0 + ny * b1 + nz * b2) < 0.0;
+                    if (!any(facing)) continue;
+                }
                 const double4 x = vload4(0, vertices + v), y = vload4(0, vertices + N4 + v),
                               z = vload4(0, vertices + 2 * N4 + v);
                 const double4 pz = a20 * x + a21 * y + a22 * z + a23;
