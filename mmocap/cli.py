@@ -38,7 +38,8 @@ def _user_error(exc: BaseException) -> MmocapError | None:
     return None
 
 
-def _guarded(job):
+def guarded(job):
+    """``job()``; a user error (also one Hydra wraps) becomes one line on stderr and exit 2."""
     try:
         return job()
     except (MmocapError, InstantiationException) as exc:
@@ -54,7 +55,7 @@ def track_app(cfg: DictConfig) -> None:
     from mmocap.pipeline import run
 
     output_dir = Path(HydraConfig.get().runtime.output_dir)
-    summary = _guarded(lambda: run(cfg, output_dir))
+    summary = guarded(lambda: run(cfg, output_dir))
     print(f"{summary['subject']} {summary['action']}: {summary['optimizer']} {summary['strategy']} "
           f"{summary['dof']} DOF, {summary['evaluations_per_frame']} evaluations/frame, "
           f"{summary['frames']} frames: mean marker error {summary['mean_marker_error_mm']:.1f} mm, "
@@ -63,7 +64,7 @@ def track_app(cfg: DictConfig) -> None:
 
 @hydra.main(config_path=CONFIG_PATH, config_name="config", version_base="1.3")
 def generate_app(cfg: DictConfig) -> None:
-    sequence = _guarded(lambda: instantiate(cfg.dataset).open(progress=cfg.progress))
+    sequence = guarded(lambda: instantiate(cfg.dataset).open(progress=cfg.progress))
     print(f"sequence ready: {sequence.root} ({sequence.n_frames} frames, "
           f"cameras {', '.join(c.name for c in sequence.cameras)})")
 
@@ -83,7 +84,7 @@ def export_humaneva(args: list[str]) -> None:
     parser.add_argument("--mocap-lead", type=int, default=4,
                         help="mocap frames, all markers missing, before the video starts (default 4)")
     options = parser.parse_args(args)
-    out = _guarded(lambda: export(options.sequence, options.out, trial=options.trial, images=options.images,
+    out = guarded(lambda: export(options.sequence, options.out, trial=options.trial, images=options.images,
                                   mocap_lead=options.mocap_lead))
     print(f"HumanEva-I layout written to {out}")
 

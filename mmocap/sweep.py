@@ -28,7 +28,7 @@ from hydra.types import RunMode
 from omegaconf import DictConfig
 
 from mmocap import registry
-from mmocap.cli import _guarded
+from mmocap.cli import guarded
 from mmocap.errors import ConfigError
 from mmocap.stages.evaluation import write_json_atomic
 from mmocap.stages.results import ResultsStore, export, now, provenance, run_key, store_folder
@@ -74,7 +74,7 @@ class SweepProgress(Callback):
     def on_multirun_start(self, config: DictConfig, **kwargs) -> None:
         sweep_dir = Path(config.hydra.sweep.dir)
         values = sweep_overrides(config)
-        _guarded(lambda: check_sweep(config, values))
+        guarded(lambda: check_sweep(config, values))
         total = math.prod(len(v) for v in values.values())
         sweep_dir.mkdir(parents=True, exist_ok=True)
         store = ResultsStore(store_folder(config, sweep_dir))

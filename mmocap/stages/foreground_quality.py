@@ -25,7 +25,7 @@ from hydra.errors import ConfigCompositionException
 from hydra.utils import instantiate
 from tqdm.auto import tqdm
 
-from mmocap.cli import CONFIG_PATH, _guarded
+from mmocap.cli import CONFIG_PATH, guarded
 from mmocap.errors import ConfigError, DataError
 
 METHODS = ("horprasert", "gaussian", "mog2", "knn")
@@ -109,7 +109,7 @@ def main(argv=None) -> None:
         factories = {m: instantiate(c.background) for m, c in configs.items()}
         return sequence, quality_table(sequence, factories, progress=cfg.progress)
 
-    sequence, table = _guarded(job)
+    sequence, table = guarded(job)
     for path in (args.csv, args.md):
         path.parent.mkdir(parents=True, exist_ok=True)
     table.to_csv(args.csv, index=False, float_format="%.4f")
