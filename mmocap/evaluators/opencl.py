@@ -126,11 +126,12 @@ def context(devices) -> cl.Context:
     return _CONTEXTS[key]
 
 
-def program(ctx: cl.Context, local_size: int) -> cl.Program:
-    """The kernel built for a context and work-group size, once per process."""
-    key = (ctx.int_ptr, local_size)
+def program(ctx: cl.Context, local_size: int, lanes: int) -> cl.Program:
+    """The kernel built for a context, work-group size and vector width, once per process."""
+    key = (ctx.int_ptr, local_size, lanes)
     if key not in _PROGRAMS:
-        options = [f"-DLOCAL_SIZE={local_size}", f"-DNEAR_MM={NEAR_MM!r}", f"-DBLOCK={_BLOCK}"]
+        options = [f"-DLOCAL_SIZE={local_size}", f"-DNEAR_MM={NEAR_MM!r}", f"-DBLOCK={_BLOCK}",
+                   f"-DLANES={lanes}"]
         _PROGRAMS[key] = cl.Program(ctx, KERNEL.read_text()).build(options=options)
     return _PROGRAMS[key]
 
@@ -151,7 +152,7 @@ def sub_devices(device, count: int) -> list:
 class _Lane:
     """One device with its queue, program and per-frame buffers."""
 
-    def __init__(self, device, ctx: cl.Context, local_size: int | None):
+    def __init__(self, device, ctx: cl.Context, local_size: int | None, lanes: int | None):
         if not device.endian_little:
             raise ConfigError(f"OpenCL device {device.name.strip()!r} is big-endian; the bit "
                               "masks need a little-endian device")
@@ -163,9 +164,13 @@ class _Lane:
         if not 1 <= int(local_size) <= device.max_work_group_size:
             raise ConfigError(f"local_size must be in [1, {device.max_work_group_size}] on "
                               f"{device.name.strip()!r}, got {local_size}")
+        if lanes is None:  # 8 where the device prefers double8 (AVX-512)
+            lanes = 8 if device.preferred_vector_width_double >= 8 else 4
+        if lanes not in (4, 8):
+            raise ConfigError(f"lanes must be 4 or 8 (or null: the device's preference), got {lanes!r}")
         self.device, self.ctx, self.local_size = device, ctx, int(local_size)
         self.queue = cl.CommandQueue(ctx, device)
-        self.kernel = cl.Kernel(program(ctx, self.local_size), "silhouette_counts")
+        self.kernel = cl.Kernel(program(ctx, self.local_size, lanes), "silhouette_counts")
         self.frame: dict[str, cl.Buffer] = {}
         self.batch: dict[str, tuple[int, cl.Buffer]] = {}
 
@@ -194,18 +199,20 @@ class OpenCLEvaluator(SilhouetteEvaluator):
         device: device index on that platform.
         local_size: work-items per (candidate, camera) work-group; None: 1 on a CPU, 64
             on other devices.
+        lanes: vertices per vector in the kernel, 4 or 8; None: 8 on devices that prefer
+            8 doubles per vector (AVX-512 CPUs), else 4. The counts do not depend on it.
     """
 
     def __init__(self, patch_scale: float = 1.0, platform=None, device: int = 0,
-                 local_size: int | None = None):
+                 local_size: int | None = None, lanes: int | None = None):
         super().__init__(patch_scale)
-        self._lanes = self._make_lanes(platform, device, local_size)
+        self._lanes = self._make_lanes(platform, device, local_size, lanes)
         self._weights = np.array([lane.device.max_compute_units for lane in self._lanes], float)
 
-    def _make_lanes(self, platform, device, local_size) -> list[_Lane]:
+    def _make_lanes(self, platform, device, local_size, lanes) -> list[_Lane]:
         dev = select_device(platform, device)
         log.info("OpenCL evaluator on %s (%s)", dev.name.strip(), dev.platform.name)
-        return [_Lane(dev, context([dev]), local_size)]
+        return [_Lane(dev, context([dev]), local_size, lanes)]
 
     @property
     def devices(self) -> list:
@@ -300,17 +307,18 @@ class MultiDeviceEvaluator(OpenCLEvaluator):
         devices: device indices on that platform, or None for all of them.
         sub_devices: when the selection is a single CPU device, split it into this many
             PoCL sub-devices (None: one per compute unit), each with its own queue.
-        local_size: as for :class:`OpenCLEvaluator`.
+        local_size, lanes: as for :class:`OpenCLEvaluator`.
 
     Candidates go to the devices in proportion to their compute units.
     """
 
     def __init__(self, patch_scale: float = 1.0, platform=None, devices=None,
-                 sub_devices: int | None = None, local_size: int | None = None):
+                 sub_devices: int | None = None, local_size: int | None = None,
+                 lanes: int | None = None):
         self._sub_devices = sub_devices
-        super().__init__(patch_scale, platform, devices, local_size)
+        super().__init__(patch_scale, platform, devices, local_size, lanes)
 
-    def _make_lanes(self, platform, devices, local_size) -> list[_Lane]:
+    def _make_lanes(self, platform, devices, local_size, lanes) -> list[_Lane]:
         if devices is None:
             chosen = select_platform(platform).get_devices()
         else:
@@ -324,7 +332,7 @@ class MultiDeviceEvaluator(OpenCLEvaluator):
                  ", ".join(d.name.strip() for d in chosen))
         # devices of one platform share a context, hence one program build
         ctx = context(chosen)
-        return [_Lane(d, ctx, local_size) for d in chosen]
+        return [_Lane(d, ctx, local_size, lanes) for d in chosen]
 
 
 def _vertex_arrays(body) -> tuple[np.ndarray, np.ndarray]:

@@ -9,3 +9,20 @@ class TestInstalledEvaluators(EvaluatorConformance):
     @pytest.fixture(params=sorted(registry.available("evaluator")))
     def evaluator_name(self, request):
         return request.param
+
+
+needs_opencl = pytest.mark.skipif("opencl" not in registry.available("evaluator"),
+                                  reason="the opencl evaluator is not installed")
+
+
+@needs_opencl
+class TestOpenCLWithFourLanes(EvaluatorConformance):
+    """The kernel's other vector width (the default is the device's preference)."""
+    name = "opencl"
+    params = {"lanes": 4}
+
+
+@needs_opencl
+class TestOpenCLWithEightLanes(EvaluatorConformance):
+    name = "opencl"
+    params = {"lanes": 8}

@@ -37,6 +37,7 @@ def test_no_platform_is_a_config_error_that_says_what_to_install():
     ({"platform": 42}, r"platform index 42 does not exist; there are \d+: \[0\]"),
     ({"platform": "no-such-vendor"}, r"no OpenCL platform matches platform='no-such-vendor'"),
     ({"local_size": 0}, r"local_size must be in \[1, \d+\]"),
+    ({"lanes": 16}, r"lanes must be 4 or 8 .*got 16"),
 ])
 def test_bad_device_selection_names_the_value(kwargs, message):
     with pytest.raises(ConfigError, match=message):

@@ -4,8 +4,8 @@
 // memory (1 bit per pixel, rows padded to 32-bit words) and count |M| and |M & F| with
 // popcounts against the camera's foreground bit mask, 8 words at a time.
 //
-// Compile-time constants: LOCAL_SIZE, NEAR_MM and BLOCK, so that a program is built once per
-// context. With LOCAL_SIZE 1 (CPU devices) a work-group is one work-item and plain
+// Compile-time constants: LOCAL_SIZE, NEAR_MM, BLOCK and LANES, so that a program is built
+// once per context. With LOCAL_SIZE 1 (CPU devices) a work-group is one work-item and plain
 // read-modify-writes replace the local atomics. With write_masks != 0 the kernel also
 // copies each view's mask to masks_out (nV, mask_words) for rendering.
 #pragma OPENCL EXTENSION cl_khr_fp64 : enable
@@ -28,10 +28,22 @@
 // all back faces is skipped with one test, one certainly all facing the camera skips the
 // per-vertex culling test; the others are culled vertex by vertex.
 
-// Vertices are processed 4 at a time in double4 (one AVX2 register on a CPU; PoCL warns
-// that double8 changes the ABI of its builtins on CPUs without AVX-512): the
-// vertex arrays are structures of arrays, each joint's run padded to a multiple of BLOCK with
-// zero-normal vertices, which the culling test always rejects.
+// Vertices are processed LANES (4 or 8, dividing BLOCK) at a time in vectors of that width:
+// one AVX2 register of doubles for 4, one AVX-512 register for 8. The vertex arrays are
+// structures of arrays, each joint's run padded to a multiple of BLOCK with zero-normal
+// vertices, which the culling test always rejects.
+#define CAT_(a, b) a##b
+#define CAT(a, b) CAT_(a, b)
+#define doubleV CAT(double, LANES)
+#define longV CAT(long, LANES)
+#define intV CAT(int, LANES)
+#define uintV CAT(uint, LANES)
+#define vloadV CAT(vload, LANES)
+#define vstoreV CAT(vstore, LANES)
+#define convert_intV CAT(convert_int, LANES)
+#define convert_uintV CAT(convert_uint, LANES)
+#define convert_doubleV CAT(convert_double, LANES)
+#define as_uintV CAT(as_uint, LANES)
 
 // Views whose joints all have one patch side s <= 32 (the usual case) take the layered
 // path: each vertex sets one bit, at its centre, in a layer padded by PAD px on every side
@@ -44,12 +56,27 @@
 
 // floor(t) as int, t clamped to [-CLAMP_PX, CLAMP_PX]; exact, and on PoCL much faster
 // than the floor, clamp and convert builtins together (measured).
-inline int4 floor_int(double4 t)
+inline intV floor_int(doubleV t)
 {
     t = t < -CLAMP_PX ? -CLAMP_PX : t;
     t = t > CLAMP_PX ? CLAMP_PX : t;
-    const int4 truncated = convert_int4(t);
-    return truncated + convert_int4(convert_double4(truncated) > t);   // true is -1
+    const intV truncated = convert_intV(t);
+    return truncated + convert_intV(convert_doubleV(truncated) > t);   // true is -1
+}
+
+// The smallest and the largest lane.
+inline int min_lane(const intV x)
+{
+    int a[LANES];
+    vstoreV(x, 0, a);
+    int m = a[0];
+    for (int i = 1; i < LANES; ++i) m = min(m, a[i]);
+    return m;
+}
+
+inline int max_lane(const intV x)
+{
+    return -min_lane(-x);
 }
 
 // Sets the bits of the patch of one kept vertex; widens the row range [*lo, *hi] it touched.
@@ -136,8 +163,8 @@ void silhouette_counts(
     barrier(CLK_LOCAL_MEM_FENCE);
 
     int lo = height + 2 * PAD, hi = -1;  // rows touched (padded rows when layered)
-    int4 lo4 = lo, hi4 = -1;
-    int4 left4 = width + 2 * PAD, right4 = -1;  // padded columns of the layer's centres
+    intV loV = lo, hiV = -1;
+    intV leftV = width + 2 * PAD, rightV = -1;  // padded columns of the layer's centres
     for (int j = 0; j < J; ++j) {
         const int s = sides[g * J + j];
         if (s == 0) continue;
@@ -160,72 +187,77 @@ void silhouette_counts(
             const double dlen = sqrt(dd);
             const double upper = ad <= dlen * cone[3] ? ad * cone[3] + cross * cone[4] : dlen;
             const int all_facing = cone[9] != 0.0 && upper + cone[8] < 0.0;
-            for (int v = BLOCK * blk; v < BLOCK * (blk + 1); v += 4) {
-                // culling first: n' . p = n . v + n . (R^T t); 4 back faces: nothing else to do
-                long4 facing = (long4)(-1);
+            for (int v = BLOCK * blk; v < BLOCK * (blk + 1); v += LANES) {
+                // culling first: n' . p = n . v + n . (R^T t); all back faces: nothing else to do
+                longV facing = (longV)(-1);
                 if (!all_facing) {
-                    const double4 nx = vload4(0, vertices + 3 * N4 + v),
-                                  ny = vload4(0, vertices + 4 * N4 + v),
-                                  nz = vload4(0, vertices + 5 * N4 + v),
-                                  nv = vload4(0, vertices + 6 * N4 + v);
+                    const doubleV nx = vloadV(0, vertices + 3 * N4 + v),
+                                  ny = vloadV(0, vertices + 4 * N4 + v),
+                                  nz = vloadV(0, vertices + 5 * N4 + v),
+                                  nv = vloadV(0, vertices + 6 * N4 + v);
                     facing = nv + (nx * b0 + ny * b1 + nz * b2) < 0.0;
                     if (!any(facing)) continue;
                 }
-                const double4 x = vload4(0, vertices + v), y = vload4(0, vertices + N4 + v),
-                              z = vload4(0, vertices + 2 * N4 + v);
-                const double4 pz = a20 * x + a21 * y + a22 * z + a23;
-                const long4 keep = facing & (pz > NEAR_MM);
+                const doubleV x = vloadV(0, vertices + v), y = vloadV(0, vertices + N4 + v),
+                              z = vloadV(0, vertices + 2 * N4 + v);
+                const doubleV pz = a20 * x + a21 * y + a22 * z + a23;
+                const longV keep = facing & (pz > NEAR_MM);
                 if (!any(keep)) continue;
-                const double4 u = (a00 * x + a01 * y + a02 * z + a03) / pz;
-                const double4 w = (a10 * x + a11 * y + a12 * z + a13) / pz;
-                const int4 cx = floor_int(u + 0.5), cy = floor_int(w + 0.5);
+                const doubleV u = (a00 * x + a01 * y + a02 * z + a03) / pz;
+                const doubleV w = (a10 * x + a11 * y + a12 * z + a13) / pz;
+                const intV cx = floor_int(u + 0.5), cy = floor_int(w + 0.5);
                 if (layered) {
-                    const int4 px = cx + PAD, py = cy + PAD;
-                    const int4 in = convert_int4(keep) & (px >= 0) & (px < width + 2 * PAD)
+                    const intV px = cx + PAD, py = cy + PAD;
+                    const intV in = convert_intV(keep) & (px >= 0) & (px < width + 2 * PAD)
                                     & (py >= 0) & (py < height + 2 * PAD);
-                    lo4 = min(lo4, in ? py : lo4);
-                    hi4 = max(hi4, in ? py : -1);
-                    left4 = min(left4, in ? px : left4);
-                    right4 = max(right4, in ? px : -1);
-                    const int4 k = in ? py * pstride + (px >> 5) : 0;
-                    const uint4 bit = as_uint4(in) & ((uint4)(1u) << (convert_uint4(px) & 31u));
-                    OR_WORD(words + k.s0, bit.s0); OR_WORD(words + k.s1, bit.s1);
-                    OR_WORD(words + k.s2, bit.s2); OR_WORD(words + k.s3, bit.s3);
+                    loV = min(loV, in ? py : loV);
+                    hiV = max(hiV, in ? py : -1);
+                    leftV = min(leftV, in ? px : leftV);
+                    rightV = max(rightV, in ? px : -1);
+                    int k[LANES];
+                    uint bit[LANES];
+                    vstoreV(in ? py * pstride + (px >> 5) : 0, 0, k);
+                    vstoreV(as_uintV(in) & ((uintV)(1u) << (convert_uintV(px) & 31u)), 0, bit);
+                    for (int i = 0; i < LANES; ++i) OR_WORD(words + k[i], bit[i]);
                     continue;
                 }
                 if (s > 32) {  // large patches (a body part close to the camera): one by one
-#define STAMP(i) if (keep.s##i) stamp(words, stride, width, height, cx.s##i, cy.s##i, before, after, &lo, &hi)
-                    STAMP(0); STAMP(1); STAMP(2); STAMP(3);
-#undef STAMP
+                    int kept[LANES], x0[LANES], y0[LANES];
+                    vstoreV(convert_intV(keep), 0, kept);
+                    vstoreV(cx, 0, x0);
+                    vstoreV(cy, 0, y0);
+                    for (int i = 0; i < LANES; ++i)
+                        if (kept[i]) stamp(words, stride, width, height, x0[i], y0[i], before, after, &lo, &hi);
                     continue;
                 }
-                // the 4 at once: clipping in int4, no branch per vertex; a rejected or
+                // all lanes at once: clipping in intV, no branch per vertex; a rejected or
                 // clipped-away vertex gets an empty range of words [first, last]
-                const int4 col0 = max(cx - before, 0), col1 = min(cx + after, width - 1);
-                const int4 row0 = max(cy - before, 0), row1 = min(cy + after, height - 1);
-                const int4 ok = convert_int4(keep) & (col0 <= col1) & (row0 <= row1);
-                lo4 = min(lo4, ok ? row0 : height);
-                hi4 = max(hi4, ok ? row1 : -1);
-                const uint4 len = convert_uint4(clamp(col1 - col0 + 1, 1, 32));
-                const uint4 shift = convert_uint4(col0) & 31u;
-                const uint4 low = ((uint4)(0xffffffffu) >> (32u - len)) << shift;
+                const intV col0 = max(cx - before, 0), col1 = min(cx + after, width - 1);
+                const intV row0 = max(cy - before, 0), row1 = min(cy + after, height - 1);
+                const intV ok = convert_intV(keep) & (col0 <= col1) & (row0 <= row1);
+                loV = min(loV, ok ? row0 : height);
+                hiV = max(hiV, ok ? row1 : -1);
+                const uintV len = convert_uintV(clamp(col1 - col0 + 1, 1, 32));
+                const uintV shift = convert_uintV(col0) & 31u;
+                int first[LANES], last[LANES];
+                uint low[LANES], high[LANES];
+                vstoreV(((uintV)(0xffffffffu) >> (32u - len)) << shift, 0, low);
                 // bits of the patch past word w0: (ones(len) << shift) >> 32, 0 when shift 0
-                const uint4 high = shift == 0u ? 0u : ((uint4)(0xffffffffu) >> (32u - len)) >> (32u - shift);
-                const int4 first = ok ? row0 * stride + (col0 >> 5) : 0;
-                const int4 last = ok ? row1 * stride + (col0 >> 5) : -1;
-#define STAMP(i) for (int k = first.s##i; k <= last.s##i; k += stride) { \
-                         OR_WORD(words + k, low.s##i); OR_WORD(words + k + 1, high.s##i); }
-                STAMP(0); STAMP(1); STAMP(2); STAMP(3);
-#undef STAMP
+                vstoreV(shift == 0u ? 0u : ((uintV)(0xffffffffu) >> (32u - len)) >> (32u - shift), 0, high);
+                vstoreV(ok ? row0 * stride + (col0 >> 5) : 0, 0, first);
+                vstoreV(ok ? row1 * stride + (col0 >> 5) : -1, 0, last);
+                for (int i = 0; i < LANES; ++i)
+                    for (int k = first[i]; k <= last[i]; k += stride) {
+                        OR_WORD(words + k, low[i]);
+                        OR_WORD(words + k + 1, high[i]);
+                    }
             }
         }
     }
-    lo = min(min(min(lo, lo4.s0), lo4.s1), min(lo4.s2, lo4.s3));
-    hi = max(max(max(hi, hi4.s0), hi4.s1), max(hi4.s2, hi4.s3));
-    MIN_INT(&row_lo, lo);
-    MAX_INT(&row_hi, hi);
-    MIN_INT(&col_lo, min(min(left4.s0, left4.s1), min(left4.s2, left4.s3)));
-    MAX_INT(&col_hi, max(max(right4.s0, right4.s1), max(right4.s2, right4.s3)));
+    MIN_INT(&row_lo, min(lo, min_lane(loV)));
+    MAX_INT(&row_hi, max(hi, max_lane(hiV)));
+    MIN_INT(&col_lo, min_lane(leftV));
+    MAX_INT(&col_hi, max_lane(rightV));
     barrier(CLK_LOCAL_MEM_FENCE);
 
     int model = 0, overlap = 0;
