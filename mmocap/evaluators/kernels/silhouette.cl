@@ -13,8 +13,8 @@
 
 #if LOCAL_SIZE == 1
 #define OR_WORD(p, x) (*(p) |= (x))
-#define MIN_INT(p, x) (*(p) = min(*(p), (x)))
-#define MAX_INT(p, x) (*(p) = max(*(p), (x)))
+#define MIN_INT(p, x) (*(p) = MIN(*(p), (x)))
+#define MAX_INT(p, x) (*(p) = MAX(*(p), (x)))
 #define ADD_INT(p, x) (*(p) += (x))
 #else
 #define OR_WORD(p, x) atomic_or((p), (x))
@@ -38,12 +38,20 @@
 #define longV CAT(long, LANES)
 #define intV CAT(int, LANES)
 #define uintV CAT(uint, LANES)
-#define vloadV CAT(vload, LANES)
-#define vstoreV CAT(vstore, LANES)
 #define convert_intV CAT(convert_int, LANES)
 #define convert_uintV CAT(convert_uint, LANES)
 #define convert_doubleV CAT(convert_double, LANES)
 #define as_uintV CAT(as_uint, LANES)
+
+// PoCL (3.0) calls builtins such as vload, vstore, any, min, max, clamp and popcount as
+// functions instead of inlining them, which made the loops below about twice as slow
+// (measured); they use plain operators instead. MIN and MAX work on scalars and vectors.
+#define MIN(a, b) ((a) < (b) ? (a) : (b))
+#define MAX(a, b) ((a) > (b) ? (a) : (b))
+// LANES doubles at p, an offset into a vertex array that is a multiple of LANES
+#define LOAD(p) (*(__global const doubleV *)(p))
+// lane i of a private vector v whose lanes have the given type
+#define LANE(type, v, i) (((const type *)&(v))[i])
 
 // Views whose joints all have one patch side s <= 32 (the usual case) take the layered
 // path: each vertex sets one bit, at its centre, in a layer padded by PAD px on every side
@@ -64,13 +72,23 @@ inline intV floor_int(doubleV t)
     return truncated + convert_intV(convert_doubleV(truncated) > t);   // true is -1
 }
 
+// Whether any lane of a comparison result is true (-1).
+inline int any_lane(const longV m)
+{
+#if LANES == 8
+    const long4 m4 = m.lo | m.hi;
+#else
+    const long4 m4 = m;
+#endif
+    const long2 m2 = m4.lo | m4.hi;
+    return (m2.x | m2.y) != 0;
+}
+
 // The smallest and the largest lane.
 inline int min_lane(const intV x)
 {
-    int a[LANES];
-    vstoreV(x, 0, a);
-    int m = a[0];
-    for (int i = 1; i < LANES; ++i) m = min(m, a[i]);
+    int m = LANE(int, x, 0);
+    for (int i = 1; i < LANES; ++i) m = MIN(m, LANE(int, x, i));
     return m;
 }
 
@@ -86,11 +104,11 @@ inline void stamp(__local uint *mask, const int stride, const int width, const i
                   const int cx, const int cy, const int before, const int after,
                   int *lo, int *hi)
 {
-    const int col0 = max(cx - before, 0), col1 = min(cx + after, width - 1);
-    const int row0 = max(cy - before, 0), row1 = min(cy + after, height - 1);
+    const int col0 = MAX(cx - before, 0), col1 = MIN(cx + after, width - 1);
+    const int row0 = MAX(cy - before, 0), row1 = MIN(cy + after, height - 1);
     if (col0 > col1 || row0 > row1) return;
-    *lo = min(*lo, row0);
-    *hi = max(*hi, row1);
+    *lo = MIN(*lo, row0);
+    *hi = MAX(*hi, row1);
     const int w0 = col0 >> 5, len = col1 - col0 + 1;
     if (len <= 32) {
         const ulong bits = (0xffffffffUL >> (32 - len)) << (col0 & 31);
@@ -113,14 +131,17 @@ inline void stamp(__local uint *mask, const int stride, const int width, const i
     }
 }
 
-// Set bits per 32-bit lane, 8 lanes at once (SWAR).
-inline uint8 bit_count(uint8 v)
-{
-    v = v - ((v >> 1) & 0x55555555u);
-    v = (v & 0x33333333u) + ((v >> 2) & 0x33333333u);
-    v = (v + (v >> 4)) & 0x0f0f0f0fu;
-    return (v * 0x01010101u) >> 24;
-}
+// Set bits per 32-bit lane (SWAR), for uint and for 8 lanes at once.
+#define BIT_COUNT(type)                                                   \
+    inline type bit_count_##type(type v)                                  \
+    {                                                                     \
+        v = v - ((v >> 1) & 0x55555555u);                                 \
+        v = (v & 0x33333333u) + ((v >> 2) & 0x33333333u);                 \
+        v = (v + (v >> 4)) & 0x0f0f0f0fu;                                 \
+        return (v * 0x01010101u) >> 24;                                   \
+    }
+BIT_COUNT(uint)
+BIT_COUNT(uint8)
 
 __kernel __attribute__((reqd_work_group_size(LOCAL_SIZE, 1, 1)))
 void silhouette_counts(
@@ -181,7 +202,7 @@ void silhouette_counts(
             const double dx = cone[5] + b0, dy = cone[6] + b1, dz = cone[7] + b2;
             const double ad = cone[0] * dx + cone[1] * dy + cone[2] * dz;
             const double dd = dx * dx + dy * dy + dz * dz;
-            const double cross = sqrt(fmax(dd - ad * ad, 0.0));
+            const double cross = sqrt(MAX(dd - ad * ad, 0.0));
             if (ad * cone[3] - cross * cone[4] > cone[8]) continue;
             // the whole block, padding-free, facing: n . (v + b) <= max over the cone of n . d + r < 0
             const double dlen = sqrt(dd);
@@ -191,18 +212,18 @@ void silhouette_counts(
                 // culling first: n' . p = n . v + n . (R^T t); all back faces: nothing else to do
                 longV facing = (longV)(-1);
                 if (!all_facing) {
-                    const doubleV nx = vloadV(0, vertices + 3 * N4 + v),
-                                  ny = vloadV(0, vertices + 4 * N4 + v),
-                                  nz = vloadV(0, vertices + 5 * N4 + v),
-                                  nv = vloadV(0, vertices + 6 * N4 + v);
+                    const doubleV nx = LOAD(vertices + 3 * N4 + v),
+                                  ny = LOAD(vertices + 4 * N4 + v),
+                                  nz = LOAD(vertices + 5 * N4 + v),
+                                  nv = LOAD(vertices + 6 * N4 + v);
                     facing = nv + (nx * b0 + ny * b1 + nz * b2) < 0.0;
-                    if (!any(facing)) continue;
+                    if (!any_lane(facing)) continue;
                 }
-                const doubleV x = vloadV(0, vertices + v), y = vloadV(0, vertices + N4 + v),
-                              z = vloadV(0, vertices + 2 * N4 + v);
+                const doubleV x = LOAD(vertices + v), y = LOAD(vertices + N4 + v),
+                              z = LOAD(vertices + 2 * N4 + v);
                 const doubleV pz = a20 * x + a21 * y + a22 * z + a23;
                 const longV keep = facing & (pz > NEAR_MM);
-                if (!any(keep)) continue;
+                if (!any_lane(keep)) continue;
                 const doubleV u = (a00 * x + a01 * y + a02 * z + a03) / pz;
                 const doubleV w = (a10 * x + a11 * y + a12 * z + a13) / pz;
                 const intV cx = floor_int(u + 0.5), cy = floor_int(w + 0.5);
@@ -210,52 +231,47 @@ void silhouette_counts(
                     const intV px = cx + PAD, py = cy + PAD;
                     const intV in = convert_intV(keep) & (px >= 0) & (px < width + 2 * PAD)
                                     & (py >= 0) & (py < height + 2 * PAD);
-                    loV = min(loV, in ? py : loV);
-                    hiV = max(hiV, in ? py : -1);
-                    leftV = min(leftV, in ? px : leftV);
-                    rightV = max(rightV, in ? px : -1);
-                    int k[LANES];
-                    uint bit[LANES];
-                    vstoreV(in ? py * pstride + (px >> 5) : 0, 0, k);
-                    vstoreV(as_uintV(in) & ((uintV)(1u) << (convert_uintV(px) & 31u)), 0, bit);
-                    for (int i = 0; i < LANES; ++i) OR_WORD(words + k[i], bit[i]);
+                    loV = MIN(loV, in ? py : loV);
+                    hiV = MAX(hiV, in ? py : -1);
+                    leftV = MIN(leftV, in ? px : leftV);
+                    rightV = MAX(rightV, in ? px : -1);
+                    const intV k = in ? py * pstride + (px >> 5) : 0;
+                    const uintV bit = as_uintV(in) & ((uintV)(1u) << (convert_uintV(px) & 31u));
+                    for (int i = 0; i < LANES; ++i)
+                        OR_WORD(words + LANE(int, k, i), LANE(uint, bit, i));
                     continue;
                 }
                 if (s > 32) {  // large patches (a body part close to the camera): one by one
-                    int kept[LANES], x0[LANES], y0[LANES];
-                    vstoreV(convert_intV(keep), 0, kept);
-                    vstoreV(cx, 0, x0);
-                    vstoreV(cy, 0, y0);
                     for (int i = 0; i < LANES; ++i)
-                        if (kept[i]) stamp(words, stride, width, height, x0[i], y0[i], before, after, &lo, &hi);
+                        if (LANE(long, keep, i))
+                            stamp(words, stride, width, height, LANE(int, cx, i), LANE(int, cy, i),
+                                  before, after, &lo, &hi);
                     continue;
                 }
                 // all lanes at once: clipping in intV, no branch per vertex; a rejected or
                 // clipped-away vertex gets an empty range of words [first, last]
-                const intV col0 = max(cx - before, 0), col1 = min(cx + after, width - 1);
-                const intV row0 = max(cy - before, 0), row1 = min(cy + after, height - 1);
+                const intV col0 = MAX(cx - before, 0), col1 = MIN(cx + after, width - 1);
+                const intV row0 = MAX(cy - before, 0), row1 = MIN(cy + after, height - 1);
                 const intV ok = convert_intV(keep) & (col0 <= col1) & (row0 <= row1);
-                loV = min(loV, ok ? row0 : height);
-                hiV = max(hiV, ok ? row1 : -1);
-                const uintV len = convert_uintV(clamp(col1 - col0 + 1, 1, 32));
+                loV = MIN(loV, ok ? row0 : height);
+                hiV = MAX(hiV, ok ? row1 : -1);
+                const uintV len = convert_uintV(MIN(MAX(col1 - col0 + 1, 1), 32));
                 const uintV shift = convert_uintV(col0) & 31u;
-                int first[LANES], last[LANES];
-                uint low[LANES], high[LANES];
-                vstoreV(((uintV)(0xffffffffu) >> (32u - len)) << shift, 0, low);
+                const uintV low = ((uintV)(0xffffffffu) >> (32u - len)) << shift;
                 // bits of the patch past word w0: (ones(len) << shift) >> 32, 0 when shift 0
-                vstoreV(shift == 0u ? 0u : ((uintV)(0xffffffffu) >> (32u - len)) >> (32u - shift), 0, high);
-                vstoreV(ok ? row0 * stride + (col0 >> 5) : 0, 0, first);
-                vstoreV(ok ? row1 * stride + (col0 >> 5) : -1, 0, last);
+                const uintV high = shift == 0u ? 0u : ((uintV)(0xffffffffu) >> (32u - len)) >> (32u - shift);
+                const intV first = ok ? row0 * stride + (col0 >> 5) : 0;
+                const intV last = ok ? row1 * stride + (col0 >> 5) : -1;
                 for (int i = 0; i < LANES; ++i)
-                    for (int k = first[i]; k <= last[i]; k += stride) {
-                        OR_WORD(words + k, low[i]);
-                        OR_WORD(words + k + 1, high[i]);
+                    for (int k = LANE(int, first, i); k <= LANE(int, last, i); k += stride) {
+                        OR_WORD(words + k, LANE(uint, low, i));
+                        OR_WORD(words + k + 1, LANE(uint, high, i));
                     }
             }
         }
     }
-    MIN_INT(&row_lo, min(lo, min_lane(loV)));
-    MAX_INT(&row_hi, max(hi, max_lane(hiV)));
+    MIN_INT(&row_lo, MIN(lo, min_lane(loV)));
+    MAX_INT(&row_hi, MAX(hi, max_lane(hiV)));
     MIN_INT(&col_lo, min_lane(leftV));
     MAX_INT(&col_hi, max_lane(rightV));
     barrier(CLK_LOCAL_MEM_FENCE);
@@ -264,14 +280,14 @@ void silhouette_counts(
     if (layered) {
         __global const uint *f = fg + shapes[3 * c + 2];
         const int before = (common - 1) / 2, after = common / 2, shift = PAD - after;
-        const int r0 = max(row_lo - PAD - before, 0), r1 = min(row_hi - PAD + after, height - 1);
+        const int r0 = MAX(row_lo - PAD - before, 0), r1 = MIN(row_hi - PAD + after, height - 1);
         const uint edge = (width & 31) ? 0xffffffffu >> (32 - (width & 31)) : 0xffffffffu;
         if (write_masks) {
             for (int k = lid; k < stride * height; k += LOCAL_SIZE) masks_out[g * mask_words + k] = 0u;
             barrier(CLK_GLOBAL_MEM_FENCE);
         }
-        const int w0 = max(col_lo - PAD - before, 0) >> 5;
-        const int w1 = min(col_hi - PAD + after, width - 1) >> 5;
+        const int w0 = MAX(col_lo - PAD - before, 0) >> 5;
+        const int w1 = MIN(col_hi - PAD + after, width - 1) >> 5;
         for (int r = r0 + lid; r <= r1; r += LOCAL_SIZE)
         for (int w = w0; w <= w1; ++w) {
             const int k = r * stride + w;
@@ -288,8 +304,8 @@ void silhouette_counts(
             for (; 2 * cover <= common; cover *= 2) acc |= acc >> cover;
             acc |= acc >> (common - cover);
             const uint bits = (uint)acc & (w == stride - 1 ? edge : 0xffffffffu);
-            model += popcount(bits);
-            overlap += popcount(bits & f[k]);
+            model += bit_count_uint(bits);
+            overlap += bit_count_uint(bits & f[k]);
             if (write_masks) masks_out[g * mask_words + k] = bits;
         }
     } else {
@@ -297,8 +313,8 @@ void silhouette_counts(
         uint8 model8 = 0u, overlap8 = 0u;
         for (int k = row_lo * stride / 8 + lid; k < ((row_hi + 1) * stride + 7) / 8; k += LOCAL_SIZE) {
             const uint8 bits = mask[k];
-            model8 += bit_count(bits);
-            overlap8 += bit_count(bits & f[k]);
+            model8 += bit_count_uint8(bits);
+            overlap8 += bit_count_uint8(bits & f[k]);
         }
         model = model8.s0 + model8.s1 + model8.s2 + model8.s3 + model8.s4 + model8.s5
                 + model8.s6 + model8.s7;
