@@ -224,8 +224,9 @@ void silhouette_counts(
                 const doubleV pz = a20 * x + a21 * y + a22 * z + a23;
                 const longV keep = facing & (pz > NEAR_MM);
                 if (!any_lane(keep)) continue;
-                const doubleV u = (a00 * x + a01 * y + a02 * z + a03) / pz;
-                const doubleV w = (a10 * x + a11 * y + a12 * z + a13) / pz;
+                const doubleV inv = 1.0 / pz;
+                const doubleV u = (a00 * x + a01 * y + a02 * z + a03) * inv;
+                const doubleV w = (a10 * x + a11 * y + a12 * z + a13) * inv;
                 const intV cx = floor_int(u + 0.5), cy = floor_int(w + 0.5);
                 if (layered) {
                     const intV px = cx + PAD, py = cy + PAD;
