@@ -335,19 +335,30 @@ class MultiDeviceEvaluator(OpenCLEvaluator):
         return [_Lane(d, ctx, local_size, lanes) for d in chosen]
 
 
+def _normal_blocks(normals: np.ndarray, index: np.ndarray) -> list[np.ndarray]:
+    """``index`` reordered into blocks of BLOCK (the last maybe shorter) of similar normals:
+    a k-d split of the (N, 3) unit ``normals`` at the median of the coordinate that spreads
+    most, rounded to a multiple of BLOCK, until a part fits in one block."""
+    if len(index) <= _BLOCK:
+        return [index]
+    spread = normals[index]
+    axis = np.argmax(spread.max(axis=0) - spread.min(axis=0))
+    index = index[np.argsort(spread[:, axis], kind="stable")]
+    half = max(_BLOCK, len(index) // 2 // _BLOCK * _BLOCK)
+    return _normal_blocks(normals, index[:half]) + _normal_blocks(normals, index[half:])
+
+
 def _vertex_arrays(body) -> tuple[np.ndarray, np.ndarray]:
     """The body's vertices for the kernel: (7, N4) float64 rest x, y, z (mm), normal and
-    n . v, sorted by joint, then by normal direction; each joint's run padded to a multiple
+    n . v, sorted by joint, then in blocks of similar normals (see :func:`_normal_blocks`,
+    so that the blocks' culling cones are narrow); each joint's run padded to a multiple
     of the kernel's BLOCK with zero-normal vertices (always culled); (J + 1,) int32 first
     vertex of each joint, then N4."""
     joint = np.asarray(body.vertex_joint)
     J = len(body.joint_rest_positions)
     normals = np.asarray(body.rest_normals, np.float64)
-    # within a joint, vertices of similar normals together: runs of 4 then pass or fail
-    # the culling test together (skipped at once, and the branches predictable)
-    azimuth = np.floor((np.arctan2(normals[:, 2], normals[:, 0]) + np.pi) / (2 * np.pi) * 16)
-    elevation = np.floor((np.clip(normals[:, 1], -1, 1) + 1) * 4)
-    order = np.lexsort((elevation, azimuth, joint))
+    order = np.concatenate([block for j in range(J)
+                            for block in _normal_blocks(normals, np.flatnonzero(joint == j))])
     sizes = np.bincount(joint, minlength=J)
     padded = (sizes + _BLOCK - 1) // _BLOCK * _BLOCK
     start = np.r_[0, np.cumsum(padded)].astype(np.int32)
