@@ -9,7 +9,10 @@ import math
 
 import numpy as np
 
-from mmocap.evaluators.silhouette import NEAR_MM, SilhouetteEvaluator, view_geometry
+from mmocap.evaluators.silhouette import (NEAR_MM, SilhouetteEvaluator, projection_coefficients,
+                                          vertex_table, view_geometry)
+
+ONE, HALF = np.float32(1.0), np.float32(0.5)
 
 
 class NaiveEvaluator(SilhouetteEvaluator):
@@ -39,20 +42,24 @@ class NaiveEvaluator(SilhouetteEvaluator):
     def _silhouette(self, M: np.ndarray, side: np.ndarray, camera) -> np.ndarray:
         """(J, 4, 4) ``E_c T_j`` and (J,) patch sides -> (H, W) bool model silhouette."""
         H, W = camera.height, camera.width
-        K = camera.K
         image = np.zeros((H, W), dtype=bool)
-        vertices, normals = self.body.rest_vertices, self.body.rest_normals
+        coefficients = projection_coefficients(M[None, None], camera.K[None])[0, 0]   # (J, 16)
+        table = vertex_table(self.body)
         for k, j in enumerate(self.body.vertex_joint):
             s = int(side[j])
             if s == 0:
                 continue
-            rotation, translation = M[j, :3, :3], M[j, :3, 3]
-            p = rotation @ vertices[k] + translation
-            normal = rotation @ normals[k]
-            if not (p[2] > NEAR_MM and normal @ p < 0):
+            # steps 3-4 in float32 (NumPy float32 scalars), as the rule writes them
+            a00, a01, a02, a03, a10, a11, a12, a13, a20, a21, a22, a23, b0, b1, b2, _ = coefficients[j]
+            x, y, z, nx, ny, nz, nv = table[:, k]
+            if not nv + (nx * b0 + ny * b1 + nz * b2) < 0:
                 continue
-            cx = math.floor(K[0] @ p / p[2] + 0.5)
-            cy = math.floor(K[1] @ p / p[2] + 0.5)
+            depth = a20 * x + a21 * y + a22 * z + a23
+            if not depth > np.float32(NEAR_MM):
+                continue
+            r = ONE / depth
+            cx = math.floor((a00 * x + a01 * y + a02 * z + a03) * r + HALF)
+            cy = math.floor((a10 * x + a11 * y + a12 * z + a13) * r + HALF)
             col0, col1 = max(cx - (s - 1) // 2, 0), min(cx + s // 2, W - 1)
             row0, row1 = max(cy - (s - 1) // 2, 0), min(cy + s // 2, H - 1)
             if col0 <= col1 and row0 <= row1:

@@ -1,13 +1,8 @@
 """Vectorised evaluator: the rule of :mod:`mmocap.evaluators.silhouette` with NumPy and OpenCV.
 
-Projection (steps 3-4), in float64 for the whole batch of views at once, one matrix
-product per joint (vertices are grouped by joint):
-
-- ``(u', v', z) = A [v; 1]`` with ``A = [K[0] M; K[1] M; M[2]]`` (3x4) per (view, joint);
-- the culling test ``n' . p = n^T (R^T R) v + n . (R^T b)`` for ``M = [R b]`` is a product of
-  a 12-vector per (view, joint) with the per-vertex features ``(n (x) v, n)`` (12,).
-
-Joints dropped by step 2 get ``A = 0`` and so fail ``z > NEAR_MM``.
+Projection (steps 3-4): :func:`~mmocap.evaluators.silhouette.project`, the rule's float32
+arithmetic, for the whole batch of views at once, one joint at a time (vertices are
+grouped by joint). Joints dropped by step 2 get a zero depth row and so fail ``z > NEAR_MM``.
 
 Stamping (step 5): the kept centres of all views are written into one tall uint8 canvas,
 each view in its own (Hc, Wc) window that covers its centres plus the largest patch reach
@@ -33,7 +28,8 @@ import cv2
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
-from mmocap.evaluators.silhouette import NEAR_MM, SilhouetteEvaluator, view_geometry
+from mmocap.evaluators.silhouette import (SilhouetteEvaluator, project, projection_coefficients,
+                                          vertex_table, view_geometry)
 
 MAX_DILATE_SIDE = 33
 _MAX_REACH = MAX_DILATE_SIDE // 2
@@ -78,13 +74,9 @@ class NumpyEvaluator(SilhouetteEvaluator):
         body = self.body
         joint = np.asarray(body.vertex_joint)
         order = np.argsort(joint, kind="stable")
-        v = np.asarray(body.rest_vertices, np.float64)[order]
-        n = np.asarray(body.rest_normals, np.float64)[order]
         self._joint = joint[order]
         self._bounds = np.searchsorted(self._joint, np.arange(len(body.joint_rest_positions) + 1))
-        self._points = np.ascontiguousarray(np.c_[v, np.ones(len(v))].T)                # (4, N)
-        self._features = np.ascontiguousarray(
-            np.c_[(n[:, :, None] * v[:, None, :]).reshape(-1, 9), n].T)                  # (12, N)
+        self._table = np.ascontiguousarray(vertex_table(body)[:, order])               # (7, N)
         self._K = np.stack([cam.K for cam in self.cameras])
         self._hmax = max(cam.height for cam in self.cameras)
         self._wmax = max(cam.width for cam in self.cameras)
@@ -154,27 +146,19 @@ class NumpyEvaluator(SilhouetteEvaluator):
                                         cameras[view % C], self.body)
                  for view in np.flatnonzero(big)}
 
-        K = self._K[cams]
-        A = np.concatenate([K[None, :, None, :2] @ M[..., :3, :], M[..., 2:3, :]], axis=-2)
-        R, b = M[..., :3, :3], M[..., :3, 3]
-        g = np.concatenate([(np.swapaxes(R, -1, -2) @ R).reshape(n, C, J, 9),
-                            np.einsum("...ki,...k->...i", R, b)], axis=-1).reshape(nV, J, 12)
         side = np.where(big[:, None], 0, side.reshape(nV, J))      # sides on the dilation path
-        A = A.reshape(nV, J, 3, 4)
-        A[side == 0] = 0.0
-        A = np.ascontiguousarray(A.transpose(1, 2, 0, 3))          # (J, 3, nV, 4)
+        coefficients = projection_coefficients(M, self._K[cams]).reshape(nV, J, 16)
+        coefficients[side == 0, 8:12] = 0                           # depth 0: never kept
+        coefficients = np.ascontiguousarray(coefficients.transpose(1, 2, 0))[..., None]  # (J, 16, nV, 1)
 
-        N = self._points.shape[1]
-        Q = np.empty((3, nV, N))                                    # u', v', z per view and vertex
-        vis = np.empty((nV, N))                                     # n' . p
+        N = self._table.shape[1]
+        keep = np.empty((nV, N), bool)
+        centres = np.empty((2, nV, N), np.float32)                 # cx, cy per view and vertex
         for j in range(J):
             lo, hi = self._bounds[j], self._bounds[j + 1]
             if lo < hi:
-                np.matmul(A[j].reshape(3 * nV, 4), self._points[:, lo:hi],
-                          out=Q.reshape(3 * nV, N)[:, lo:hi])
-                np.matmul(g[:, j], self._features[:, lo:hi], out=vis[:, lo:hi])
-        keep = Q[2] > NEAR_MM
-        keep &= vis < 0
+                keep[:, lo:hi], centres[0, :, lo:hi], centres[1, :, lo:hi] = project(
+                    coefficients[j], self._table[:, lo:hi])
         counts = np.count_nonzero(keep, axis=1)
         oy = np.full(nV, -_MARGIN, dtype=np.int64)
         ox = np.full(nV, -_MARGIN, dtype=np.int64)
@@ -183,11 +167,11 @@ class NumpyEvaluator(SilhouetteEvaluator):
             return None, oy, ox, exact
 
         k = np.flatnonzero(keep)                                    # view * N + vertex
-        u, v, z = Q.reshape(3, nV * N).take(k, axis=1)
+        cx, cy = centres.reshape(2, nV * N).take(k, axis=1)
         sides = np.unique(side[side > 0])
         reach = int(sides[-1]) // 2
-        cx = _centre(u, z, reach, self._wmax)
-        cy = _centre(v, z, reach, self._hmax)
+        cx = _clamped(cx, reach, self._wmax)
+        cy = _clamped(cy, reach, self._hmax)
         starts = np.concatenate([[0], np.cumsum(counts[present])[:-1]])
         xmin, xmax = np.minimum.reduceat(cx, starts), np.maximum.reduceat(cx, starts)
         ymin, ymax = np.minimum.reduceat(cy, starts), np.maximum.reduceat(cy, starts)
@@ -211,31 +195,22 @@ class NumpyEvaluator(SilhouetteEvaluator):
         return canvas.reshape(nV, Hc, Wc), oy, ox, exact
 
 
-def _centre(coord: np.ndarray, z: np.ndarray, reach: int, size: int) -> np.ndarray:
-    """Homogeneous coordinate and depth (K,) -> (K,) int64 ``floor(coord / z + 0.5)``.
-
-    Clamped to ``[-reach - 1, size + reach]``: a clamped centre's patch (reach at most
-    ``reach``) stays outside the image before and after clamping.
-    """
-    c = np.divide(coord, z, out=coord)
-    c += 0.5
-    np.floor(c, out=c)
-    np.clip(c, -reach - 1, size + reach, out=c)
-    return c.astype(np.int64)
+def _clamped(centre: np.ndarray, reach: int, size: int) -> np.ndarray:
+    """(K,) float32 centre pixels -> (K,) int64, clamped to ``[-reach - 1, size + reach]``: a
+    clamped centre's patch (reach at most ``reach``) stays outside the image before and
+    after clamping."""
+    return np.clip(centre, -reach - 1, size + reach).astype(np.int64)
 
 
 def _exact_view(M: np.ndarray, side: np.ndarray, camera, body) -> np.ndarray:
     """One view, any patch sizes: (J, 4, 4) ``E_c T_j``, (J,) sides -> (H, W) bool silhouette."""
     H, W = camera.height, camera.width
     joint = np.asarray(body.vertex_joint)
-    Mv = M[joint]
-    p = np.einsum("nab,nb->na", Mv[:, :3, :3], body.rest_vertices) + Mv[:, :3, 3]
-    normal = np.einsum("nab,nb->na", Mv[:, :3, :3], body.rest_normals)
+    coefficients = projection_coefficients(M[None, None], camera.K[None])[0, 0]   # (J, 16)
+    keep, cx, cy = project(coefficients[joint].T, vertex_table(body))
     s = side[joint]
-    keep = (s > 0) & (p[:, 2] > NEAR_MM) & (np.einsum("na,na->n", normal, p) < 0)
-    p, s = p[keep], s[keep]
-    cx = np.floor(p @ camera.K[0] / p[:, 2] + 0.5)
-    cy = np.floor(p @ camera.K[1] / p[:, 2] + 0.5)
+    keep &= s > 0
+    cx, cy, s = cx[keep].astype(np.int64), cy[keep].astype(np.int64), s[keep]
     col0, col1 = np.maximum(cx - (s - 1) // 2, 0), np.minimum(cx + s // 2, W - 1)
     row0, row1 = np.maximum(cy - (s - 1) // 2, 0), np.minimum(cy + s // 2, H - 1)
     ok = (col0 <= col1) & (row0 <= row1)

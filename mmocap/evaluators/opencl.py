@@ -1,11 +1,13 @@
 """OpenCL evaluators: the rule of :mod:`mmocap.evaluators.silhouette` as a PyOpenCL kernel.
 
-Steps 1-2 (``view_geometry``) run on the host in float64; the kernel
-``kernels/silhouette.cl`` does steps 3-6 in float64, one work-group per (candidate, camera)
+Steps 1-2 (``view_geometry``) and the float32 inputs of steps 3-4 (``vertex_table``,
+``projection_coefficients``) are computed on the host; the kernel ``kernels/silhouette.cl``
+does steps 3-6 in the rule's float32 arithmetic, one work-group per (candidate, camera)
 pair, each with its own bit mask in local memory (1 bit per pixel: 38 400 bytes for
 640x480), so no two work-groups ever write the same memory. The foreground masks are
-uploaded once per frame as bit masks and counted against with popcounts. The kernel needs
-double precision (``cl_khr_fp64``): PoCL on CPUs and current GPUs have it.
+uploaded once per frame as bit masks and counted against with popcounts. The per-block
+culling bounds need double precision (``cl_khr_fp64``): PoCL on CPUs and current GPUs
+have it.
 
 Devices: ``platform`` is an index into ``pyopencl.get_platforms()`` or a case-insensitive
 part of a platform's name (``"portable"`` for PoCL, ``"nvidia"``), None for the first
@@ -35,7 +37,8 @@ from pathlib import Path
 import numpy as np
 
 from mmocap.errors import ConfigError
-from mmocap.evaluators.silhouette import NEAR_MM, SilhouetteEvaluator, view_geometry
+from mmocap.evaluators.silhouette import (NEAR_MM, SilhouetteEvaluator, projection_coefficients,
+                                          vertex_table, view_geometry)
 from mmocap.stages.foreground import pack_rows
 
 log = logging.getLogger(__name__)
@@ -43,6 +46,9 @@ KERNEL = Path(__file__).with_name("kernels") / "silhouette.cl"
 _PID_VAR = "MMOCAP_POCL_CACHE_PID"
 _PAD = 16  # PAD of the kernel
 _BLOCK = 32  # vertices per culling cone (the kernel's BLOCK)
+# bound on the float32 rounding of the culling test n . v + n . b, relative to |n . v| + |b|
+# (about 6 rounding errors of 2^-24 each: 3.6e-7), the kernel's ROUNDING
+_ROUNDING = 1e-6
 
 
 def _private_pocl_cache() -> None:
@@ -131,7 +137,8 @@ def program(ctx: cl.Context, local_size: int, lanes: int) -> cl.Program:
     key = (ctx.int_ptr, local_size, lanes)
     if key not in _PROGRAMS:
         options = [f"-DLOCAL_SIZE={local_size}", f"-DNEAR_MM={NEAR_MM!r}", f"-DBLOCK={_BLOCK}",
-                   f"-DLANES={lanes}"]
+                   f"-DLANES={lanes}", f"-DROUNDING={_ROUNDING!r}",
+                   "-cl-fp32-correctly-rounded-divide-sqrt"]
         _PROGRAMS[key] = cl.Program(ctx, KERNEL.read_text()).build(options=options)
     return _PROGRAMS[key]
 
@@ -158,16 +165,17 @@ class _Lane:
                               "masks need a little-endian device")
         if not device.double_fp_config:
             raise ConfigError(f"OpenCL device {device.name.strip()!r} has no double precision "
-                              "(cl_khr_fp64), which the kernel needs")
+                              "(cl_khr_fp64), which the kernel's culling bounds need")
         if local_size is None:
             local_size = 1 if device.type & cl.device_type.CPU else 64
         if not 1 <= int(local_size) <= device.max_work_group_size:
             raise ConfigError(f"local_size must be in [1, {device.max_work_group_size}] on "
                               f"{device.name.strip()!r}, got {local_size}")
-        if lanes is None:  # 8 where the device prefers double8 (AVX-512)
-            lanes = 8 if device.preferred_vector_width_double >= 8 else 4
-        if lanes not in (4, 8):
-            raise ConfigError(f"lanes must be 4 or 8 (or null: the device's preference), got {lanes!r}")
+        if lanes is None:  # 8 floats, one AVX2 register, measured fastest on CPUs
+            lanes = 8 if device.type & cl.device_type.CPU else 4
+        if lanes not in (4, 8, 16):
+            raise ConfigError(f"lanes must be 4, 8 or 16 (or null: 8 on a CPU, 4 on other "
+                              f"devices), got {lanes!r}")
         self.device, self.ctx, self.local_size = device, ctx, int(local_size)
         self.queue = cl.CommandQueue(ctx, device)
         self.kernel = cl.Kernel(program(ctx, self.local_size, lanes), "silhouette_counts")
@@ -199,8 +207,8 @@ class OpenCLEvaluator(SilhouetteEvaluator):
         device: device index on that platform.
         local_size: work-items per (candidate, camera) work-group; None: 1 on a CPU, 64
             on other devices.
-        lanes: vertices per vector in the kernel, 4 or 8; None: 8 on devices that prefer
-            8 doubles per vector (AVX-512 CPUs), else 4. The counts do not depend on it.
+        lanes: vertices per vector in the kernel, 4, 8 or 16; None: 8 on a CPU, 4 on other
+            devices. The counts do not depend on it.
     """
 
     def __init__(self, patch_scale: float = 1.0, platform=None, device: int = 0,
@@ -262,7 +270,8 @@ class OpenCLEvaluator(SilhouetteEvaluator):
         """Counts (n, C, 2) int32 and, with ``write_masks``, masks (n * C, mask_words) uint32."""
         M, side = view_geometry(self.body, self.cameras, X, self.patch_scale)
         n, C, J = side.shape
-        geometry = _projections(M, np.stack([cam.K for cam in self.cameras])).reshape(n * C, J * 16)
+        K = np.stack([cam.K for cam in self.cameras])
+        geometry = projection_coefficients(M, K).reshape(n * C, J * 16)
         sides = side.reshape(n * C, J).astype(np.int32)
         counts = np.empty((n * C, 2), np.int32)
         masks = np.empty((n * C if write_masks else 1, self._mask_words), np.uint32)
@@ -349,25 +358,23 @@ def _normal_blocks(normals: np.ndarray, index: np.ndarray) -> list[np.ndarray]:
 
 
 def _vertex_arrays(body) -> tuple[np.ndarray, np.ndarray]:
-    """The body's vertices for the kernel: (7, N4) float64 rest x, y, z (mm), normal and
-    n . v, sorted by joint, then in blocks of similar normals (see :func:`_normal_blocks`,
+    """The body's vertices for the kernel: (7, N4) float32 :func:`vertex_table` (rest x, y, z
+    (mm), normal and n . v), sorted by joint, then in blocks of similar normals (see :func:`_normal_blocks`,
     so that the blocks' culling cones are narrow); each joint's run padded to a multiple
     of the kernel's BLOCK with zero-normal vertices (always culled); (J + 1,) int32 first
     vertex of each joint, then N4."""
     joint = np.asarray(body.vertex_joint)
     J = len(body.joint_rest_positions)
-    normals = np.asarray(body.rest_normals, np.float64)
+    table = vertex_table(body)
+    normals = table[3:6].T
     order = np.concatenate([block for j in range(J)
                             for block in _normal_blocks(normals, np.flatnonzero(joint == j))])
     sizes = np.bincount(joint, minlength=J)
     padded = (sizes + _BLOCK - 1) // _BLOCK * _BLOCK
     start = np.r_[0, np.cumsum(padded)].astype(np.int32)
     slots = start[joint[order]] + (np.arange(len(order)) - np.r_[0, np.cumsum(sizes)][joint[order]])
-    points = np.asarray(body.rest_vertices, np.float64)[order]
-    vertices = np.zeros((7, start[-1]))
-    vertices[:3, slots] = points.T
-    vertices[3:6, slots] = normals[order].T
-    vertices[6, slots] = np.einsum("na,na->n", normals[order], points)
+    vertices = np.zeros((7, start[-1]), np.float32)
+    vertices[:, slots] = table[:, order]
     return vertices, start
 
 
@@ -382,11 +389,16 @@ def _culling_cones(vertices: np.ndarray) -> np.ndarray:
     positions v), and every vertex faces the camera when the largest ``n . d`` over the cone
     plus r is negative; the kernel tests both once per block, and skips the block or the
     per-vertex culling test. Padding is never facing, so only padding-free blocks take the
-    second shortcut. A block whose normals span a half
-    space or more, or that holds only padding, gets r = +inf (never skipped) or -inf (always
-    skipped, as every padding vertex is culled) respectively. Cone and sphere are widened a
-    little, so that rounding cannot make the block test skip a vertex the per-vertex test
-    would keep."""
+    second shortcut. A block whose normals span a half space or more, or that holds only
+    padding, gets r = +inf (never skipped) or -inf (always skipped, as every padding vertex
+    is culled) respectively.
+
+    Cone and sphere are widened a little, so that rounding cannot make a block test decide
+    otherwise than the per-vertex test would: r by ``_ROUNDING (2 |c| + r)`` here and by
+    ``_ROUNDING |d|`` in the kernel, which bounds the float32 rounding of the per-vertex
+    ``n . v + n . b`` (at most ``_ROUNDING (|v| + |b|)``, with ``|v| <= |c| + r`` and
+    ``|b| <= |d| + |c|``)."""
+    vertices = np.asarray(vertices, np.float64)
     blocks = vertices.shape[1] // _BLOCK
     points = vertices[:3].T.reshape(blocks, _BLOCK, 3)
     normals = vertices[3:6].T.reshape(blocks, _BLOCK, 3)
@@ -403,23 +415,11 @@ def _culling_cones(vertices: np.ndarray) -> np.ndarray:
         centre = np.where(count[:, None] > 0, 0.5 * (lo + hi), 0.0)
     radius = np.where(real, np.linalg.norm(points - centre[:, None], axis=2), 0.0).max(axis=1)
     radius = radius * (1 + 1e-9) + 1e-6
+    radius += _ROUNDING * (2 * np.linalg.norm(centre, axis=1) + radius)
     radius[half_angle >= np.pi / 2] = np.inf
     radius[count == 0] = -np.inf
     full = (count == _BLOCK).astype(np.float64)
     return np.c_[axis, np.cos(half_angle), np.sin(half_angle), centre, radius, full]
-
-
-def _projections(M: np.ndarray, K: np.ndarray) -> np.ndarray:
-    """(n, C, J, 4, 4) ``E_c T_j`` and (C, 3, 3) K -> (n, C, J, 16) float64 per model-view
-    and joint: ``A = [K[0] M; K[1] M; M[2]]`` (3x4, row-major: ``u' v' z`` of a vertex),
-    then ``b = R^T t`` for ``M = [R t]`` and a 0 (culling: ``n' . p = n . v + n . b``)."""
-    n, C, J = M.shape[:3]
-    out = np.zeros((n, C, J, 16))
-    A = out[..., :12].reshape(n, C, J, 3, 4)
-    np.matmul(K[None, :, None, :2], M[..., :3, :], out=A[..., :2, :])
-    A[..., 2, :] = M[..., 2, :]
-    out[..., 12:15] = np.einsum("...ki,...k->...i", M[..., :3, :3], M[..., :3, 3])
-    return out
 
 
 def _pack_bits(mask: np.ndarray, size: int, packed: np.ndarray | None = None) -> np.ndarray:

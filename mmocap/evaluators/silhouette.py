@@ -17,11 +17,27 @@ For every candidate ``i``, camera ``c`` and joint ``j``:
    size per body part: ``body.patch_mm`` is its ``l_r`` (the side of a square of the mean
    triangle's area) and ``z_j`` its distance ``d``; the paper prints ``p = f d / l_r``,
    but the pin-hole model it invokes gives ``f l_r / d``, which is what is used.
-3. Each vertex ``v`` of joint ``j`` with rest normal ``n``: ``p = M [v; 1]`` (camera frame, mm)
-   and ``n' = M[:3, :3] n``. The vertex is kept iff ``p.z > NEAR_MM`` and ``n' . p < 0`` (its
-   normal faces the camera: back-face culling).
+3. Each vertex of joint ``j``, with rest position ``v`` and unit normal ``n``, is kept iff its
+   depth ``p.z`` (``p = M [v; 1]``, camera frame, mm) exceeds ``NEAR_MM`` and its normal
+   faces the camera, ``n' . p < 0`` with ``n' = R n`` for ``M = [R t]`` (back-face culling).
 4. Projection: ``u = (K[0] . p) / p.z``, ``v = (K[1] . p) / p.z``; centre pixel
    ``(cx, cy) = (floor(u + 0.5), floor(v + 0.5))``.
+
+   Steps 3-4 are evaluated in float32, exactly as follows, so that every backend gets the
+   same bits (float32 is what makes the OpenCL kernel fast on CPUs and GPUs alike). The
+   inputs are :func:`vertex_table` (per vertex ``x, y, z, nx, ny, nz, nv``, with ``nv = n . v``)
+   and :func:`projection_coefficients` (per view and joint ``A = [K[0] M; K[1] M; M[2]]``,
+   3x4 with entries ``aRC``, and ``b = R^T t``), both computed in float64 and rounded to
+   float32 once. Then, in IEEE single precision, each operation rounded, no fused
+   multiply-add, sums left to right::
+
+       facing = nv + (nx * b0 + ny * b1 + nz * b2) < 0        # n' . p = n . v + n . b
+       depth = a20 * x + a21 * y + a22 * z + a23                # kept iff facing, depth > NEAR_MM
+       r = 1 / depth
+       cx = floor((a00 * x + a01 * y + a02 * z + a03) * r + 0.5)
+       cy = floor((a10 * x + a11 * y + a12 * z + a13) * r + 0.5)
+
+   :func:`project` is this rule vectorised; the naive backend spells it out per vertex.
 5. The patch covers columns ``cx - (s-1)//2 .. cx + s//2`` and rows ``cy - (s-1)//2 .. cy + s//2``,
    clipped to the image; a vertex outside the image can still cover border pixels.
 6. The model silhouette ``M_c`` is the union of the patches; the counts are ``|M_c|`` and
@@ -32,10 +48,8 @@ denominator is 0 counts 0.5 (no overlap), except that a view with ``|M| = |F| = 
 (perfect match). The fitness of a candidate is the mean of ``f_c`` over the cameras (Eq. 7),
 in [0, 1]; never NaN.
 
-Backends may evaluate steps 3-4 in any algebraically equivalent order in float64; their
-results can then differ only for a value within rounding error of a decision boundary
-(``u + 0.5`` an integer, ``n' . p = 0``, ``p.z = NEAR_MM``), which real inputs do not hit.
-Steps 1-2 are computed once, by :func:`view_geometry`, for every backend.
+Steps 1-2 are computed once, by :func:`view_geometry`, for every backend, and steps 3-4
+leave no freedom: the counts of every backend are equal, bit for bit.
 
 Every backend exposes the per-view counts through :meth:`SilhouetteEvaluator.counts`
 (``|M_c|`` and ``|M_c & F_c|``, (n, C) int64) besides the fitness, and one view's
@@ -79,6 +93,51 @@ def view_geometry(body, cameras, X: np.ndarray,
     raw = np.ceil(focal[None, :, None] * patch[None, None, :] / np.where(ok, z, 1.0))
     side = np.where(ok, np.maximum(raw, 1.0), 0.0).astype(np.int64)
     return M, side
+
+
+def vertex_table(body) -> np.ndarray:
+    """(7, N) float32 per vertex, in the body's order: rest ``x, y, z`` (mm), unit normal
+    ``nx, ny, nz`` and ``nv = n . v`` (mm), each computed in float64 and rounded once."""
+    v = np.asarray(body.rest_vertices, np.float64)
+    n = np.asarray(body.rest_normals, np.float64)
+    return np.vstack([v.T, n.T, np.einsum("na,na->n", n, v)[None]]).astype(np.float32)
+
+
+def projection_coefficients(M: np.ndarray, K: np.ndarray) -> np.ndarray:
+    """(n, C, J, 4, 4) ``M = E_c T_j`` and (C, 3, 3) K -> (n, C, J, 16) float32 per view and
+    joint: ``A = [K[0] M; K[1] M; M[2]]`` (3x4, row-major: ``u' v' z`` of a vertex), then
+    ``b = R^T t`` for ``M = [R t]`` (culling: ``n' . p = n . v + n . b``) and a 0; computed
+    in float64 and rounded once."""
+    n, C, J = M.shape[:3]
+    out = np.zeros((n, C, J, 16))
+    A = out[..., :12].reshape(n, C, J, 3, 4)
+    np.matmul(K[None, :, None, :2], M[..., :3, :], out=A[..., :2, :])
+    A[..., 2, :] = M[..., 2, :]
+    out[..., 12:15] = np.einsum("...ki,...k->...i", M[..., :3, :3], M[..., :3, 3])
+    return out.astype(np.float32)
+
+
+def project(coefficients: np.ndarray, table: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Steps 3-4 of the rule in float32, vectorised.
+
+    Args:
+        coefficients: (16, ...) float32, :func:`projection_coefficients` along the first axis.
+        table: (7, ...) float32, :func:`vertex_table` rows; the trailing shapes broadcast.
+
+    Returns:
+        keep (...) bool, and the centre pixels cx, cy (...) float32 (meaningless where not kept).
+    """
+    a = coefficients
+    x, y, z, nx, ny, nz, nv = table
+    facing = nv + (nx * a[12] + ny * a[13] + nz * a[14]) < 0
+    depth = a[8] * x + a[9] * y + a[10] * z + a[11]
+    keep = facing & (depth > np.float32(NEAR_MM))
+    half = np.float32(0.5)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        r = np.float32(1) / depth
+        cx = np.floor((a[0] * x + a[1] * y + a[2] * z + a[3]) * r + half)
+        cy = np.floor((a[4] * x + a[5] * y + a[6] * z + a[7]) * r + half)
+    return keep, cx, cy
 
 
 def fitness_from_counts(model_px: np.ndarray, overlap_px: np.ndarray, fg_px: np.ndarray) -> np.ndarray:

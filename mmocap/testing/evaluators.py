@@ -3,8 +3,8 @@
 Every evaluator registered under the ``mmocap.evaluators`` entry points must give the
 pixel counts of the ``naive`` reference (:mod:`mmocap.evaluators.naive`) on the same
 inputs, exactly: ``|M_c|`` and ``|M_c & F_c|`` are integers, and the rule of
-:mod:`mmocap.evaluators.silhouette` leaves a backend free only in float64 rounding, which
-the poses here keep away from decision boundaries. The fitness, computed from the counts
+:mod:`mmocap.evaluators.silhouette` fixes every float32 operation of the projection, so
+backends agree bit for bit. The fitness, computed from the counts
 by the shared :func:`~mmocap.evaluators.silhouette.fitness_from_counts`, is then equal too.
 A plugin reuses the suite in one line::
 

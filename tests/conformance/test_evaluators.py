@@ -17,12 +17,12 @@ needs_opencl = pytest.mark.skipif("opencl" not in registry.available("evaluator"
 
 @needs_opencl
 class TestOpenCLWithFourLanes(EvaluatorConformance):
-    """The kernel's other vector width (the default is the device's preference)."""
+    """The kernel's other vector widths (the default is 8 on a CPU)."""
     name = "opencl"
     params = {"lanes": 4}
 
 
 @needs_opencl
-class TestOpenCLWithEightLanes(EvaluatorConformance):
+class TestOpenCLWithSixteenLanes(EvaluatorConformance):
     name = "opencl"
-    params = {"lanes": 8}
+    params = {"lanes": 16}

@@ -1,11 +1,13 @@
-// The silhouette rule of mmocap/evaluators/silhouette.py, steps 3-6, in float64.
+// The silhouette rule of mmocap/evaluators/silhouette.py, steps 3-6: float32 as the rule
+// prescribes (build with -cl-fp32-correctly-rounded-divide-sqrt), float64 for the per-block
+// culling bounds.
 // One work-group of LOCAL_SIZE work-items per model-view g = candidate * C + camera: the
 // work-items share the view's vertices, stamp their patches into a bit mask in local
 // memory (1 bit per pixel, rows padded to 32-bit words) and count |M| and |M & F| with
 // popcounts against the camera's foreground bit mask, 8 words at a time.
 //
-// Compile-time constants: LOCAL_SIZE, NEAR_MM, BLOCK and LANES, so that a program is built
-// once per context. With LOCAL_SIZE 1 (CPU devices) a work-group is one work-item and plain
+// Compile-time constants: LOCAL_SIZE, NEAR_MM, BLOCK, LANES and ROUNDING, so that a program
+// is built once per context. With LOCAL_SIZE 1 (CPU devices) a work-group is one work-item and plain
 // read-modify-writes replace the local atomics. With write_masks != 0 the kernel also
 // copies each view's mask to masks_out (nV, mask_words) for rendering.
 #pragma OPENCL EXTENSION cl_khr_fp64 : enable
@@ -28,19 +30,18 @@
 // all back faces is skipped with one test, one certainly all facing the camera skips the
 // per-vertex culling test; the others are culled vertex by vertex.
 
-// Vertices are processed LANES (4 or 8, dividing BLOCK) at a time in vectors of that width:
-// one AVX2 register of doubles for 4, one AVX-512 register for 8. The vertex arrays are
-// structures of arrays, each joint's run padded to a multiple of BLOCK with zero-normal
-// vertices, which the culling test always rejects.
+// Vertices are processed LANES (4, 8 or 16, dividing BLOCK) at a time in vectors of that
+// width (8 floats: one AVX2 register). The vertex arrays are structures of arrays, each
+// joint's run padded to a multiple of BLOCK with zero-normal vertices, which the culling
+// test always rejects.
 #define CAT_(a, b) a##b
 #define CAT(a, b) CAT_(a, b)
-#define doubleV CAT(double, LANES)
-#define longV CAT(long, LANES)
+#define floatV CAT(float, LANES)
 #define intV CAT(int, LANES)
 #define uintV CAT(uint, LANES)
 #define convert_intV CAT(convert_int, LANES)
 #define convert_uintV CAT(convert_uint, LANES)
-#define convert_doubleV CAT(convert_double, LANES)
+#define convert_floatV CAT(convert_float, LANES)
 #define as_uintV CAT(as_uint, LANES)
 
 // PoCL (3.0) calls builtins such as vload, vstore, any, min, max, clamp and popcount as
@@ -48,8 +49,8 @@
 // (measured); they use plain operators instead. MIN and MAX work on scalars and vectors.
 #define MIN(a, b) ((a) < (b) ? (a) : (b))
 #define MAX(a, b) ((a) > (b) ? (a) : (b))
-// LANES doubles at p, an offset into a vertex array that is a multiple of LANES
-#define LOAD(p) (*(__global const doubleV *)(p))
+// LANES floats at p, an offset into a vertex array that is a multiple of LANES
+#define LOAD(p) (*(__global const floatV *)(p))
 // lane i of a private vector v whose lanes have the given type
 #define LANE(type, v, i) (((const type *)&(v))[i])
 
@@ -60,27 +61,30 @@
 #define PAD 16
 
 // (cx, cy) clamped to [-2^20, 2^20] before the conversion to int: far beyond any image.
-#define CLAMP_PX 1048576.0
+#define CLAMP_PX 1048576.0f
 
 // floor(t) as int, t clamped to [-CLAMP_PX, CLAMP_PX]; exact, and on PoCL much faster
 // than the floor, clamp and convert builtins together (measured).
-inline intV floor_int(doubleV t)
+inline intV floor_int(floatV t)
 {
     t = t < -CLAMP_PX ? -CLAMP_PX : t;
     t = t > CLAMP_PX ? CLAMP_PX : t;
     const intV truncated = convert_intV(t);
-    return truncated + convert_intV(convert_doubleV(truncated) > t);   // true is -1
+    return truncated + (convert_floatV(truncated) > t);   // true is -1
 }
 
 // Whether any lane of a comparison result is true (-1).
-inline int any_lane(const longV m)
+inline int any_lane(const intV m)
 {
-#if LANES == 8
-    const long4 m4 = m.lo | m.hi;
+#if LANES == 16
+    const int8 m8 = m.lo | m.hi;
+    const int4 m4 = m8.lo | m8.hi;
+#elif LANES == 8
+    const int4 m4 = m.lo | m.hi;
 #else
-    const long4 m4 = m;
+    const int4 m4 = m;
 #endif
-    const long2 m2 = m4.lo | m4.hi;
+    const int2 m2 = m4.lo | m4.hi;
     return (m2.x | m2.y) != 0;
 }
 
@@ -145,11 +149,11 @@ BIT_COUNT(uint8)
 
 __kernel __attribute__((reqd_work_group_size(LOCAL_SIZE, 1, 1)))
 void silhouette_counts(
-    __global const double *vertices,   // (7, N4) rest x, y, z (mm), normal x, y, z, n . v
+    __global const float *vertices,    // (7, N4) rest x, y, z (mm), normal x, y, z, n . v
     __global const int *joint_start,   // (J + 1,) first vertex of each joint (multiples of BLOCK)
     __global const double *cones,      // (N4 / BLOCK, 10) normal cone axis (3), cos, sin,
                                        // sphere centre (3, mm), radius (mm), 1 if no padding
-    __global const double *geometry,   // (nV, J, 16) A = [K[0] M; K[1] M; M[2]] (3x4,
+    __global const float *geometry,    // (nV, J, 16) A = [K[0] M; K[1] M; M[2]] (3x4,
                                        // row-major) and b = R^T t (3), 0, for M = [R t]
     __global const int *sides,         // (nV, J) patch side in px, 0 = joint dropped
     __global const int *shapes,        // (C, 3) width, height, first word of the mask in fg
@@ -189,8 +193,8 @@ void silhouette_counts(
     for (int j = 0; j < J; ++j) {
         const int s = sides[g * J + j];
         if (s == 0) continue;
-        __global const double *m = geometry + (g * J + j) * 16;
-        const double a00 = m[0], a01 = m[1], a02 = m[2], a03 = m[3],
+        __global const float *m = geometry + (g * J + j) * 16;
+        const float a00 = m[0], a01 = m[1], a02 = m[2], a03 = m[3],
                      a10 = m[4], a11 = m[5], a12 = m[6], a13 = m[7],
                      a20 = m[8], a21 = m[9], a22 = m[10], a23 = m[11],
                      b0 = m[12], b1 = m[13], b2 = m[14];
@@ -202,35 +206,36 @@ void silhouette_counts(
             const double dx = cone[5] + b0, dy = cone[6] + b1, dz = cone[7] + b2;
             const double ad = cone[0] * dx + cone[1] * dy + cone[2] * dz;
             const double dd = dx * dx + dy * dy + dz * dz;
-            const double cross = sqrt(MAX(dd - ad * ad, 0.0));
-            if (ad * cone[3] - cross * cone[4] > cone[8]) continue;
+            const double cross = sqrt(MAX(dd - ad * ad, 0.0)), dlen = sqrt(dd);
+            // r also bounds the float32 rounding of the per-vertex test (see _culling_cones)
+            const double r = cone[8] + ROUNDING * dlen;
+            if (ad * cone[3] - cross * cone[4] > r) continue;
             // the whole block, padding-free, facing: n . (v + b) <= max over the cone of n . d + r < 0
-            const double dlen = sqrt(dd);
             const double upper = ad <= dlen * cone[3] ? ad * cone[3] + cross * cone[4] : dlen;
-            const int all_facing = cone[9] != 0.0 && upper + cone[8] < 0.0;
+            const int all_facing = cone[9] != 0.0 && upper + r < 0.0;
             for (int v = BLOCK * blk; v < BLOCK * (blk + 1); v += LANES) {
                 // culling first: n' . p = n . v + n . (R^T t); all back faces: nothing else to do
-                longV facing = (longV)(-1);
+                intV facing = (intV)(-1);
                 if (!all_facing) {
-                    const doubleV nx = LOAD(vertices + 3 * N4 + v),
+                    const floatV nx = LOAD(vertices + 3 * N4 + v),
                                   ny = LOAD(vertices + 4 * N4 + v),
                                   nz = LOAD(vertices + 5 * N4 + v),
                                   nv = LOAD(vertices + 6 * N4 + v);
-                    facing = nv + (nx * b0 + ny * b1 + nz * b2) < 0.0;
+                    facing = nv + (nx * b0 + ny * b1 + nz * b2) < 0.0f;
                     if (!any_lane(facing)) continue;
                 }
-                const doubleV x = LOAD(vertices + v), y = LOAD(vertices + N4 + v),
+                const floatV x = LOAD(vertices + v), y = LOAD(vertices + N4 + v),
                               z = LOAD(vertices + 2 * N4 + v);
-                const doubleV pz = a20 * x + a21 * y + a22 * z + a23;
-                const longV keep = facing & (pz > NEAR_MM);
+                const floatV pz = a20 * x + a21 * y + a22 * z + a23;
+                const intV keep = facing & (pz > (float)NEAR_MM);
                 if (!any_lane(keep)) continue;
-                const doubleV inv = 1.0 / pz;
-                const doubleV u = (a00 * x + a01 * y + a02 * z + a03) * inv;
-                const doubleV w = (a10 * x + a11 * y + a12 * z + a13) * inv;
-                const intV cx = floor_int(u + 0.5), cy = floor_int(w + 0.5);
+                const floatV inv = 1.0f / pz;
+                const floatV u = (a00 * x + a01 * y + a02 * z + a03) * inv;
+                const floatV w = (a10 * x + a11 * y + a12 * z + a13) * inv;
+                const intV cx = floor_int(u + 0.5f), cy = floor_int(w + 0.5f);
                 if (layered) {
                     const intV px = cx + PAD, py = cy + PAD;
-                    const intV in = convert_intV(keep) & (px >= 0) & (px < width + 2 * PAD)
+                    const intV in = keep & (px >= 0) & (px < width + 2 * PAD)
                                     & (py >= 0) & (py < height + 2 * PAD);
                     loV = MIN(loV, in ? py : loV);
                     hiV = MAX(hiV, in ? py : -1);
@@ -244,7 +249,7 @@ void silhouette_counts(
                 }
                 if (s > 32) {  // large patches (a body part close to the camera): one by one
                     for (int i = 0; i < LANES; ++i)
-                        if (LANE(long, keep, i))
+                        if (LANE(int, keep, i))
                             stamp(words, stride, width, height, LANE(int, cx, i), LANE(int, cy, i),
                                   before, after, &lo, &hi);
                     continue;
@@ -253,7 +258,7 @@ void silhouette_counts(
                 // clipped-away vertex gets an empty range of words [first, last]
                 const intV col0 = MAX(cx - before, 0), col1 = MIN(cx + after, width - 1);
                 const intV row0 = MAX(cy - before, 0), row1 = MIN(cy + after, height - 1);
-                const intV ok = convert_intV(keep) & (col0 <= col1) & (row0 <= row1);
+                const intV ok = keep & (col0 <= col1) & (row0 <= row1);
                 loV = MIN(loV, ok ? row0 : height);
                 hiV = MAX(hiV, ok ? row1 : -1);
                 const uintV len = convert_uintV(MIN(MAX(col1 - col0 + 1, 1), 32));
