@@ -110,3 +110,23 @@ def test_culling_cones_skip_only_back_faces_and_pass_only_front_faces():
     # and the test is worth having: it skips about a third of the blocks
     assert skipped_total > 0.25 * blocks * len(bs)
     assert facing_total > 0.1 * blocks * len(bs)
+
+
+def test_body_arrays_are_uploaded_again_only_for_another_body(monkeypatch):
+    from mmocap.testing.evaluators import FRONT, PlateBody, empty_masks
+    calls = []
+    original = opencl._vertex_arrays
+    monkeypatch.setattr(opencl, "_vertex_arrays", lambda body: calls.append(body) or original(body))
+    blob, plate = BlobBody(), PlateBody()
+    ev, uploads = opencl.OpenCLEvaluator(), []
+    for body in (blob, blob, plate, blob):
+        before = len(calls)
+        ev.setup(body, [FRONT], empty_masks([FRONT]))
+        uploads.append(len(calls) - before)
+        X = test_poses() if body is blob else test_poses()[:, :3]
+        got = ev.counts(X)
+        fresh = opencl.OpenCLEvaluator()
+        fresh.setup(body, [FRONT], empty_masks([FRONT]))
+        for a, b in zip(got, fresh.counts(X)):
+            np.testing.assert_array_equal(a, b)
+    assert uploads == [1, 0, 1, 1]
