@@ -181,12 +181,21 @@ class _Lane:
         self.kernel = cl.Kernel(program(ctx, self.local_size, lanes), "silhouette_counts")
         self.frame: dict[str, cl.Buffer] = {}
         self.batch: dict[str, tuple[int, cl.Buffer]] = {}
+        self.bound: list = []  # the kernel's arguments, see bind
 
     def upload(self, **arrays: np.ndarray) -> None:
         """Read-only buffers kept until replaced (per frame, or per body)."""
         flags = cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR
         self.frame.update({k: cl.Buffer(self.ctx, flags, hostbuf=np.ascontiguousarray(a))
                            for k, a in arrays.items()})
+
+    def bind(self, *args) -> None:
+        """Set the kernel's arguments unless they are the last call's (the same buffer
+        objects, equal values): setting them costs about as much as a small copy."""
+        key = [a.size if isinstance(a, cl.LocalMemory) else a for a in args]
+        if len(key) != len(self.bound) or not all(map(_same, key, self.bound)):
+            self.kernel.set_args(*args)
+            self.bound = key
 
     def buffer(self, name: str, nbytes: int) -> cl.Buffer:
         """A per-call buffer of at least ``nbytes``, grown as needed."""
@@ -196,6 +205,13 @@ class _Lane:
             buf = cl.Buffer(self.ctx, cl.mem_flags.READ_WRITE, size)
             self.batch[name] = (size, buf)
         return buf
+
+
+def _same(a, b) -> bool:
+    """Identity for OpenCL buffers, equality for other kernel arguments."""
+    if isinstance(a, cl.MemoryObject) or isinstance(b, cl.MemoryObject):
+        return a is b
+    return a == b
 
 
 class OpenCLEvaluator(SilhouetteEvaluator):
@@ -279,8 +295,9 @@ class OpenCLEvaluator(SilhouetteEvaluator):
         M, side = view_geometry(self.body, self.cameras, X, self.patch_scale)
         n, C, J = side.shape
         K = np.stack([cam.K for cam in self.cameras])
-        geometry = projection_coefficients(M, K).reshape(n * C, J * 16)
-        sides = side.reshape(n * C, J).astype(np.int32)
+        geometry = projection_coefficients(M, K)
+        geometry.view(np.int32)[..., 15] = side                     # the unused 16th entry
+        geometry = geometry.reshape(n * C, J * 16)
         counts = np.empty((n * C, 2), np.int32)
         masks = np.empty((n * C if write_masks else 1, self._mask_words), np.uint32)
         edges = np.round(np.r_[0, np.cumsum(self._weights)] / self._weights.sum() * n).astype(int)
@@ -291,16 +308,13 @@ class OpenCLEvaluator(SilhouetteEvaluator):
             views = slice(a * C, b * C)
             nV = (b - a) * C
             geo = lane.buffer("geometry", geometry[views].nbytes)
-            sid = lane.buffer("sides", sides[views].nbytes)
             out = lane.buffer("counts", counts[views].nbytes)
             img = lane.buffer("masks", masks[views].nbytes if write_masks else 4)
             cl.enqueue_copy(lane.queue, geo, geometry[views], is_blocking=False)
-            cl.enqueue_copy(lane.queue, sid, sides[views], is_blocking=False)
             f = lane.frame
-            lane.kernel.set_args(f["vertices"], f["start"], f["cones"], geo, sid, f["shapes"],
-                                 f["fg"], np.int32(C), np.int32(J),
-                                 cl.LocalMemory(4 * self._mask_words), out,
-                                 np.int32(write_masks), np.int32(self._mask_words), img)
+            lane.bind(f["vertices"], f["start"], f["cones"], geo, f["shapes"], f["fg"],
+                      np.int32(C), np.int32(J), cl.LocalMemory(4 * self._mask_words), out,
+                      np.int32(write_masks), np.int32(self._mask_words), img)
             cl.enqueue_nd_range_kernel(lane.queue, lane.kernel, (nV * lane.local_size,),
                                        (lane.local_size,))
             events.append(cl.enqueue_copy(lane.queue, counts[views], out, is_blocking=False))

@@ -154,8 +154,8 @@ void silhouette_counts(
     __global const double *cones,      // (N4 / BLOCK, 10) normal cone axis (3), cos, sin,
                                        // sphere centre (3, mm), radius (mm), 1 if no padding
     __global const float *geometry,    // (nV, J, 16) A = [K[0] M; K[1] M; M[2]] (3x4,
-                                       // row-major) and b = R^T t (3), 0, for M = [R t]
-    __global const int *sides,         // (nV, J) patch side in px, 0 = joint dropped
+                                       // row-major) and b = R^T t (3) for M = [R t], then
+                                       // the patch side in px as int bits, 0 = joint dropped
     __global const int *shapes,        // (C, 3) width, height, first word of the mask in fg
     __global const uint *fg,           // foreground bit masks, bit x % 32 of word x / 32,
                                        // each camera's followed by zeros to mask_words
@@ -173,7 +173,7 @@ void silhouette_counts(
     const int N4 = joint_start[J];
     int common = 0;  // the patch side of every joint of the view, -1 if they differ
     for (int j = 0; j < J; ++j) {
-        const int s = sides[g * J + j];
+        const int s = as_int(geometry[(g * J + j) * 16 + 15]);
         if (s != 0) common = (common == 0 || common == s) ? s : -1;
     }
     const int layered = common > 0 && common <= 32;
@@ -191,7 +191,7 @@ void silhouette_counts(
     intV loV = lo, hiV = -1;
     intV leftV = width + 2 * PAD, rightV = -1;  // padded columns of the layer's centres
     for (int j = 0; j < J; ++j) {
-        const int s = sides[g * J + j];
+        const int s = as_int(geometry[(g * J + j) * 16 + 15]);
         if (s == 0) continue;
         __global const float *m = geometry + (g * J + j) * 16;
         const float a00 = m[0], a01 = m[1], a02 = m[2], a03 = m[3],
