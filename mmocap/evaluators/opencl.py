@@ -166,6 +166,10 @@ class _Lane:
         if not device.double_fp_config:
             raise ConfigError(f"OpenCL device {device.name.strip()!r} has no double precision "
                               "(cl_khr_fp64), which the kernel's culling bounds need")
+        if not device.single_fp_config & cl.device_fp_config.CORRECTLY_ROUNDED_DIVIDE_SQRT:
+            raise ConfigError(f"OpenCL device {device.name.strip()!r} cannot divide floats "
+                              "correctly rounded, which the silhouette rule's float32 "
+                              "projection needs to match the other backends")
         if local_size is None:
             local_size = 1 if device.type & cl.device_type.CPU else 64
         if not 1 <= int(local_size) <= device.max_work_group_size:

@@ -130,3 +130,19 @@ def test_body_arrays_are_uploaded_again_only_for_another_body(monkeypatch):
         for a, b in zip(got, fresh.counts(X)):
             np.testing.assert_array_equal(a, b)
     assert uploads == [1, 0, 1, 1]
+
+
+@pytest.mark.parametrize("missing, message", [
+    ("double_fp_config", "no double precision"),
+    ("single_fp_config", "cannot divide floats correctly rounded"),
+    ("endian_little", "big-endian"),
+])
+def test_a_device_without_what_the_kernel_needs_is_a_config_error(missing, message):
+    real = opencl.select_device(None, 0)
+
+    class Device:  # the real device, less one capability
+        def __getattr__(self, name):
+            return 0 if name == missing else getattr(real, name)
+
+    with pytest.raises(ConfigError, match=message):
+        opencl._Lane(Device(), opencl.context([real]), None, None)
