@@ -45,6 +45,7 @@ log = logging.getLogger(__name__)
 KERNEL = Path(__file__).with_name("kernels") / "silhouette.cl"
 _PID_VAR = "MMOCAP_POCL_CACHE_PID"
 _PAD = 16  # PAD of the kernel
+_MAX_LAYERS = 4  # MAX_LAYERS of the kernel
 _BLOCK = 32  # vertices per culling cone (the kernel's BLOCK)
 # bound on the float32 rounding of the culling test n . v + n . b, relative to |n . v| + |b|
 # (about 6 rounding errors of 2^-24 each: 3.6e-7), the kernel's ROUNDING
@@ -264,19 +265,20 @@ class OpenCLEvaluator(SilhouetteEvaluator):
             for lane in self._lanes:
                 lane.upload(vertices=vertices, start=start, cones=cones)
             self._body_uploaded = self.body
-        # a mask with a spare word (see the kernel's stamp) or a padded layer (see PAD),
-        # whichever is larger, rounded up to a multiple of 8
-        words = max(max((cam.width + 31) // 32 * cam.height + 1,
-                        ((cam.width + 31) // 32 + 2) * (cam.height + 2 * _PAD))
-                    for cam in self.cameras)
-        self._mask_words = (words + 7) // 8 * 8
+        # per camera: a mask with a spare word (see the kernel's stamp), rounded up to a
+        # multiple of 8 words; in local memory that mask or as many padded layers (see PAD)
+        # as fit, at most _MAX_LAYERS
+        mask = max((cam.width + 31) // 32 * cam.height + 1 for cam in self.cameras)
+        layer = max(((cam.width + 31) // 32 + 2) * (cam.height + 2 * _PAD) for cam in self.cameras)
+        self._mask_words = (mask + 7) // 8 * 8
+        room = min(lane.device.local_mem_size for lane in self._lanes) // 4 - 16
+        if mask > room:
+            raise ConfigError(f"a {max(cam.width for cam in self.cameras)} px wide mask needs "
+                              f"{4 * mask} bytes of local memory; the OpenCL device has {4 * room}")
+        self._max_layers = min(_MAX_LAYERS, room // layer)
+        self._local_words = (max(mask, self._max_layers * layer) + 7) // 8 * 8
         shapes = np.array([(cam.width, cam.height, c * self._mask_words)
                            for c, cam in enumerate(self.cameras)], np.int32)
-        for lane in self._lanes:
-            if 4 * self._mask_words + 64 > lane.device.local_mem_size:
-                raise ConfigError(f"a {max(cam.width for cam in self.cameras)} px wide mask needs "
-                                  f"{4 * self._mask_words} bytes of local memory; "
-                                  f"{lane.device.name.strip()!r} has {lane.device.local_mem_size}")
         packed = self._packed or [None] * len(self.foreground)
         fg = np.concatenate([_pack_bits(m, self._mask_words, p) for m, p in zip(self.foreground, packed)])
         for lane in self._lanes:
@@ -317,7 +319,8 @@ class OpenCLEvaluator(SilhouetteEvaluator):
             cl.enqueue_copy(lane.queue, geo, geometry[views], is_blocking=False)
             f = lane.frame
             lane.bind(f["vertices"], f["start"], f["cones"], geo, f["shapes"], f["fg"],
-                      np.int32(C), np.int32(J), cl.LocalMemory(4 * self._mask_words), out,
+                      np.int32(C), np.int32(J), cl.LocalMemory(4 * self._local_words),
+                      np.int32(self._max_layers), out,
                       np.int32(write_masks), np.int32(self._mask_words), img)
             cl.enqueue_nd_range_kernel(lane.queue, lane.kernel, (nV * lane.local_size,),
                                        (lane.local_size,))

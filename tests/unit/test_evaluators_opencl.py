@@ -146,3 +146,22 @@ def test_a_device_without_what_the_kernel_needs_is_a_config_error(missing, messa
 
     with pytest.raises(ConfigError, match=message):
         opencl._Lane(Device(), opencl.context([real]), None, None)
+
+
+@pytest.mark.parametrize("max_layers", [1, 2, 4])
+def test_views_with_several_patch_sides_give_naive_counts_whatever_the_layer_limit(
+        monkeypatch, max_layers):
+    """Views with more distinct patch sides than layers fall back to stamping patches."""
+    from mmocap.evaluators.silhouette import view_geometry
+    from mmocap.testing.evaluators import naive_counts
+    monkeypatch.setattr(opencl, "_MAX_LAYERS", max_layers)
+    distinct = []
+    for rig in sorted(RIGS):
+        for patch_scale in (1.0, 1.7):
+            ev = opencl.OpenCLEvaluator(patch_scale=patch_scale)
+            ev.setup(BlobBody(), RIGS[rig], masks(rig, "true"))
+            for got, expected in zip(ev.counts(test_poses()), naive_counts(rig, patch_scale, "true")):
+                np.testing.assert_array_equal(got, expected)
+            _, side = view_geometry(BlobBody(), RIGS[rig], test_poses(), patch_scale)
+            distinct += [len(np.unique(s[(s > 0) & (s <= 32)])) for s in side.reshape(-1, side.shape[-1])]
+    assert max(distinct) > 2  # views that need several layers occur

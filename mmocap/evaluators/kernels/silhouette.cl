@@ -54,11 +54,13 @@
 // lane i of a private vector v whose lanes have the given type
 #define LANE(type, v, i) (((const type *)&(v))[i])
 
-// Views whose joints all have one patch side s <= 32 (the usual case) take the layered
-// path: each vertex sets one bit, at its centre, in a layer padded by PAD px on every side
-// (a centre further out cannot reach the image); counting then dilates the layer by the
-// s x s patch with shifts and ORs on 64-bit windows, one output word at a time.
+// Views whose joints have at most max_layers distinct patch sides, all <= 32 (the usual
+// case), take the layered path: each vertex sets one bit, at its centre, in the layer of its
+// joint's side, padded by PAD px on every side (a centre further out cannot reach the
+// image); counting then dilates each layer by its s x s patch with shifts and ORs on 64-bit
+// windows and ORs the layers, one output word at a time. Other views stamp every patch.
 #define PAD 16
+#define MAX_LAYERS 4
 
 // (cx, cy) clamped to [-2^20, 2^20] before the conversion to int: far beyond any image.
 #define CLAMP_PX 1048576.0f
@@ -160,8 +162,9 @@ void silhouette_counts(
     __global const uint *fg,           // foreground bit masks, bit x % 32 of word x / 32,
                                        // each camera's followed by zeros to mask_words
     const int C, const int J,          // cameras, joints
-    __local uint8 *mask,               // mask_words / 8: the largest camera's mask + 1 spare
-                                       // word, or its padded layer (see PAD)
+    __local uint8 *mask,               // the largest camera's mask + 1 spare word, or
+                                       // max_layers of its padded layers (see PAD)
+    const int max_layers,              // 0 .. MAX_LAYERS
     __global int *counts,              // (nV, 2) |M|, |M & F|
     const int write_masks, const int mask_words, // mask_words: a multiple of 8
     __global uint *masks_out)          // (nV, mask_words) when write_masks != 0
@@ -171,14 +174,18 @@ void silhouette_counts(
     const int width = shapes[3 * c], height = shapes[3 * c + 1];
     const int stride = (width + 31) / 32;
     const int N4 = joint_start[J];
-    int common = 0;  // the patch side of every joint of the view, -1 if they differ
+    int side_of[MAX_LAYERS], layers = 0, layered = 1;  // the distinct patch sides, one per layer
     for (int j = 0; j < J; ++j) {
         const int s = as_int(geometry[(g * J + j) * 16 + 15]);
-        if (s != 0) common = (common == 0 || common == s) ? s : -1;
+        int l = 0;
+        while (l < layers && side_of[l] != s) ++l;
+        if (s == 0 || l < layers) continue;
+        if (s > 32 || layers == max_layers) layered = 0;
+        else side_of[layers++] = s;
     }
-    const int layered = common > 0 && common <= 32;
     const int pstride = stride + 2;  // padded layer: (height + 2 PAD) rows of pstride words
-    const int used = layered ? pstride * (height + 2 * PAD) : stride * height + 1;
+    const int layer_words = pstride * (height + 2 * PAD);
+    const int used = layered ? layers * layer_words : stride * height + 1;
     for (int k = lid; k < (used + 7) / 8; k += LOCAL_SIZE) mask[k] = (uint8)(0u);
     __local uint *words = (__local uint *)mask;
     if (lid == 0) {
@@ -199,6 +206,9 @@ void silhouette_counts(
                      a20 = m[8], a21 = m[9], a22 = m[10], a23 = m[11],
                      b0 = m[12], b1 = m[13], b2 = m[14];
         const int before = (s - 1) / 2, after = s / 2;
+        int l = 0;
+        while (layered && side_of[l] != s) ++l;
+        __local uint *layer = words + l * layer_words;
         for (int blk = joint_start[j] / BLOCK + lid; blk < joint_start[j + 1] / BLOCK;
              blk += LOCAL_SIZE) {
             // the whole block behind its normals: n . (v + b) >= (a . d) cos - |a x d| sin - r > 0
@@ -244,7 +254,7 @@ void silhouette_counts(
                     const intV k = in ? py * pstride + (px >> 5) : 0;
                     const uintV bit = as_uintV(in) & ((uintV)(1u) << (convert_uintV(px) & 31u));
                     for (int i = 0; i < LANES; ++i)
-                        OR_WORD(words + LANE(int, k, i), LANE(uint, bit, i));
+                        OR_WORD(layer + LANE(int, k, i), LANE(uint, bit, i));
                     continue;
                 }
                 if (s > 32) {  // large patches (a body part close to the camera): one by one
@@ -285,7 +295,11 @@ void silhouette_counts(
     int model = 0, overlap = 0;
     if (layered) {
         __global const uint *f = fg + shapes[3 * c + 2];
-        const int before = (common - 1) / 2, after = common / 2, shift = PAD - after;
+        int before = 0, after = 0;  // the largest reach of the layers' patches
+        for (int l = 0; l < layers; ++l) {
+            before = MAX(before, (side_of[l] - 1) / 2);
+            after = MAX(after, side_of[l] / 2);
+        }
         const int r0 = MAX(row_lo - PAD - before, 0), r1 = MIN(row_hi - PAD + after, height - 1);
         const uint edge = (width & 31) ? 0xffffffffu >> (32 - (width & 31)) : 0xffffffffu;
         if (write_masks) {
@@ -297,19 +311,23 @@ void silhouette_counts(
         for (int r = r0 + lid; r <= r1; r += LOCAL_SIZE)
         for (int w = w0; w <= w1; ++w) {
             const int k = r * stride + w;
-            // output row r: padded rows r + shift .. r + shift + common - 1 (the centres
-            // whose patch rows reach r); bit j of acc: centre column 32 w + j - after
-            ulong acc = 0;
-            for (int t = 0; t < common; ++t) {
-                __local const uint *row = words + (r + shift + t) * pstride + w;
-                acc |= (ulong)row[0] | ((ulong)row[1] << 32);
+            uint bits = 0;
+            for (int l = 0; l < layers; ++l) {
+                // output row r: padded rows r + shift .. r + shift + side - 1 of the layer (the
+                // centres whose patch rows reach r); bit j of acc: centre column 32 w + j - after
+                const int side = side_of[l], shift = PAD - side / 2;
+                __local const uint *base = words + l * layer_words + (r + shift) * pstride + w;
+                ulong acc = 0;
+                for (int t = 0; t < side; ++t)
+                    acc |= (ulong)base[t * pstride] | ((ulong)base[t * pstride + 1] << 32);
+                acc >>= shift;
+                // output bit i: any of bits i .. i + side - 1 of acc
+                int cover = 1;
+                for (; 2 * cover <= side; cover *= 2) acc |= acc >> cover;
+                acc |= acc >> (side - cover);
+                bits |= (uint)acc;
             }
-            acc >>= shift;
-            // output bit i: any of bits i .. i + common - 1 of acc
-            int cover = 1;
-            for (; 2 * cover <= common; cover *= 2) acc |= acc >> cover;
-            acc |= acc >> (common - cover);
-            const uint bits = (uint)acc & (w == stride - 1 ? edge : 0xffffffffu);
+            bits &= w == stride - 1 ? edge : 0xffffffffu;
             model += bit_count_uint(bits);
             overlap += bit_count_uint(bits & f[k]);
             if (write_masks) masks_out[g * mask_words + k] = bits;
