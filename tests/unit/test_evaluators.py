@@ -166,3 +166,28 @@ def test_setup_and_input_errors(backend, body):
     ev.close()
     with pytest.raises(RuntimeError):
         ev.counts(TRUE_POSE[None])
+
+
+def test_projection_coefficients_project_and_cull_as_the_camera_does():
+    """u'/z and v'/z from A, and n . v + n . b from b, against the camera-frame point
+    p = M [v; 1] and normal n' = R n, for M = E_c T_j = [R t] of random poses."""
+    from mmocap.evaluators.silhouette import projection_coefficients
+    body, cameras, X = BlobBody(), RIGS["front-side-near"] + RIGS["high-inside-small"], test_poses()
+    M, _ = view_geometry(body, cameras, X, 1.0)
+    K = np.stack([cam.K for cam in cameras])
+    coefficients = projection_coefficients(M, K).astype(np.float64)      # (n, C, J, 16)
+    rng = np.random.default_rng(3)
+    v = rng.uniform(-300, 300, 3)
+    normal = rng.normal(size=3)
+    normal /= np.linalg.norm(normal)
+    p = M[..., :3, :3] @ v + M[..., :3, 3]                                # (n, C, J, 3)
+    rotated = M[..., :3, :3] @ normal
+    A = coefficients[..., :12].reshape(M.shape[:3] + (3, 4))
+    projected = A @ np.r_[v, 1.0]
+    in_front = p[..., 2] > 100
+    for row in (0, 1):
+        expected = np.einsum("ck,ncjk->ncj", K[:, row], p) / p[..., 2]
+        np.testing.assert_allclose((projected[..., row] / projected[..., 2])[in_front],
+                                   expected[in_front], atol=1e-3)
+    culling = normal @ v + np.einsum("ncjk,k->ncj", coefficients[..., 12:15], normal)
+    np.testing.assert_allclose(culling, np.einsum("ncjk,ncjk->ncj", rotated, p), atol=1e-2)
