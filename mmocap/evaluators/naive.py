@@ -12,7 +12,7 @@ import numpy as np
 from mmocap.evaluators.silhouette import (NEAR_MM, SilhouetteEvaluator, projection_coefficients,
                                           vertex_table, view_geometry)
 
-ONE, HALF = np.float32(1.0), np.float32(0.5)
+ONE, HALF, NEAR = np.float32(1.0), np.float32(0.5), np.float32(NEAR_MM)
 
 
 class NaiveEvaluator(SilhouetteEvaluator):
@@ -55,7 +55,7 @@ class NaiveEvaluator(SilhouetteEvaluator):
             if not nv + (nx * b0 + ny * b1 + nz * b2) < 0:
                 continue
             depth = a20 * x + a21 * y + a22 * z + a23
-            if not depth > np.float32(NEAR_MM):
+            if not depth > NEAR:
                 continue
             r = ONE / depth
             cx = math.floor((a00 * x + a01 * y + a02 * z + a03) * r + HALF)

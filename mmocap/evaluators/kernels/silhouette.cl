@@ -7,9 +7,9 @@
 // popcounts against the camera's foreground bit mask, 8 words at a time.
 //
 // Compile-time constants: LOCAL_SIZE, NEAR_MM, BLOCK, LANES and ROUNDING, so that a program
-// is built once per context. With LOCAL_SIZE 1 (CPU devices) a work-group is one work-item and plain
-// read-modify-writes replace the local atomics. With write_masks != 0 the kernel also
-// copies each view's mask to masks_out (nV, mask_words) for rendering.
+// is built once per context. With LOCAL_SIZE 1 (CPU devices) a work-group is one work-item
+// and plain read-modify-writes replace the local atomics. With write_masks != 0 the kernel
+// also copies each view's mask to masks_out (nV, mask_words) for rendering.
 #pragma OPENCL EXTENSION cl_khr_fp64 : enable
 #pragma OPENCL FP_CONTRACT OFF   // no fused multiply-adds: round as NumPy does
 
