@@ -1,5 +1,6 @@
-"""Figures of a tracking run (error per frame, the tracked model over camera images) and of a
-sweep (error box plots, error curves of several algorithms, time-vs-error Pareto front)."""
+"""Figures of a tracking run (error per frame, the tracked model over camera images), of a
+sweep (error box plots, error curves of several algorithms, time-vs-error Pareto front) and of
+the evaluator benchmark (frames per second)."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -165,6 +166,37 @@ def plot_pareto_front(table: pd.DataFrame, path: Path, *, title: str, note: str 
     ax.set_xlabel("time per frame (s)")
     ax.set_ylabel("mean marker error (mm)")
     ax.set_title(f"{title}\n(numbers: evaluations per frame; outlined: non-dominated)", fontsize=10)
+    ax.grid(alpha=0.3, which="both")
+    fig.tight_layout()
+    _save(fig, path, note)
+
+
+def plot_frames_per_second(table: pd.DataFrame, path: Path, *, title: str,
+                           note: str | None = None) -> None:
+    """Frames per second against evaluations per frame (Cano Fig. 3), log-log: one colour per
+    ``backend``, one marker per ``vertices``; rows with ``extrapolated`` drawn dashed."""
+    backends, meshes = list(dict.fromkeys(table["backend"])), sorted(table["vertices"].unique())
+    colours = dict(zip(backends, plt.get_cmap("tab10")(np.arange(len(backends)) % 10)))
+    markers = dict(zip(meshes, "os^Dvp*hX"))
+    fig, ax = plt.subplots(figsize=(9.5, 5), dpi=110)
+    for (backend, vertices), rows in table.groupby(["backend", "vertices"], sort=False):
+        rows = rows.sort_values("evaluations")
+        ax.plot(rows["evaluations"], rows["fps"], color=colours[backend], marker=markers[vertices],
+                ls="--" if rows["extrapolated"].any() else "-", lw=1.3, ms=6)
+    handles = [plt.Line2D([], [], color=colours[b], label=b) for b in backends]
+    handles += [plt.Line2D([], [], ls="", marker=markers[v], color="0.5", label=f"{v} vertices")
+                for v in meshes]
+    if table["extrapolated"].any():
+        handles.append(plt.Line2D([], [], color="0.5", ls="--", label="extrapolated"))
+    ax.legend(handles=handles, fontsize=8, loc="center left", bbox_to_anchor=(1.01, 0.5))
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    budgets = sorted(table["evaluations"].unique())
+    ax.set_xticks(budgets, [str(b) for b in budgets])
+    ax.minorticks_off()
+    ax.set_xlabel("evaluations per frame")
+    ax.set_ylabel("frames per second")
+    ax.set_title(title, fontsize=10)
     ax.grid(alpha=0.3, which="both")
     fig.tight_layout()
     _save(fig, path, note)

@@ -19,6 +19,7 @@ def test_bench_writes_both_tables_with_speedups_against_naive(tmp_path, capsys):
     assert 0 < numpy.solutions_ms <= numpy.frame_ms
     assert numpy.fps == pytest.approx(1e3 / numpy.frame_ms)
     assert (tmp_path / "t_table1.md").read_text().startswith("# Time per frame")
+    assert (tmp_path / "t_fig3.png").read_bytes()[:4] == b"\x89PNG"
     assert "| numpy" in capsys.readouterr().out
 
 
