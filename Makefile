@@ -47,10 +47,10 @@ optimizers: $(STAMP) ## Demo sequence with every built-in optimiser, holistic an
 # inflate CMA-ES's share of a frame many times over on a small machine.
 BENCH := OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 $(PY) -m mmocap.bench
 
-bench: $(STAMP) ## Evaluator benchmark, 27393 vertices: time per model-view and per CMA-ES frame (500, 1500 evaluations); outputs/tables/bench_*
+bench: $(STAMP) ## Evaluator benchmark, 27393 vertices: time per model-view and per CMA-ES frame (500, 1500 evaluations); outputs/tables/bench_* (tables and Fig. 3)
 	$(BENCH) all --vertices 27393 --budgets 500,1500 --prefix bench_
 
-table1: $(STAMP) ## Cano Table 1 and Fig. 3 for this machine: CMA-ES frame times, 3 meshes x 4 budgets (about 10 min); outputs/tables/table1.*
+table1: $(STAMP) ## Cano Table 1 and Fig. 3 for this machine: CMA-ES frame times, 3 meshes x 4 budgets (about 10 min); outputs/tables/table1.*, fig3.png
 	$(BENCH) table1
 
 table2: $(STAMP) ## Cano Table 2 for this machine: time per model-view per backend and mesh; outputs/tables/table2.*
