@@ -82,9 +82,9 @@ class DifferentialEvolution(PopulationOptimizer):
 
     Defaults are Table 3 except ``cr = 0.5`` (paper 0.9) and ``init_spread = 0.3`` (paper
     1.0), plus the start point. On the demo sequence (S1 walking, 60 frames, 1500
-    evaluations, 39 DOF, mean marker error over search seeds 0-2) holistic DE gives 24.8 mm
-    with these defaults against 62.7 mm with the paper's (37.9 mm for cr 0.5 with
-    ``init_spread`` 1.0, 65.1 mm for cr 0.9 with 0.3): with N = 10 in 39 dimensions the
+    evaluations, 39 DOF, mean marker error over search seeds 0-2) holistic DE gives 24.6 mm
+    with these defaults against 64.6 mm with the paper's (50.0 mm for cr 0.5 with
+    ``init_spread`` 1.0, 64.3 mm for cr 0.9 with 0.3): with N = 10 in 39 dimensions the
     population spans at most 9 directions, and a crossover rate of 0.9 confines the trials
     to that span, so the search stalls and the error drifts from frame to frame.
     Hierarchical DE, 6 steps, seed 0: 27.3 mm against 30.1 mm with the paper's values.
