@@ -22,14 +22,19 @@ class NaiveEvaluator(SilhouetteEvaluator):
         patch_scale: factor on the body's per-joint patch size (Cano Eq. 4), > 0.
     """
 
+    def _prepare(self) -> None:
+        self._table = vertex_table(self.body)
+        self._K = np.stack([cam.K for cam in self.cameras])
+
     def _counts(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         M, side = view_geometry(self.body, self.cameras, X, self.patch_scale)
+        coefficients = projection_coefficients(M, self._K)
         n, C = len(X), len(self.cameras)
         model_px = np.zeros((n, C), dtype=np.int64)
         overlap_px = np.zeros((n, C), dtype=np.int64)
         for i in range(n):
             for c in range(C):
-                silhouette = self._silhouette(M[i, c], side[i, c], self.cameras[c])
+                silhouette = self._silhouette(coefficients[i, c], side[i, c], self.cameras[c])
                 model_px[i, c] = np.count_nonzero(silhouette)
                 overlap_px[i, c] = np.count_nonzero(silhouette & self.foreground[c])
         return model_px, overlap_px
@@ -37,14 +42,15 @@ class NaiveEvaluator(SilhouetteEvaluator):
     def _render(self, x: np.ndarray, camera_index: int) -> np.ndarray:
         camera = self.cameras[camera_index]
         M, side = view_geometry(self.body, [camera], x[None], self.patch_scale)
-        return self._silhouette(M[0, 0], side[0, 0], camera)
+        coefficients = projection_coefficients(M, camera.K[None])
+        return self._silhouette(coefficients[0, 0], side[0, 0], camera)
 
-    def _silhouette(self, M: np.ndarray, side: np.ndarray, camera) -> np.ndarray:
-        """(J, 4, 4) ``E_c T_j`` and (J,) patch sides -> (H, W) bool model silhouette."""
+    def _silhouette(self, coefficients: np.ndarray, side: np.ndarray, camera) -> np.ndarray:
+        """(J, 16) float32 projection coefficients and (J,) patch sides of one view -> (H, W)
+        bool model silhouette."""
         H, W = camera.height, camera.width
         image = np.zeros((H, W), dtype=bool)
-        coefficients = projection_coefficients(M[None, None], camera.K[None])[0, 0]   # (J, 16)
-        table = vertex_table(self.body)
+        table = self._table
         for k, j in enumerate(self.body.vertex_joint):
             s = int(side[j])
             if s == 0:

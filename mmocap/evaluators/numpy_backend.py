@@ -141,13 +141,14 @@ class NumpyEvaluator(SilhouetteEvaluator):
         nV = n * C
         M, side = view_geometry(self.body, cameras, X, self.patch_scale)
         J = side.shape[2]
-        big = (side > MAX_DILATE_SIDE).any(axis=2).reshape(nV)
-        exact = {int(view): _exact_view(M.reshape(nV, J, 4, 4)[view], side.reshape(nV, J)[view],
-                                        cameras[view % C], self.body)
+        coefficients = projection_coefficients(M, self._K[cams]).reshape(nV, J, 16)
+        side = side.reshape(nV, J)
+        big = (side > MAX_DILATE_SIDE).any(axis=1)
+        exact = {int(view): _exact_view(coefficients[view], side[view], cameras[view % C],
+                                        self._table, self._joint)
                  for view in np.flatnonzero(big)}
 
-        side = np.where(big[:, None], 0, side.reshape(nV, J))      # sides on the dilation path
-        coefficients = projection_coefficients(M, self._K[cams]).reshape(nV, J, 16)
+        side = np.where(big[:, None], 0, side)                      # sides on the dilation path
         coefficients[side == 0, 8:12] = 0                           # depth 0: never kept
         coefficients = np.ascontiguousarray(coefficients.transpose(1, 2, 0))[..., None]  # (J, 16, nV, 1)
 
@@ -202,12 +203,12 @@ def _clamped(centre: np.ndarray, reach: int, size: int) -> np.ndarray:
     return np.clip(centre, -reach - 1, size + reach).astype(np.int64)
 
 
-def _exact_view(M: np.ndarray, side: np.ndarray, camera, body) -> np.ndarray:
-    """One view, any patch sizes: (J, 4, 4) ``E_c T_j``, (J,) sides -> (H, W) bool silhouette."""
+def _exact_view(coefficients: np.ndarray, side: np.ndarray, camera, table: np.ndarray,
+                joint: np.ndarray) -> np.ndarray:
+    """One view, any patch sizes: (J, 16) float32 projection coefficients, (J,) sides, the
+    (7, N) vertex table and (N,) joint of each vertex -> (H, W) bool silhouette."""
     H, W = camera.height, camera.width
-    joint = np.asarray(body.vertex_joint)
-    coefficients = projection_coefficients(M[None, None], camera.K[None])[0, 0]   # (J, 16)
-    keep, cx, cy = project(coefficients[joint].T, vertex_table(body))
+    keep, cx, cy = project(coefficients[joint].T, table)
     s = side[joint]
     keep &= s > 0
     cx, cy, s = cx[keep].astype(np.int64), cy[keep].astype(np.int64), s[keep]

@@ -271,6 +271,7 @@ class OpenCLEvaluator(SilhouetteEvaluator):
         mask = max((cam.width + 31) // 32 * cam.height + 1 for cam in self.cameras)
         layer = max(((cam.width + 31) // 32 + 2) * (cam.height + 2 * _PAD) for cam in self.cameras)
         self._mask_words = (mask + 7) // 8 * 8
+        # words of local memory, less 16 for the kernel's own __local ints
         room = min(lane.device.local_mem_size for lane in self._lanes) // 4 - 16
         if mask > room:
             raise ConfigError(f"a {max(cam.width for cam in self.cameras)} px wide mask needs "
