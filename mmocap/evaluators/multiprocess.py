@@ -36,6 +36,8 @@ class MultiprocessingEvaluator(SilhouetteEvaluator):
         inner: entry-point name of the backend each worker runs (not ``multiprocessing``).
     """
 
+    owns_cores = True
+
     def __init__(self, patch_scale: float = 1.0, workers: int | None = None, inner: str = "numpy"):
         super().__init__(patch_scale)
         if workers is None:

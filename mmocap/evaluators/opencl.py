@@ -245,6 +245,11 @@ class OpenCLEvaluator(SilhouetteEvaluator):
         return [_Lane(dev, context([dev]), local_size, lanes)]
 
     @property
+    def owns_cores(self) -> bool:
+        """True on CPU devices (PoCL's threads use every core)."""
+        return any(lane.device.type & cl.device_type.CPU for lane in self._lanes)
+
+    @property
     def devices(self) -> list:
         """The OpenCL devices the population is split over."""
         return [lane.device for lane in self._lanes]

@@ -165,3 +165,29 @@ def test_views_with_several_patch_sides_give_naive_counts_whatever_the_layer_lim
             _, side = view_geometry(BlobBody(), RIGS[rig], test_poses(), patch_scale)
             distinct += [len(np.unique(s[(s > 0) & (s <= 32)])) for s in side.reshape(-1, side.shape[-1])]
     assert max(distinct) > 2  # views that need several layers occur
+
+
+def test_blas_runs_on_one_thread_while_a_cpu_device_is_set_up():
+    from threadpoolctl import threadpool_info, threadpool_limits
+    from mmocap.testing.evaluators import FRONT, empty_masks
+
+    def blas_threads():
+        return {lib["filepath"]: lib["num_threads"] for lib in threadpool_info()
+                if lib["user_api"] == "blas"}
+
+    np.linalg.eigh(np.eye(3))  # BLAS is loaded
+    if not blas_threads():
+        pytest.skip("no BLAS library that threadpoolctl can see")
+    with threadpool_limits(2, user_api="blas"):
+        ev = opencl.OpenCLEvaluator()
+        if not ev.owns_cores:
+            pytest.skip("the OpenCL device is not a CPU")
+        before = blas_threads()
+        other = opencl.OpenCLEvaluator()
+        for e in (ev, other):
+            e.setup(BlobBody(), [FRONT], empty_masks([FRONT]))
+            e.setup(BlobBody(), [FRONT], empty_masks([FRONT]))
+        ev.close()
+        assert set(blas_threads().values()) == {1}  # the other one still needs it
+        other.close()
+        assert blas_threads() == before
