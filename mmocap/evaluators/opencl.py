@@ -46,6 +46,7 @@ KERNEL = Path(__file__).with_name("kernels") / "silhouette.cl"
 _PID_VAR = "MMOCAP_POCL_CACHE_PID"
 _PAD = 16  # PAD of the kernel
 _MAX_LAYERS = 4  # MAX_LAYERS of the kernel
+_PITCH = 8  # the kernel's PITCH_WORDS: mask and foreground rows start at multiples of 8 words
 _BLOCK = 64  # vertices per culling cone (the kernel's BLOCK): 2-7 % faster than 32; 128 no better
 # bound on the float32 rounding of the culling test n . v + n . b, relative to |n . v| + |b|
 # (about 6 rounding errors of 2^-24 each: 3.6e-7), the kernel's ROUNDING
@@ -138,10 +139,29 @@ def program(ctx: cl.Context, local_size: int, lanes: int) -> cl.Program:
     key = (ctx.int_ptr, local_size, lanes)
     if key not in _PROGRAMS:
         options = [f"-DLOCAL_SIZE={local_size}", f"-DNEAR_MM={NEAR_MM!r}", f"-DBLOCK={_BLOCK}",
-                   f"-DLANES={lanes}", f"-DROUNDING={_ROUNDING!r}",
+                   f"-DLANES={lanes}", f"-DCOUNT_WORDS={_count_words(local_size)}",
+                   f"-DROUNDING={_ROUNDING!r}",
                    "-cl-fp32-correctly-rounded-divide-sqrt"]
         _PROGRAMS[key] = cl.Program(ctx, KERNEL.read_text()).build(options=options)
     return _PROGRAMS[key]
+
+
+def _count_words(local_size: int) -> int:
+    """Output words a work-item counts at once (the kernel's COUNT_WORDS): 8 in vectors when
+    one work-item does a whole view (CPUs), 1 when a work-group shares the rows."""
+    return 8 if local_size == 1 else 1
+
+
+def _pitch(width: int) -> int:
+    """Words per row of a mask or foreground ``width`` px wide: its words rounded up to 8."""
+    return -(-((width + 31) // 32) // _PITCH) * _PITCH
+
+
+def _layer_words(cam, local_size: int) -> int:
+    """Words of one padded layer of the kernel for a camera: (height + 2 PAD) rows of the
+    row's words and one more, rounded up to a multiple of COUNT_WORDS."""
+    count = _count_words(local_size)
+    return ((cam.width + 31) // 32 + count) // count * count * (cam.height + 2 * _PAD)
 
 
 def sub_devices(device, count: int) -> list:
@@ -273,8 +293,8 @@ class OpenCLEvaluator(SilhouetteEvaluator):
         # per camera: a mask with a spare word (see the kernel's stamp), rounded up to a
         # multiple of 8 words; in local memory that mask or as many padded layers (see PAD)
         # as fit, at most _MAX_LAYERS
-        mask = max((cam.width + 31) // 32 * cam.height + 1 for cam in self.cameras)
-        layer = max(((cam.width + 31) // 32 + 2) * (cam.height + 2 * _PAD) for cam in self.cameras)
+        mask = max(_pitch(cam.width) * cam.height + 1 for cam in self.cameras)
+        layer = max(_layer_words(cam, lane.local_size) for cam in self.cameras for lane in self._lanes)
         self._mask_words = (mask + 7) // 8 * 8
         # words of local memory, less 16 for the kernel's own __local ints
         room = min(lane.device.local_mem_size for lane in self._lanes) // 4 - 16
@@ -286,7 +306,8 @@ class OpenCLEvaluator(SilhouetteEvaluator):
         shapes = np.array([(cam.width, cam.height, c * self._mask_words)
                            for c, cam in enumerate(self.cameras)], np.int32)
         packed = self._packed or [None] * len(self.foreground)
-        fg = np.concatenate([_pack_bits(m, self._mask_words, p) for m, p in zip(self.foreground, packed)])
+        fg = np.concatenate([_pack_bits(m, self._mask_words, p)
+                             for m, p in zip(self.foreground, packed)])
         for lane in self._lanes:
             lane.upload(shapes=shapes, fg=fg)
 
@@ -297,8 +318,7 @@ class OpenCLEvaluator(SilhouetteEvaluator):
     def _render(self, x: np.ndarray, camera_index: int) -> np.ndarray:
         _, masks = self._run(x[None], write_masks=True)
         cam = self.cameras[camera_index]
-        stride = (cam.width + 31) // 32
-        words = masks[camera_index, :stride * cam.height].reshape(cam.height, stride)
+        words = masks[camera_index, :_pitch(cam.width) * cam.height].reshape(cam.height, -1)
         bits = np.unpackbits(words.view(np.uint8), axis=1, bitorder="little")
         return bits[:, :cam.width].astype(bool)
 
@@ -460,8 +480,9 @@ def _culling_cones(vertices: np.ndarray) -> np.ndarray:
 
 def _pack_bits(mask: np.ndarray, size: int, packed: np.ndarray | None = None) -> np.ndarray:
     """(H, W) bool -> (size,) uint32: the rows of :func:`pack_rows` (``packed`` if given),
-    then zeros."""
-    words = (pack_rows(mask) if packed is None else packed).ravel()
+    each widened with zeros to :func:`_pitch` words, then zeros."""
+    rows = pack_rows(mask) if packed is None else packed
+    H, W = np.shape(mask)
     out = np.zeros(size, np.uint32)
-    out[:len(words)] = words
+    out[:H * _pitch(W)].reshape(H, -1)[:, :rows.shape[1]] = rows
     return out

@@ -221,8 +221,10 @@ def _one_blas_thread(change: int) -> None:
     """Count an evaluator in (+1) or out (-1) of those that need BLAS on one thread; the
     limit holds while the count is positive and the original one is restored after."""
     _blas_limit["users"] += change
-    if _blas_limit["users"] > 0 and _blas_limit["limit"] is None:
-        _blas_limit["limit"] = threadpool_limits(1, user_api="blas")
+    if change > 0:
+        limit = threadpool_limits(1, user_api="blas")  # again, should it have been changed since
+        if _blas_limit["limit"] is None:
+            _blas_limit["limit"] = limit
     elif _blas_limit["users"] == 0 and _blas_limit["limit"] is not None:
         _blas_limit["limit"].restore_original_limits()
         _blas_limit["limit"] = None

@@ -6,8 +6,8 @@
 // memory (1 bit per pixel, rows padded to 32-bit words) and count |M| and |M & F| with
 // popcounts against the camera's foreground bit mask, 8 words at a time.
 //
-// Compile-time constants: LOCAL_SIZE, NEAR_MM, BLOCK, LANES and ROUNDING, so that a program
-// is built once per context. With LOCAL_SIZE 1 (CPU devices) a work-group is one work-item
+// Compile-time constants: LOCAL_SIZE, NEAR_MM, BLOCK, LANES, COUNT_WORDS and ROUNDING, so
+// that a program is built once per context. With LOCAL_SIZE 1 (CPU devices) a work-group is one work-item
 // and plain read-modify-writes replace the local atomics. With write_masks != 0 the kernel
 // also copies each view's mask to masks_out (nV, mask_words) for rendering.
 #pragma OPENCL EXTENSION cl_khr_fp64 : enable
@@ -58,9 +58,37 @@
 // case), take the layered path: each vertex sets one bit, at its centre, in the layer of its
 // joint's side, padded by PAD px on every side (a centre further out cannot reach the
 // image); counting then dilates each layer by its s x s patch with shifts and ORs on 64-bit
-// windows and ORs the layers, one output word at a time. Other views stamp every patch.
+// windows and ORs the layers, COUNT_WORDS (8 on CPUs, else 1) output words at a time.
+// Other views stamp every patch.
 #define PAD 16
 #define MAX_LAYERS 4
+
+// Rows of the masks and of the foreground are PITCH_WORDS-aligned: pitch = stride rounded up
+// to a multiple of 8 words; the padded layers' rows (pstride words) hold the image's stride
+// words and one more, rounded up to a multiple of COUNT_WORDS.
+#define PITCH_WORDS 8
+#if COUNT_WORDS == 8
+#define uintW uint8
+#define ulongW ulong8
+#define intW int8
+#define convert_ulongW convert_ulong8
+#define convert_uintW convert_uint8
+#define bit_count_uintW bit_count_uint8
+// words w + 1 .. w + 8 from words w .. w + 7 (lo) and word w + 8 (next)
+#define NEXT_WORDS(lo, next) ((uint8)((lo).s1234, (lo).s567, (next)))
+#define WORD_INDEX ((int8)(0, 1, 2, 3, 4, 5, 6, 7))
+#define SUM_WORDS(v) ((v).s0 + (v).s1 + (v).s2 + (v).s3 + (v).s4 + (v).s5 + (v).s6 + (v).s7)
+#else
+#define uintW uint
+#define ulongW ulong
+#define intW int
+#define convert_ulongW convert_ulong
+#define convert_uintW convert_uint
+#define bit_count_uintW bit_count_uint
+#define NEXT_WORDS(lo, next) (next)
+#define WORD_INDEX 0
+#define SUM_WORDS(v) (v)
+#endif
 
 // (cx, cy) clamped to [-2^20, 2^20] before the conversion to int: far beyond any image.
 #define CLAMP_PX 1048576.0f
@@ -159,8 +187,9 @@ void silhouette_counts(
                                        // row-major) and b = R^T t (3) for M = [R t], then
                                        // the patch side in px as int bits, 0 = joint dropped
     __global const int *shapes,        // (C, 3) width, height, first word of the mask in fg
-    __global const uint *fg,           // foreground bit masks, bit x % 32 of word x / 32,
-                                       // each camera's followed by zeros to mask_words
+    __global const uint *fg,           // foreground bit masks, bit x % 32 of word x / 32 of
+                                       // its row (pitch words), each camera's followed by
+                                       // zeros to mask_words
     const int C, const int J,          // cameras, joints
     __local uint8 *mask,               // the largest camera's mask + 1 spare word, or
                                        // max_layers of its padded layers (see PAD)
@@ -172,7 +201,8 @@ void silhouette_counts(
     __local int row_lo, row_hi, col_lo, col_hi, model_px, overlap_px;
     const int g = get_group_id(0), lid = get_local_id(0), c = g % C;
     const int width = shapes[3 * c], height = shapes[3 * c + 1];
-    const int stride = (width + 31) / 32;
+    const int stride = (width + 31) / 32;                               // words of a row
+    const int pitch = (stride + PITCH_WORDS - 1) / PITCH_WORDS * PITCH_WORDS;  // words per row
     const int N4 = joint_start[J];
     int side_of[MAX_LAYERS], layers = 0, layered = 1;  // the distinct patch sides, one per layer
     for (int j = 0; j < J; ++j) {
@@ -183,9 +213,10 @@ void silhouette_counts(
         if (s > 32 || layers == max_layers) layered = 0;
         else side_of[layers++] = s;
     }
-    const int pstride = stride + 2;  // padded layer: (height + 2 PAD) rows of pstride words
+    // padded layer: (height + 2 PAD) rows of pstride words
+    const int pstride = (stride + COUNT_WORDS) / COUNT_WORDS * COUNT_WORDS;
     const int layer_words = pstride * (height + 2 * PAD);
-    const int used = layered ? layers * layer_words : stride * height + 1;
+    const int used = layered ? layers * layer_words : pitch * height + 1;
     for (int k = lid; k < (used + 7) / 8; k += LOCAL_SIZE) mask[k] = (uint8)(0u);
     __local uint *words = (__local uint *)mask;
     if (lid == 0) {
@@ -260,7 +291,7 @@ void silhouette_counts(
                 if (s > 32) {  // large patches (a body part close to the camera): one by one
                     for (int i = 0; i < LANES; ++i)
                         if (LANE(int, keep, i))
-                            stamp(words, stride, width, height, LANE(int, cx, i), LANE(int, cy, i),
+                            stamp(words, pitch, width, height, LANE(int, cx, i), LANE(int, cy, i),
                                   before, after, &lo, &hi);
                     continue;
                 }
@@ -276,10 +307,10 @@ void silhouette_counts(
                 const uintV low = ((uintV)(0xffffffffu) >> (32u - len)) << shift;
                 // bits of the patch past word w0: (ones(len) << shift) >> 32, 0 when shift 0
                 const uintV high = shift == 0u ? 0u : ((uintV)(0xffffffffu) >> (32u - len)) >> (32u - shift);
-                const intV first = ok ? row0 * stride + (col0 >> 5) : 0;
-                const intV last = ok ? row1 * stride + (col0 >> 5) : -1;
+                const intV first = ok ? row0 * pitch + (col0 >> 5) : 0;
+                const intV last = ok ? row1 * pitch + (col0 >> 5) : -1;
                 for (int i = 0; i < LANES; ++i)
-                    for (int k = LANE(int, first, i); k <= LANE(int, last, i); k += stride) {
+                    for (int k = LANE(int, first, i); k <= LANE(int, last, i); k += pitch) {
                         OR_WORD(words + k, LANE(uint, low, i));
                         OR_WORD(words + k + 1, LANE(uint, high, i));
                     }
@@ -303,39 +334,50 @@ void silhouette_counts(
         const int r0 = MAX(row_lo - PAD - before, 0), r1 = MIN(row_hi - PAD + after, height - 1);
         const uint edge = (width & 31) ? 0xffffffffu >> (32 - (width & 31)) : 0xffffffffu;
         if (write_masks) {
-            for (int k = lid; k < stride * height; k += LOCAL_SIZE) masks_out[g * mask_words + k] = 0u;
+            for (int k = lid; k < pitch * height; k += LOCAL_SIZE) masks_out[g * mask_words + k] = 0u;
             barrier(CLK_GLOBAL_MEM_FENCE);
         }
-        const int w0 = MAX(col_lo - PAD - before, 0) >> 5;
+        // output words w0 .. w1, in groups of COUNT_WORDS from a multiple of it
+        const int w0 = (MAX(col_lo - PAD - before, 0) >> 5) / COUNT_WORDS * COUNT_WORDS;
         const int w1 = MIN(col_hi - PAD + after, width - 1) >> 5;
+        uintW model_w = 0u, overlap_w = 0u;
         for (int r = r0 + lid; r <= r1; r += LOCAL_SIZE)
-        for (int w = w0; w <= w1; ++w) {
-            const int k = r * stride + w;
-            uint bits = 0;
+        for (int w = w0; w <= w1; w += COUNT_WORDS) {
+            ulongW bits = 0;
             for (int l = 0; l < layers; ++l) {
                 // output row r: padded rows r + shift .. r + shift + side - 1 of the layer (the
                 // centres whose patch rows reach r); bit j of acc: centre column 32 w + j - after
                 const int side = side_of[l], shift = PAD - side / 2;
                 __local const uint *base = words + l * layer_words + (r + shift) * pstride + w;
-                ulong acc = 0;
-                for (int t = 0; t < side; ++t)
-                    acc |= (ulong)base[t * pstride] | ((ulong)base[t * pstride + 1] << 32);
-                acc >>= shift;
+                uintW lo = 0u;
+                uint next = 0u;  // word w + COUNT_WORDS (within the row: see pstride)
+                for (int t = 0; t < side; ++t) {
+                    lo |= *(__local const uintW *)(base + t * pstride);
+                    next |= base[t * pstride + COUNT_WORDS];
+                }
+                ulongW acc = (convert_ulongW(lo) | (convert_ulongW(NEXT_WORDS(lo, next)) << 32)) >> shift;
                 // output bit i: any of bits i .. i + side - 1 of acc
                 int cover = 1;
                 for (; 2 * cover <= side; cover *= 2) acc |= acc >> cover;
                 acc |= acc >> (side - cover);
-                bits |= (uint)acc;
+                bits |= acc;
             }
-            bits &= w == stride - 1 ? edge : 0xffffffffu;
-            model += bit_count_uint(bits);
-            overlap += bit_count_uint(bits & f[k]);
-            if (write_masks) masks_out[g * mask_words + k] = bits;
+            const intW word = w + WORD_INDEX;  // words past the row's last hold no pixel
+            const uintW out = convert_uintW(bits)
+                              & (word < stride - 1 ? 0xffffffffu : word == stride - 1 ? edge : 0u);
+            model_w += bit_count_uintW(out);
+            overlap_w += bit_count_uintW(out & *(__global const uintW *)(fg + shapes[3 * c + 2]
+                                                                       + r * pitch + w));
+            if (write_masks)
+                for (int i = 0; i < COUNT_WORDS && w + i < stride; ++i)
+                    masks_out[g * mask_words + r * pitch + w + i] = LANE(uint, out, i);
         }
+        model = SUM_WORDS(model_w);
+        overlap = SUM_WORDS(overlap_w);
     } else {
         __global const uint8 *f = (__global const uint8 *)(fg + shapes[3 * c + 2]);
         uint8 model8 = 0u, overlap8 = 0u;
-        for (int k = row_lo * stride / 8 + lid; k < ((row_hi + 1) * stride + 7) / 8; k += LOCAL_SIZE) {
+        for (int k = row_lo * pitch / 8 + lid; k < (row_hi + 1) * pitch / 8; k += LOCAL_SIZE) {
             const uint8 bits = mask[k];
             model8 += bit_count_uint8(bits);
             overlap8 += bit_count_uint8(bits & f[k]);
@@ -349,7 +391,7 @@ void silhouette_counts(
     ADD_INT(&overlap_px, overlap);
     barrier(CLK_LOCAL_MEM_FENCE);
     if (write_masks && !layered)
-        for (int k = lid; k < stride * height; k += LOCAL_SIZE)
+        for (int k = lid; k < pitch * height; k += LOCAL_SIZE)
             masks_out[g * mask_words + k] = words[k];
     if (lid == 0) {
         counts[2 * g] = model_px;
