@@ -2,7 +2,7 @@
 
 Table 2 (``model-view``): time to project the model and count its pixels in one 640x480
 view, per backend and vertex level, from a population evaluated in one camera (so the
-shared host work, body kinematics and :func:`view_geometry`, is included), best of
+host work, body kinematics at least, is included), best of
 ``repeats`` runs; speed-up against ``naive`` timed in the same run.
 
 Table 1 (``frame``): time per frame of CMA-ES (holistic, 39 DOF) with a budget of

@@ -9,8 +9,7 @@ import math
 
 import numpy as np
 
-from mmocap.evaluators.silhouette import (NEAR_MM, SilhouetteEvaluator, projection_coefficients,
-                                          vertex_table, view_geometry)
+from mmocap.evaluators.silhouette import NEAR_MM, SilhouetteEvaluator, vertex_table, view_geometry
 
 ONE, HALF, NEAR = np.float32(1.0), np.float32(0.5), np.float32(NEAR_MM)
 
@@ -24,11 +23,9 @@ class NaiveEvaluator(SilhouetteEvaluator):
 
     def _prepare(self) -> None:
         self._table = vertex_table(self.body)
-        self._K = np.stack([cam.K for cam in self.cameras])
 
     def _counts(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        M, side = view_geometry(self.body, self.cameras, X, self.patch_scale)
-        coefficients = projection_coefficients(M, self._K)
+        coefficients, side = view_geometry(self.body, self.cameras, X, self.patch_scale)
         n, C = len(X), len(self.cameras)
         model_px = np.zeros((n, C), dtype=np.int64)
         overlap_px = np.zeros((n, C), dtype=np.int64)
@@ -41,8 +38,7 @@ class NaiveEvaluator(SilhouetteEvaluator):
 
     def _render(self, x: np.ndarray, camera_index: int) -> np.ndarray:
         camera = self.cameras[camera_index]
-        M, side = view_geometry(self.body, [camera], x[None], self.patch_scale)
-        coefficients = projection_coefficients(M, camera.K[None])
+        coefficients, side = view_geometry(self.body, [camera], x[None], self.patch_scale)
         return self._silhouette(coefficients[0, 0], side[0, 0], camera)
 
     def _silhouette(self, coefficients: np.ndarray, side: np.ndarray, camera) -> np.ndarray:

@@ -28,8 +28,7 @@ import cv2
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
-from mmocap.evaluators.silhouette import (SilhouetteEvaluator, project, projection_coefficients,
-                                          vertex_table, view_geometry)
+from mmocap.evaluators.silhouette import SilhouetteEvaluator, project, vertex_table, view_geometry
 
 MAX_DILATE_SIDE = 33
 _MAX_REACH = MAX_DILATE_SIDE // 2
@@ -77,7 +76,6 @@ class NumpyEvaluator(SilhouetteEvaluator):
         self._joint = joint[order]
         self._bounds = np.searchsorted(self._joint, np.arange(len(body.joint_rest_positions) + 1))
         self._table = np.ascontiguousarray(vertex_table(body)[:, order])               # (7, N)
-        self._K = np.stack([cam.K for cam in self.cameras])
         self._hmax = max(cam.height for cam in self.cameras)
         self._wmax = max(cam.width for cam in self.cameras)
         pad = 2 * _MARGIN
@@ -139,9 +137,9 @@ class NumpyEvaluator(SilhouetteEvaluator):
         cameras = [self.cameras[c] for c in cams]
         n, C = len(X), len(cams)
         nV = n * C
-        M, side = view_geometry(self.body, cameras, X, self.patch_scale)
+        coefficients, side = view_geometry(self.body, cameras, X, self.patch_scale)
         J = side.shape[2]
-        coefficients = projection_coefficients(M, self._K[cams]).reshape(nV, J, 16)
+        coefficients = coefficients.reshape(nV, J, 16)
         side = side.reshape(nV, J)
         big = (side > MAX_DILATE_SIDE).any(axis=1)
         exact = {int(view): _exact_view(coefficients[view], side[view], cameras[view % C],

@@ -1,9 +1,9 @@
 """OpenCL evaluators: the rule of :mod:`mmocap.evaluators.silhouette` as a PyOpenCL kernel.
 
-Steps 1-2 (``view_geometry``) and the float32 inputs of steps 3-4 (``vertex_table``,
-``projection_coefficients``) are computed on the host; the kernel ``kernels/silhouette.cl``
-does steps 3-6 in the rule's float32 arithmetic, one work-group per (candidate, camera)
-pair, each with its own bit mask in local memory (1 bit per pixel: 38 400 bytes for
+The host computes the body's joint transforms (``body.transforms``) and, once per body,
+``vertex_table``; the kernel ``kernels/silhouette.cl`` does the rest: steps 1-2 and the
+coefficients in the float64 order of ``view_geometry``, steps 3-6 in the rule's float32
+arithmetic, one work-group per (candidate, camera) pair, each with its own bit mask in local memory (1 bit per pixel: 38 400 bytes for
 640x480), so no two work-groups ever write the same memory. The foreground masks are
 uploaded once per frame as bit masks and counted against with popcounts. The per-block
 culling bounds need double precision (``cl_khr_fp64``): PoCL on CPUs and current GPUs
@@ -37,8 +37,8 @@ from pathlib import Path
 import numpy as np
 
 from mmocap.errors import ConfigError
-from mmocap.evaluators.silhouette import (NEAR_MM, SilhouetteEvaluator, projection_coefficients,
-                                          vertex_table, view_geometry)
+from mmocap.evaluators.silhouette import (MAX_SIDE, NEAR_MM, SilhouetteEvaluator, body_transforms,
+                                          camera_rows, joint_rows, vertex_table)
 from mmocap.stages.foreground import pack_rows
 
 log = logging.getLogger(__name__)
@@ -140,7 +140,7 @@ def program(ctx: cl.Context, local_size: int, lanes: int) -> cl.Program:
     if key not in _PROGRAMS:
         options = [f"-DLOCAL_SIZE={local_size}", f"-DNEAR_MM={NEAR_MM!r}", f"-DBLOCK={_BLOCK}",
                    f"-DLANES={lanes}", f"-DCOUNT_WORDS={_count_words(local_size)}",
-                   f"-DROUNDING={_ROUNDING!r}",
+                   f"-DROUNDING={_ROUNDING!r}", f"-DMAX_SIDE={MAX_SIDE}",
                    "-cl-fp32-correctly-rounded-divide-sqrt"]
         _PROGRAMS[key] = cl.Program(ctx, KERNEL.read_text()).build(options=options)
     return _PROGRAMS[key]
@@ -287,8 +287,9 @@ class OpenCLEvaluator(SilhouetteEvaluator):
         if self._body_uploaded is not self.body:
             vertices, start = _vertex_arrays(self.body)
             cones = _culling_cones(vertices)
+            joints = joint_rows(self.body, self.patch_scale)
             for lane in self._lanes:
-                lane.upload(vertices=vertices, start=start, cones=cones)
+                lane.upload(vertices=vertices, start=start, cones=cones, joints=joints)
             self._body_uploaded = self.body
         # per camera: a mask with a spare word (see the kernel's stamp), rounded up to a
         # multiple of 8 words; in local memory that mask or as many padded layers (see PAD)
@@ -309,7 +310,7 @@ class OpenCLEvaluator(SilhouetteEvaluator):
         fg = np.concatenate([_pack_bits(m, self._mask_words, p)
                              for m, p in zip(self.foreground, packed)])
         for lane in self._lanes:
-            lane.upload(shapes=shapes, fg=fg)
+            lane.upload(shapes=shapes, fg=fg, cameras=camera_rows(self.cameras))
 
     def _counts(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         counts, _ = self._run(X, write_masks=False)
@@ -324,12 +325,9 @@ class OpenCLEvaluator(SilhouetteEvaluator):
 
     def _run(self, X: np.ndarray, write_masks: bool):
         """Counts (n, C, 2) int32 and, with ``write_masks``, masks (n * C, mask_words) uint32."""
-        M, side = view_geometry(self.body, self.cameras, X, self.patch_scale)
-        n, C, J = side.shape
-        K = np.stack([cam.K for cam in self.cameras])
-        geometry = projection_coefficients(M, K)
-        geometry.view(np.int32)[..., 15] = side                     # the unused 16th entry
-        geometry = geometry.reshape(n * C, J * 16)
+        T = body_transforms(self.body, X)
+        n, J, C = len(T), T.shape[1], len(self.cameras)
+        T = np.ascontiguousarray(T[:, :, :3]).reshape(n, J * 12)   # [R t] rows per joint
         counts = np.empty((n * C, 2), np.int32)
         masks = np.empty((n * C if write_masks else 1, self._mask_words), np.uint32)
         edges = np.round(np.r_[0, np.cumsum(self._weights)] / self._weights.sum() * n).astype(int)
@@ -339,12 +337,13 @@ class OpenCLEvaluator(SilhouetteEvaluator):
                 continue
             views = slice(a * C, b * C)
             nV = (b - a) * C
-            geo = lane.buffer("geometry", geometry[views].nbytes)
+            rows = lane.buffer("transforms", T[a:b].nbytes)
             out = lane.buffer("counts", counts[views].nbytes)
             img = lane.buffer("masks", masks[views].nbytes if write_masks else 4)
-            cl.enqueue_copy(lane.queue, geo, geometry[views], is_blocking=False)
+            cl.enqueue_copy(lane.queue, rows, T[a:b], is_blocking=False)
             f = lane.frame
-            lane.bind(f["vertices"], f["start"], f["cones"], geo, f["shapes"], f["fg"],
+            lane.bind(f["vertices"], f["start"], f["cones"], rows, f["cameras"], f["joints"],
+                      f["shapes"], f["fg"],
                       np.int32(C), np.int32(J), cl.LocalMemory(4 * self._local_words),
                       np.int32(self._max_layers), out,
                       np.int32(write_masks), np.int32(self._mask_words), img)

@@ -12,24 +12,30 @@ For every candidate ``i``, camera ``c`` and joint ``j``:
 
 1. ``M = E_c T_j`` (4x4), with ``E_c = camera.extrinsic`` and ``T_j = body.transforms(X)[i, j]``.
 2. Patch side in pixels: ``z_j = (M [p_j; 1]).z`` with ``p_j = body.joint_rest_positions[j]``;
-   ``s = max(1, ceil(f * body.patch_mm[j] * patch_scale / z_j))`` with ``f = camera.focal``.
-   If ``z_j <= NEAR_MM`` the joint's vertices are all dropped. This is Cano Eq. 4 with one
-   size per body part: ``body.patch_mm`` is its ``l_r`` (the side of a square of the mean
-   triangle's area) and ``z_j`` its distance ``d``; the paper prints ``p = f d / l_r``,
-   but the pin-hole model it invokes gives ``f l_r / d``, which is what is used.
+   ``s = max(1, ceil(f * body.patch_mm[j] * patch_scale / z_j))`` with ``f = camera.focal``,
+   at most ``MAX_SIDE``. If ``z_j <= NEAR_MM`` the joint's vertices are all dropped. This is
+   Cano Eq. 4 with one size per body part: ``body.patch_mm`` is its ``l_r`` (the side of a
+   square of the mean triangle's area) and ``z_j`` its distance ``d``; the paper prints
+   ``p = f d / l_r``, but the pin-hole model it invokes gives ``f l_r / d``, which is used.
 3. Each vertex of joint ``j``, with rest position ``v`` and unit normal ``n``, is kept iff its
    depth ``p.z`` (``p = M [v; 1]``, camera frame, mm) exceeds ``NEAR_MM`` and its normal
    faces the camera, ``n' . p < 0`` with ``n' = R n`` for ``M = [R t]`` (back-face culling).
 4. Projection: ``u = (K[0] . p) / p.z``, ``v = (K[1] . p) / p.z``; centre pixel
    ``(cx, cy) = (floor(u + 0.5), floor(v + 0.5))``.
 
+   Steps 1-2 and the coefficients of steps 3-4 are computed in float64 by
+   :func:`view_geometry`, exactly as it spells them out (each operation rounded, no fused
+   multiply-add), so that a backend may compute them itself (the OpenCL kernel does):
+   ``A = [K[0] M; K[1] M; M[2]]`` (3x4 with entries ``aRC``) as ``P_c [R_j t_j]`` with
+   ``P_c = [K[0] E; K[1] E; E[2]]`` (:func:`camera_rows`) and ``T_j = [R_j t_j]``, and the
+   culling offset ``b = R^T t = R_j^T (t_j - o_c)`` for ``M = [R t]`` and the camera centre
+   ``o_c``; ``A`` and ``b`` are then rounded to float32 once.
+
    Steps 3-4 are evaluated in float32, exactly as follows, so that every backend gets the
    same bits (float32 is what makes the OpenCL kernel fast on CPUs and GPUs alike). The
    inputs are :func:`vertex_table` (per vertex ``x, y, z, nx, ny, nz, nv``, with ``nv = n . v``)
-   and :func:`projection_coefficients` (per view and joint ``A = [K[0] M; K[1] M; M[2]]``,
-   3x4 with entries ``aRC``, and ``b = R^T t``), both computed in float64 and rounded to
-   float32 once. Then, in IEEE single precision, each operation rounded, no fused
-   multiply-add, sums left to right::
+   and the float32 coefficients ``A`` and ``b``. Then, in IEEE single precision, each
+   operation rounded, no fused multiply-add, sums left to right::
 
        facing = nv + (nx * b0 + ny * b1 + nz * b2) < 0        # n' . p = n . v + n . b
        depth = a20 * x + a21 * y + a22 * z + a23                # kept iff facing, depth > NEAR_MM
@@ -48,8 +54,7 @@ denominator is 0 counts 0.5 (no overlap), except that a view with ``|M| = |F| = 
 (perfect match). The fitness of a candidate is the mean of ``f_c`` over the cameras (Eq. 7),
 in [0, 1]; never NaN.
 
-Steps 1-2 are computed once, by :func:`view_geometry`, for every backend, and steps 3-4
-leave no freedom: the counts of every backend are equal, bit for bit.
+Steps 1-4 leave no freedom: the counts of every backend are equal, bit for bit.
 
 Every backend exposes the per-view counts through :meth:`SilhouetteEvaluator.counts`
 (``|M_c|`` and ``|M_c & F_c|``, (n, C) int64) besides the fitness, and one view's
@@ -64,11 +69,42 @@ from threadpoolctl import threadpool_limits
 from mmocap.errors import ConfigError, DataError
 
 NEAR_MM = 1.0
+MAX_SIDE = 2 ** 30  # patch sides are capped here (far beyond any image)
+
+
+def camera_rows(cameras) -> np.ndarray:
+    """(C, 16) float64 per camera, the inputs of steps 1-2 that depend on it alone:
+    ``P = [K[0] E; K[1] E; E[2]]`` (3x4 row-major, ``E`` the extrinsic's top 3x4 rows, mm ->
+    px, px, mm), the camera centre ``o`` (3, world mm) and the focal length ``f`` (px)."""
+    rows = np.zeros((len(cameras), 16))
+    for c, cam in enumerate(cameras):
+        E = np.asarray(cam.extrinsic, np.float64)[:3]
+        rows[c, :12] = np.vstack([np.asarray(cam.K, np.float64)[:2] @ E, E[2:]]).ravel()
+        rows[c, 12:15] = -E[:, :3].T @ E[:, 3]
+        rows[c, 15] = cam.focal
+    return rows
+
+
+def joint_rows(body, patch_scale: float = 1.0) -> np.ndarray:
+    """(J, 4) float64 per joint: its rest position ``p_j`` (3, mm) and its patch size
+    ``body.patch_mm[j] * patch_scale`` (mm)."""
+    pivots = np.asarray(body.joint_rest_positions, np.float64)
+    return np.c_[pivots, np.asarray(body.patch_mm, np.float64) * patch_scale]
+
+
+def body_transforms(body, X: np.ndarray) -> np.ndarray:
+    """(n, P) poses -> (n, J, 4, 4) float64 ``body.transforms(X)``; ValueError for another shape."""
+    T = np.asarray(body.transforms(X), dtype=np.float64)
+    J = len(body.joint_rest_positions)
+    if T.shape != (len(X), J, 4, 4):
+        raise ValueError(f"body.transforms returned shape {T.shape}, expected {(len(X), J, 4, 4)}")
+    return T
 
 
 def view_geometry(body, cameras, X: np.ndarray,
                   patch_scale: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
-    """Steps 1-2 of the rule for a batch.
+    """Steps 1-2 and the coefficients of steps 3-4 for a batch, in float64, each operation
+    rounded, in the order written here (the OpenCL kernel computes the same).
 
     Args:
         body: the body model (``transforms``, ``joint_rest_positions``, ``patch_mm``).
@@ -77,23 +113,36 @@ def view_geometry(body, cameras, X: np.ndarray,
         patch_scale: factor on ``body.patch_mm``.
 
     Returns:
-        M: (n, C, J, 4, 4) float64, ``E_c T_j`` mapping rest-pose mm to camera-frame mm.
+        coefficients: (n, C, J, 16) float32 per view and joint, ``A`` (3x4, row-major:
+            ``u' v' z`` of a rest vertex), ``b = R^T t`` (culling: ``n' . p = n . v + n . b``)
+            and a 0, rounded once from float64.
         side: (n, C, J) int64 patch side in pixels, 0 where the joint is dropped.
     """
-    T = np.asarray(body.transforms(X), dtype=np.float64)
-    J = len(body.joint_rest_positions)
-    if T.shape != (len(X), J, 4, 4):
-        raise ValueError(f"body.transforms returned shape {T.shape}, expected {(len(X), J, 4, 4)}")
-    E = np.stack([cam.extrinsic for cam in cameras])
-    M = E[None, :, None] @ T[:, None]
-    pivots = np.c_[np.asarray(body.joint_rest_positions, np.float64), np.ones(J)]
-    z = np.einsum("ncjk,jk->ncj", M[..., 2, :], pivots)
-    focal = np.array([cam.focal for cam in cameras])
-    patch = np.asarray(body.patch_mm, np.float64) * patch_scale
+    T = body_transforms(body, X)
+    cams, joints = camera_rows(cameras), joint_rows(body, patch_scale)
+    n, J, C = len(T), T.shape[1], len(cams)
+    R = T[:, None, :, :3, :3]                                # (n, 1, J, 3, 3)
+    t = T[:, None, :, :3, 3]                                 # (n, 1, J, 3)
+    P = cams[None, :, None, :12].reshape(1, C, 1, 3, 4)
+    out = np.zeros((n, C, J, 16))
+    A = out[..., :12].reshape(n, C, J, 3, 4)
+    # A[i, k] = (P[i, 0] R[0, k] + P[i, 1] R[1, k]) + P[i, 2] R[2, k] for k < 3
+    A[..., :3] = ((P[..., :, 0, None] * R[..., None, 0, :] + P[..., :, 1, None] * R[..., None, 1, :])
+                  + P[..., :, 2, None] * R[..., None, 2, :])
+    # A[i, 3] = ((P[i, 0] t0 + P[i, 1] t1) + P[i, 2] t2) + P[i, 3]
+    A[..., 3] = (((P[..., 0] * t[..., None, 0] + P[..., 1] * t[..., None, 1])
+                  + P[..., 2] * t[..., None, 2]) + P[..., 3])
+    # b[k] = (R[0, k] d0 + R[1, k] d1) + R[2, k] d2 with d = t - o
+    d = t - cams[None, :, None, 12:15]                       # (n, C, J, 3)
+    out[..., 12:15] = ((R[..., 0, :] * d[..., 0, None] + R[..., 1, :] * d[..., 1, None])
+                       + R[..., 2, :] * d[..., 2, None])
+    # z = ((A[2, 0] p0 + A[2, 1] p1) + A[2, 2] p2) + A[2, 3]; s = ceil((f * patch) / z)
+    p = joints[:, :3]
+    z = ((A[..., 2, 0] * p[:, 0] + A[..., 2, 1] * p[:, 1]) + A[..., 2, 2] * p[:, 2]) + A[..., 2, 3]
     ok = z > NEAR_MM
-    raw = np.ceil(focal[None, :, None] * patch[None, None, :] / np.where(ok, z, 1.0))
-    side = np.where(ok, np.maximum(raw, 1.0), 0.0).astype(np.int64)
-    return M, side
+    raw = np.ceil((cams[:, 15, None] * joints[:, 3])[None] / np.where(ok, z, 1.0))
+    side = np.where(ok, np.clip(raw, 1.0, MAX_SIDE), 0.0).astype(np.int64)
+    return out.astype(np.float32), side
 
 
 def vertex_table(body) -> np.ndarray:
@@ -104,25 +153,11 @@ def vertex_table(body) -> np.ndarray:
     return np.vstack([v.T, n.T, np.einsum("na,na->n", n, v)[None]]).astype(np.float32)
 
 
-def projection_coefficients(M: np.ndarray, K: np.ndarray) -> np.ndarray:
-    """(n, C, J, 4, 4) ``M = E_c T_j`` and (C, 3, 3) K -> (n, C, J, 16) float32 per view and
-    joint: ``A = [K[0] M; K[1] M; M[2]]`` (3x4, row-major: ``u' v' z`` of a vertex), then
-    ``b = R^T t`` for ``M = [R t]`` (culling: ``n' . p = n . v + n . b``) and a 0; computed
-    in float64 and rounded once."""
-    n, C, J = M.shape[:3]
-    out = np.zeros((n, C, J, 16))
-    A = out[..., :12].reshape(n, C, J, 3, 4)
-    np.matmul(K[None, :, None, :2], M[..., :3, :], out=A[..., :2, :])
-    A[..., 2, :] = M[..., 2, :]
-    out[..., 12:15] = np.einsum("...ki,...k->...i", M[..., :3, :3], M[..., :3, 3])
-    return out.astype(np.float32)
-
-
 def project(coefficients: np.ndarray, table: np.ndarray) -> tuple[np.ndarray, ...]:
     """Steps 3-4 of the rule in float32, vectorised.
 
     Args:
-        coefficients: (16, ...) float32, :func:`projection_coefficients` along the first axis.
+        coefficients: (16, ...) float32, those of :func:`view_geometry` along the first axis.
         table: (7, ...) float32, :func:`vertex_table` rows; the trailing shapes broadcast.
 
     Returns:

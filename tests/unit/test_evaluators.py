@@ -170,12 +170,19 @@ def test_setup_and_input_errors(backend, body):
 
 def test_projection_coefficients_project_and_cull_as_the_camera_does():
     """u'/z and v'/z from A, and n . v + n . b from b, against the camera-frame point
-    p = M [v; 1] and normal n' = R n, for M = E_c T_j = [R t] of random poses."""
-    from mmocap.evaluators.silhouette import projection_coefficients
+    p = M [v; 1] and normal n' = R n, for M = E_c T_j = [R t] of random poses; the patch
+    side from the camera-frame depth of the joint's rest position."""
     body, cameras, X = BlobBody(), RIGS["front-side-near"] + RIGS["high-inside-small"], test_poses()
-    M, _ = view_geometry(body, cameras, X, 1.0)
+    coefficients, side = view_geometry(body, cameras, X, 1.0)
+    coefficients = coefficients.astype(np.float64)                        # (n, C, J, 16)
+    E = np.stack([cam.extrinsic for cam in cameras])
+    M = E[None, :, None] @ body.transforms(X)[:, None]                    # (n, C, J, 4, 4)
     K = np.stack([cam.K for cam in cameras])
-    coefficients = projection_coefficients(M, K).astype(np.float64)      # (n, C, J, 16)
+    pivots = np.c_[body.joint_rest_positions, np.ones(len(body.joint_rest_positions))]
+    depth = np.einsum("ncjk,jk->ncj", M[..., 2, :], pivots)
+    focal_patch = np.array([cam.focal for cam in cameras])[:, None] * np.asarray(body.patch_mm)
+    expected_side = np.where(depth > 1.0, np.maximum(np.ceil(focal_patch / depth), 1), 0)
+    np.testing.assert_array_equal(side, expected_side)
     rng = np.random.default_rng(3)
     v = rng.uniform(-300, 300, 3)
     normal = rng.normal(size=3)

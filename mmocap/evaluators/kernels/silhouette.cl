@@ -1,14 +1,15 @@
-// The silhouette rule of mmocap/evaluators/silhouette.py, steps 3-6: float32 as the rule
-// prescribes (build with -cl-fp32-correctly-rounded-divide-sqrt), float64 for the per-block
-// culling bounds.
+// The silhouette rule of mmocap/evaluators/silhouette.py: steps 1-2 and the coefficients in
+// float64 as view_geometry spells them out, steps 3-6 in float32 as the rule prescribes
+// (build with -cl-fp32-correctly-rounded-divide-sqrt); float64 for the per-block culling
+// bounds.
 // One work-group of LOCAL_SIZE work-items per model-view g = candidate * C + camera: the
 // work-items share the view's vertices, stamp their patches into a bit mask in local
 // memory (1 bit per pixel, rows padded to 32-bit words) and count |M| and |M & F| with
 // popcounts against the camera's foreground bit mask, 8 words at a time.
 //
 // Compile-time constants: LOCAL_SIZE, NEAR_MM, BLOCK, LANES, COUNT_WORDS and ROUNDING, so
-// that a program is built once per context. With LOCAL_SIZE 1 (CPU devices) a work-group is one work-item
-// and plain read-modify-writes replace the local atomics. With write_masks != 0 the kernel
+// that a program is built once per context. With LOCAL_SIZE 1 (CPU devices) a work-group is
+// one work-item and plain read-modify-writes replace the local atomics. With write_masks != 0 the kernel
 // also copies each view's mask to masks_out (nV, mask_words) for rendering.
 #pragma OPENCL EXTENSION cl_khr_fp64 : enable
 #pragma OPENCL FP_CONTRACT OFF   // no fused multiply-adds: round as NumPy does
@@ -177,15 +178,42 @@ inline void stamp(__local uint *mask, const int stride, const int width, const i
 BIT_COUNT(uint)
 BIT_COUNT(uint8)
 
+// Steps 1-2 for one view and joint, in float64 as silhouette.view_geometry: entry (i, k) of
+// A = P [R t] from row i of the camera's P (4 values) and the joint's T = [R t] (3x4,
+// row-major), for k < 3 and for k = 3.
+inline double a_rotation(__global const double *P_i, __global const double *T, const int k)
+{
+    return (P_i[0] * T[k] + P_i[1] * T[4 + k]) + P_i[2] * T[8 + k];
+}
+
+inline double a_translation(__global const double *P_i, __global const double *T)
+{
+    return ((P_i[0] * T[3] + P_i[1] * T[7]) + P_i[2] * T[11]) + P_i[3];
+}
+
+// The patch side in px of a joint (rest position and patch mm in joint[0..3]), 0 if dropped.
+inline int patch_side(__global const double *camera, __global const double *T,
+                      __global const double *joint)
+{
+    __global const double *P2 = camera + 8;
+    const double z = ((a_rotation(P2, T, 0) * joint[0] + a_rotation(P2, T, 1) * joint[1])
+                      + a_rotation(P2, T, 2) * joint[2]) + a_translation(P2, T);
+    if (!(z > NEAR_MM)) return 0;
+    const double s = ceil((camera[15] * joint[3]) / z);
+    return s < 1.0 ? 1 : s > MAX_SIDE ? MAX_SIDE : (int)s;
+}
+
 __kernel __attribute__((reqd_work_group_size(LOCAL_SIZE, 1, 1)))
 void silhouette_counts(
     __global const float *vertices,    // (7, N4) rest x, y, z (mm), normal x, y, z, n . v
     __global const int *joint_start,   // (J + 1,) first vertex of each joint (multiples of BLOCK)
     __global const double *cones,      // (N4 / BLOCK, 10) normal cone axis (3), cos, sin,
                                        // sphere centre (3, mm), radius (mm), 1 if no padding
-    __global const float *geometry,    // (nV, J, 16) A = [K[0] M; K[1] M; M[2]] (3x4,
-                                       // row-major) and b = R^T t (3) for M = [R t], then
-                                       // the patch side in px as int bits, 0 = joint dropped
+    __global const double *transforms, // (n, J, 12) T = [R t] (3x4, row-major, mm) of each
+                                       // candidate's joints, body.transforms
+    __global const double *cameras,    // (C, 16) P = [K[0] E; K[1] E; E[2]] (3x4, row-major),
+                                       // centre (3, mm), focal (px): silhouette.camera_rows
+    __global const double *joints,     // (J, 4) rest position (3, mm), patch (mm)
     __global const int *shapes,        // (C, 3) width, height, first word of the mask in fg
     __global const uint *fg,           // foreground bit masks, bit x % 32 of word x / 32 of
                                        // its row (pitch words), each camera's followed by
@@ -200,13 +228,14 @@ void silhouette_counts(
 {
     __local int row_lo, row_hi, col_lo, col_hi, model_px, overlap_px;
     const int g = get_group_id(0), lid = get_local_id(0), c = g % C;
+    __global const double *camera = cameras + 16 * c, *T0 = transforms + (g / C) * J * 12;
     const int width = shapes[3 * c], height = shapes[3 * c + 1];
     const int stride = (width + 31) / 32;                               // words of a row
     const int pitch = (stride + PITCH_WORDS - 1) / PITCH_WORDS * PITCH_WORDS;  // words per row
     const int N4 = joint_start[J];
     int side_of[MAX_LAYERS], layers = 0, layered = 1;  // the distinct patch sides, one per layer
     for (int j = 0; j < J; ++j) {
-        const int s = as_int(geometry[(g * J + j) * 16 + 15]);
+        const int s = patch_side(camera, T0 + 12 * j, joints + 4 * j);
         int l = 0;
         while (l < layers && side_of[l] != s) ++l;
         if (s == 0 || l < layers) continue;
@@ -229,13 +258,20 @@ void silhouette_counts(
     intV loV = lo, hiV = -1;
     intV leftV = width + 2 * PAD, rightV = -1;  // padded columns of the layer's centres
     for (int j = 0; j < J; ++j) {
-        const int s = as_int(geometry[(g * J + j) * 16 + 15]);
+        __global const double *T = T0 + 12 * j;
+        const int s = patch_side(camera, T, joints + 4 * j);
         if (s == 0) continue;
-        __global const float *m = geometry + (g * J + j) * 16;
-        const float a00 = m[0], a01 = m[1], a02 = m[2], a03 = m[3],
-                     a10 = m[4], a11 = m[5], a12 = m[6], a13 = m[7],
-                     a20 = m[8], a21 = m[9], a22 = m[10], a23 = m[11],
-                     b0 = m[12], b1 = m[13], b2 = m[14];
+        // the coefficients, rounded to float32 once: A, and b = R^T (t - centre)
+        const float a00 = a_rotation(camera, T, 0), a01 = a_rotation(camera, T, 1),
+                    a02 = a_rotation(camera, T, 2), a03 = a_translation(camera, T),
+                    a10 = a_rotation(camera + 4, T, 0), a11 = a_rotation(camera + 4, T, 1),
+                    a12 = a_rotation(camera + 4, T, 2), a13 = a_translation(camera + 4, T),
+                    a20 = a_rotation(camera + 8, T, 0), a21 = a_rotation(camera + 8, T, 1),
+                    a22 = a_rotation(camera + 8, T, 2), a23 = a_translation(camera + 8, T);
+        const double d0 = T[3] - camera[12], d1 = T[7] - camera[13], d2 = T[11] - camera[14];
+        const float b0 = (T[0] * d0 + T[4] * d1) + T[8] * d2,
+                    b1 = (T[1] * d0 + T[5] * d1) + T[9] * d2,
+                    b2 = (T[2] * d0 + T[6] * d1) + T[10] * d2;
         const int before = (s - 1) / 2, after = s / 2;
         int l = 0;
         while (layered && side_of[l] != s) ++l;
@@ -273,11 +309,14 @@ void silhouette_counts(
                 const floatV inv = 1.0f / pz;
                 const floatV u = (a00 * x + a01 * y + a02 * z + a03) * inv;
                 const floatV w = (a10 * x + a11 * y + a12 * z + a13) * inv;
-                const intV cx = floor_int(u + 0.5f), cy = floor_int(w + 0.5f);
+                const floatV tu = u + 0.5f, tw = w + 0.5f;  // centre pixel: floor(tu), floor(tw)
                 if (layered) {
-                    const intV px = cx + PAD, py = cy + PAD;
-                    const intV in = keep & (px >= 0) & (px < width + 2 * PAD)
-                                    & (py >= 0) & (py < height + 2 * PAD);
+                    // a centre in the padded layer: in range as a float, so floor needs no clamp
+                    const intV in = keep & (tu >= (float)-PAD) & (tu < (float)(width + PAD))
+                                    & (tw >= (float)-PAD) & (tw < (float)(height + PAD));
+                    const intV tx = convert_intV(tu), ty = convert_intV(tw);  // garbage if !in
+                    const intV px = tx + (convert_floatV(tx) > tu) + PAD;
+                    const intV py = ty + (convert_floatV(ty) > tw) + PAD;
                     loV = MIN(loV, in ? py : loV);
                     hiV = MAX(hiV, in ? py : -1);
                     leftV = MIN(leftV, in ? px : leftV);
@@ -288,6 +327,7 @@ void silhouette_counts(
                         OR_WORD(layer + LANE(int, k, i), LANE(uint, bit, i));
                     continue;
                 }
+                const intV cx = floor_int(tu), cy = floor_int(tw);
                 if (s > 32) {  // large patches (a body part close to the camera): one by one
                     for (int i = 0; i < LANES; ++i)
                         if (LANE(int, keep, i))
