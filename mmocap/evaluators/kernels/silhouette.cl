@@ -304,8 +304,7 @@ void silhouette_counts(
                 const floatV x = LOAD(vertices + v), y = LOAD(vertices + N4 + v),
                               z = LOAD(vertices + 2 * N4 + v);
                 const floatV pz = a20 * x + a21 * y + a22 * z + a23;
-                const intV keep = facing & (pz > (float)NEAR_MM);
-                if (!any_lane(keep)) continue;
+                const intV keep = facing & (pz > (float)NEAR_MM);  // lanes off: masked below
                 const floatV inv = 1.0f / pz;
                 const floatV u = (a00 * x + a01 * y + a02 * z + a03) * inv;
                 const floatV w = (a10 * x + a11 * y + a12 * z + a13) * inv;
