@@ -45,19 +45,18 @@ def global_transforms(poses: np.ndarray, rest_positions: np.ndarray,
     """
     poses = np.atleast_2d(np.asarray(poses, dtype=np.float64))
     n, J = poses.shape[0], len(JOINTS)
-    local_rot = euler_xyz(poses[:, 3:].reshape(n, J, 3))
-    local_rot = rest_frames @ local_rot @ np.swapaxes(rest_frames, -1, -2)
-    G = np.zeros((n, J, 4, 4))
-    G[..., 3, 3] = 1.0
-    for j in range(J):
-        p = PARENT_INDEX[j]
-        if p < 0:
-            G[:, j, :3, :3] = local_rot[:, j]
-            G[:, j, :3, 3] = poses[:, :3]
-        else:
-            offset = rest_positions[j] - rest_positions[p]
-            G[:, j, :3, :3] = G[:, p, :3, :3] @ local_rot[:, j]
-            G[:, j, :3, 3] = G[:, p, :3, :3] @ offset + G[:, p, :3, 3]
+    parents = np.asarray(PARENT_INDEX)
+    # local transforms [L_j | o_j - o_parent], the root's [L_root | T]
+    local = np.zeros((n, J, 4, 4))
+    local[..., 3, 3] = 1.0
+    local[..., :3, :3] = (rest_frames @ euler_xyz(poses[:, 3:].reshape(n, J, 3))
+                          @ np.swapaxes(rest_frames, -1, -2))
+    local[..., :3, 3] = np.where((parents >= 0)[:, None],
+                                 rest_positions - rest_positions[np.maximum(parents, 0)], 0.0)
+    local[:, parents < 0, :3, 3] = poses[:, :3]
+    G = np.empty_like(local)
+    for j, p in enumerate(parents):  # parents come before their children
+        G[:, j] = local[:, j] if p < 0 else G[:, p] @ local[:, j]
     return G
 
 
