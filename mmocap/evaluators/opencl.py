@@ -3,8 +3,9 @@
 The host computes the body's joint transforms (``body.transforms``) and, once per body,
 ``vertex_table``; the kernel ``kernels/silhouette.cl`` does the rest: steps 1-2 and the
 coefficients in the float64 order of ``view_geometry``, steps 3-6 in the rule's float32
-arithmetic, one work-group per (candidate, camera) pair, each with its own bit mask in local memory (1 bit per pixel: 38 400 bytes for
-640x480), so no two work-groups ever write the same memory. The foreground masks are
+arithmetic, one work-group per (candidate, camera) pair, each with its own bit mask in local
+memory (1 bit per pixel: 46 080 bytes for 640x480, rows padded to 8 words), so no two
+work-groups ever write the same memory. The foreground masks are
 uploaded once per frame as bit masks and counted against with popcounts. The per-block
 culling bounds need double precision (``cl_khr_fp64``): PoCL on CPUs and current GPUs
 have it.
@@ -295,7 +296,8 @@ class OpenCLEvaluator(SilhouetteEvaluator):
         # multiple of 8 words; in local memory that mask or as many padded layers (see PAD)
         # as fit, at most _MAX_LAYERS
         mask = max(_pitch(cam.width) * cam.height + 1 for cam in self.cameras)
-        layer = max(_layer_words(cam, lane.local_size) for cam in self.cameras for lane in self._lanes)
+        layer = max(_layer_words(cam, lane.local_size)
+                    for cam in self.cameras for lane in self._lanes)
         self._mask_words = (mask + 7) // 8 * 8
         # words of local memory, less 16 for the kernel's own __local ints
         room = min(lane.device.local_mem_size for lane in self._lanes) // 4 - 16

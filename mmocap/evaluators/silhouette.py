@@ -127,7 +127,8 @@ def view_geometry(body, cameras, X: np.ndarray,
     out = np.zeros((n, C, J, 16))
     A = out[..., :12].reshape(n, C, J, 3, 4)
     # A[i, k] = (P[i, 0] R[0, k] + P[i, 1] R[1, k]) + P[i, 2] R[2, k] for k < 3
-    A[..., :3] = ((P[..., :, 0, None] * R[..., None, 0, :] + P[..., :, 1, None] * R[..., None, 1, :])
+    A[..., :3] = ((P[..., :, 0, None] * R[..., None, 0, :]
+                   + P[..., :, 1, None] * R[..., None, 1, :])
                   + P[..., :, 2, None] * R[..., None, 2, :])
     # A[i, 3] = ((P[i, 0] t0 + P[i, 1] t1) + P[i, 2] t2) + P[i, 3]
     A[..., 3] = (((P[..., 0] * t[..., None, 0] + P[..., 1] * t[..., None, 1])

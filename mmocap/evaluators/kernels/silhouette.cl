@@ -9,8 +9,8 @@
 //
 // Compile-time constants: LOCAL_SIZE, NEAR_MM, BLOCK, LANES, COUNT_WORDS and ROUNDING, so
 // that a program is built once per context. With LOCAL_SIZE 1 (CPU devices) a work-group is
-// one work-item and plain read-modify-writes replace the local atomics. With write_masks != 0 the kernel
-// also copies each view's mask to masks_out (nV, mask_words) for rendering.
+// one work-item and plain read-modify-writes replace the local atomics. With write_masks != 0
+// the kernel also copies each view's mask to masks_out (nV, mask_words) for rendering.
 #pragma OPENCL EXTENSION cl_khr_fp64 : enable
 #pragma OPENCL FP_CONTRACT OFF   // no fused multiply-adds: round as NumPy does
 
@@ -75,8 +75,8 @@
 #define convert_ulongW convert_ulong8
 #define convert_uintW convert_uint8
 #define bit_count_uintW bit_count_uint8
-// words w + 1 .. w + 8 from words w .. w + 7 (lo) and word w + 8 (next)
-#define NEXT_WORDS(lo, next) ((uint8)((lo).s1234, (lo).s567, (next)))
+// words w + 1 .. w + 8 from words w .. w + 7 (here) and word w + 8 (next)
+#define NEXT_WORDS(here, next) ((uint8)((here).s1234, (here).s567, (next)))
 #define WORD_INDEX ((int8)(0, 1, 2, 3, 4, 5, 6, 7))
 #define SUM_WORDS(v) ((v).s0 + (v).s1 + (v).s2 + (v).s3 + (v).s4 + (v).s5 + (v).s6 + (v).s7)
 #else
@@ -86,7 +86,7 @@
 #define convert_ulongW convert_ulong
 #define convert_uintW convert_uint
 #define bit_count_uintW bit_count_uint
-#define NEXT_WORDS(lo, next) (next)
+#define NEXT_WORDS(here, next) (next)
 #define WORD_INDEX 0
 #define SUM_WORDS(v) (v)
 #endif
@@ -373,7 +373,8 @@ void silhouette_counts(
         const int r0 = MAX(row_lo - PAD - before, 0), r1 = MIN(row_hi - PAD + after, height - 1);
         const uint edge = (width & 31) ? 0xffffffffu >> (32 - (width & 31)) : 0xffffffffu;
         if (write_masks) {
-            for (int k = lid; k < pitch * height; k += LOCAL_SIZE) masks_out[g * mask_words + k] = 0u;
+            for (int k = lid; k < pitch * height; k += LOCAL_SIZE)
+                masks_out[g * mask_words + k] = 0u;
             barrier(CLK_GLOBAL_MEM_FENCE);
         }
         // output words w0 .. w1, in groups of COUNT_WORDS from a multiple of it
@@ -388,13 +389,14 @@ void silhouette_counts(
                 // centres whose patch rows reach r); bit j of acc: centre column 32 w + j - after
                 const int side = side_of[l], shift = PAD - side / 2;
                 __local const uint *base = words + l * layer_words + (r + shift) * pstride + w;
-                uintW lo = 0u;
-                uint next = 0u;  // word w + COUNT_WORDS (within the row: see pstride)
+                uintW here = 0u;  // words w .. w + COUNT_WORDS - 1 of the rows, ORed
+                uint next = 0u;   // word w + COUNT_WORDS (within the row: see pstride)
                 for (int t = 0; t < side; ++t) {
-                    lo |= *(__local const uintW *)(base + t * pstride);
+                    here |= *(__local const uintW *)(base + t * pstride);
                     next |= base[t * pstride + COUNT_WORDS];
                 }
-                ulongW acc = (convert_ulongW(lo) | (convert_ulongW(NEXT_WORDS(lo, next)) << 32)) >> shift;
+                ulongW acc = (convert_ulongW(here) | (convert_ulongW(NEXT_WORDS(here, next)) << 32))
+                             >> shift;
                 // output bit i: any of bits i .. i + side - 1 of acc
                 int cover = 1;
                 for (; 2 * cover <= side; cover *= 2) acc |= acc >> cover;
