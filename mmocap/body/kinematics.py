@@ -45,7 +45,7 @@ def global_transforms(poses: np.ndarray, rest_positions: np.ndarray,
     """
     poses = np.atleast_2d(np.asarray(poses, dtype=np.float64))
     n, J = poses.shape[0], len(JOINTS)
-    parents = np.asarray(PARENT_INDEX)
+    parents = PARENT_INDEX
     # local transforms [L_j | o_j - o_parent], the root's [L_root | T]
     local = np.zeros((n, J, 4, 4))
     local[..., 3, 3] = 1.0

@@ -311,8 +311,9 @@ class OpenCLEvaluator(SilhouetteEvaluator):
         packed = self._packed or [None] * len(self.foreground)
         fg = np.concatenate([_pack_bits(m, self._mask_words, p)
                              for m, p in zip(self.foreground, packed)])
+        cameras = camera_rows(self.cameras)
         for lane in self._lanes:
-            lane.upload(shapes=shapes, fg=fg, cameras=camera_rows(self.cameras))
+            lane.upload(shapes=shapes, fg=fg, cameras=cameras)
 
     def _counts(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         counts, _ = self._run(X, write_masks=False)

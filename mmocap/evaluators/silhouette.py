@@ -250,20 +250,28 @@ def check_body(body) -> None:
         raise ValueError(f"body: vertex_joint must hold joint indices in [0, {J})")
 
 
-_blas_limit = {"users": 0, "limit": None}
+class _OneBlasThread:
+    """BLAS on one thread while at least one evaluator has claimed it; the original limits
+    come back when the last one releases it."""
+
+    def __init__(self):
+        self.users = 0
+        self.original = None  # the threadpoolctl limiter that holds the original limits
+
+    def claim(self) -> None:
+        self.users += 1
+        limiter = threadpool_limits(1, user_api="blas")  # again, should it have changed since
+        if self.original is None:
+            self.original = limiter
+
+    def release(self) -> None:
+        self.users -= 1
+        if self.users == 0 and self.original is not None:
+            self.original.restore_original_limits()
+            self.original = None
 
 
-def _one_blas_thread(change: int) -> None:
-    """Count an evaluator in (+1) or out (-1) of those that need BLAS on one thread; the
-    limit holds while the count is positive and the original one is restored after."""
-    _blas_limit["users"] += change
-    if change > 0:
-        limit = threadpool_limits(1, user_api="blas")  # again, should it have been changed since
-        if _blas_limit["limit"] is None:
-            _blas_limit["limit"] = limit
-    elif _blas_limit["users"] == 0 and _blas_limit["limit"] is not None:
-        _blas_limit["limit"].restore_original_limits()
-        _blas_limit["limit"] = None
+_BLAS = _OneBlasThread()
 
 
 class SilhouetteEvaluator:
@@ -311,7 +319,7 @@ class SilhouetteEvaluator:
         self.cameras = cameras
         self.body = body
         if self.owns_cores and not self._claimed_cores:
-            _one_blas_thread(+1)
+            _BLAS.claim()
             self._claimed_cores = True
         self._prepare()
 
@@ -358,7 +366,7 @@ class SilhouetteEvaluator:
         self.foreground = []
         self.fg_px = np.zeros(0, dtype=np.int64)
         if self._claimed_cores:
-            _one_blas_thread(-1)
+            _BLAS.release()
             self._claimed_cores = False
 
     def __enter__(self):

@@ -172,7 +172,7 @@ def test_blas_runs_on_one_thread_while_a_cpu_device_is_set_up(monkeypatch):
     from mmocap.evaluators import silhouette
     from mmocap.testing.evaluators import FRONT, empty_masks
     # evaluators of other tests that were never closed do not count here
-    monkeypatch.setattr(silhouette, "_blas_limit", {"users": 0, "limit": None})
+    monkeypatch.setattr(silhouette, "_BLAS", silhouette._OneBlasThread())
 
     def blas_threads():
         return {lib["filepath"]: lib["num_threads"] for lib in threadpool_info()
