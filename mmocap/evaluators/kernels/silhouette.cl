@@ -50,6 +50,13 @@
 // (measured); they use plain operators instead. MIN and MAX work on scalars and vectors.
 #define MIN(a, b) ((a) < (b) ? (a) : (b))
 #define MAX(a, b) ((a) > (b) ? (a) : (b))
+#if LANES == 16
+#define LANE_INDEX ((int16)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15))
+#elif LANES == 8
+#define LANE_INDEX ((int8)(0, 1, 2, 3, 4, 5, 6, 7))
+#else
+#define LANE_INDEX ((int4)(0, 1, 2, 3))
+#endif
 // LANES floats at p, an offset into a vertex array that is a multiple of LANES
 #define LOAD(p) (*(__global const floatV *)(p))
 // lane i of a private vector v whose lanes have the given type
@@ -135,9 +142,12 @@ inline int max_lane(const intV x)
 // Sets the bits of the patch of one kept vertex; widens the row range [*lo, *hi] it touched.
 // A clipped patch row of at most 32 pixels spans words w0 and w0 + 1 (the latter maybe
 // with no bit to set: the mask has a spare word at its end for that).
-inline void stamp(__local uint *mask, const int stride, const int width, const int height,
-                  const int cx, const int cy, const int before, const int after,
-                  int *lo, int *hi)
+// Inlined: a call in the vertex loop would make every vector it keeps in registers live on
+// the stack instead (all vector registers are caller-saved): 4-6 % of the kernel's time.
+__attribute__((always_inline)) inline void stamp(__local uint *mask, const int stride,
+                                                 const int width, const int height,
+                                                 const int cx, const int cy, const int before,
+                                                 const int after, int *lo, int *hi)
 {
     const int col0 = MAX(cx - before, 0), col1 = MIN(cx + after, width - 1);
     const int row0 = MAX(cy - before, 0), row1 = MIN(cy + after, height - 1);
@@ -177,6 +187,31 @@ inline void stamp(__local uint *mask, const int stride, const int width, const i
     }
 BIT_COUNT(uint)
 BIT_COUNT(uint8)
+
+// Steps 3-4 for the LANES vertices from v (coefficients a, b of view_geometry): whether each
+// is kept, and u + 0.5, v + 0.5 (the centre pixel is their floor); 0 when none faces the
+// camera. all_facing skips the culling test (see the block tests below).
+inline int project_lanes(__global const float *vertices, const int N4, const int v,
+                         const int all_facing, const float *a, const float *b, intV *keep,
+                         floatV *tu, floatV *tw)
+{
+    // culling first: n' . p = n . v + n . (R^T t); all back faces: nothing else to do
+    intV facing = (intV)(-1);
+    if (!all_facing) {
+        const floatV nx = LOAD(vertices + 3 * N4 + v), ny = LOAD(vertices + 4 * N4 + v),
+                     nz = LOAD(vertices + 5 * N4 + v), nv = LOAD(vertices + 6 * N4 + v);
+        facing = nv + (nx * b[0] + ny * b[1] + nz * b[2]) < 0.0f;
+        if (!any_lane(facing)) return 0;
+    }
+    const floatV x = LOAD(vertices + v), y = LOAD(vertices + N4 + v),
+                 z = LOAD(vertices + 2 * N4 + v);
+    const floatV pz = a[8] * x + a[9] * y + a[10] * z + a[11];
+    *keep = facing & (pz > (float)NEAR_MM);  // lanes off: masked by the caller
+    const floatV inv = 1.0f / pz;
+    *tu = (a[0] * x + a[1] * y + a[2] * z + a[3]) * inv + 0.5f;
+    *tw = (a[4] * x + a[5] * y + a[6] * z + a[7]) * inv + 0.5f;
+    return 1;
+}
 
 // Steps 1-2 for one view and joint, in float64 as silhouette.view_geometry: entry (i, k) of
 // A = P [R t] from row i of the camera's P (4 values) and the joint's T = [R t] (3x4,
@@ -261,17 +296,17 @@ void silhouette_counts(
         __global const double *T = T0 + 12 * j;
         const int s = patch_side(camera, T, joints + 4 * j);
         if (s == 0) continue;
-        // the coefficients, rounded to float32 once: A, and b = R^T (t - centre)
-        const float a00 = a_rotation(camera, T, 0), a01 = a_rotation(camera, T, 1),
-                    a02 = a_rotation(camera, T, 2), a03 = a_translation(camera, T),
-                    a10 = a_rotation(camera + 4, T, 0), a11 = a_rotation(camera + 4, T, 1),
-                    a12 = a_rotation(camera + 4, T, 2), a13 = a_translation(camera + 4, T),
-                    a20 = a_rotation(camera + 8, T, 0), a21 = a_rotation(camera + 8, T, 1),
-                    a22 = a_rotation(camera + 8, T, 2), a23 = a_translation(camera + 8, T);
+        // the coefficients, rounded to float32 once: A (row-major), and b = R^T (t - centre)
+        const float a[12] = {a_rotation(camera, T, 0), a_rotation(camera, T, 1),
+                             a_rotation(camera, T, 2), a_translation(camera, T),
+                             a_rotation(camera + 4, T, 0), a_rotation(camera + 4, T, 1),
+                             a_rotation(camera + 4, T, 2), a_translation(camera + 4, T),
+                             a_rotation(camera + 8, T, 0), a_rotation(camera + 8, T, 1),
+                             a_rotation(camera + 8, T, 2), a_translation(camera + 8, T)};
         const double d0 = T[3] - camera[12], d1 = T[7] - camera[13], d2 = T[11] - camera[14];
-        const float b0 = (T[0] * d0 + T[4] * d1) + T[8] * d2,
-                    b1 = (T[1] * d0 + T[5] * d1) + T[9] * d2,
-                    b2 = (T[2] * d0 + T[6] * d1) + T[10] * d2;
+        const float b[3] = {(T[0] * d0 + T[4] * d1) + T[8] * d2,
+                            (T[1] * d0 + T[5] * d1) + T[9] * d2,
+                            (T[2] * d0 + T[6] * d1) + T[10] * d2};
         const int before = (s - 1) / 2, after = s / 2;
         int l = 0;
         while (layered && side_of[l] != s) ++l;
@@ -280,7 +315,7 @@ void silhouette_counts(
              blk += LOCAL_SIZE) {
             // the whole block behind its normals: n . (v + b) >= (a . d) cos - |a x d| sin - r > 0
             __global const double *cone = cones + 10 * blk;
-            const double dx = cone[5] + b0, dy = cone[6] + b1, dz = cone[7] + b2;
+            const double dx = cone[5] + b[0], dy = cone[6] + b[1], dz = cone[7] + b[2];
             const double ad = cone[0] * dx + cone[1] * dy + cone[2] * dz;
             const double dd = dx * dx + dy * dy + dz * dz;
             const double cross = sqrt(MAX(dd - ad * ad, 0.0)), dlen = sqrt(dd);
@@ -290,26 +325,12 @@ void silhouette_counts(
             // the whole block, padding-free, facing: n . (v + b) <= max over the cone of n . d + r < 0
             const double upper = ad <= dlen * cone[3] ? ad * cone[3] + cross * cone[4] : dlen;
             const int all_facing = cone[9] != 0.0 && upper + r < 0.0;
-            for (int v = BLOCK * blk; v < BLOCK * (blk + 1); v += LANES) {
-                // culling first: n' . p = n . v + n . (R^T t); all back faces: nothing else to do
-                intV facing = (intV)(-1);
-                if (!all_facing) {
-                    const floatV nx = LOAD(vertices + 3 * N4 + v),
-                                  ny = LOAD(vertices + 4 * N4 + v),
-                                  nz = LOAD(vertices + 5 * N4 + v),
-                                  nv = LOAD(vertices + 6 * N4 + v);
-                    facing = nv + (nx * b0 + ny * b1 + nz * b2) < 0.0f;
-                    if (!any_lane(facing)) continue;
-                }
-                const floatV x = LOAD(vertices + v), y = LOAD(vertices + N4 + v),
-                              z = LOAD(vertices + 2 * N4 + v);
-                const floatV pz = a20 * x + a21 * y + a22 * z + a23;
-                const intV keep = facing & (pz > (float)NEAR_MM);  // lanes off: masked below
-                const floatV inv = 1.0f / pz;
-                const floatV u = (a00 * x + a01 * y + a02 * z + a03) * inv;
-                const floatV w = (a10 * x + a11 * y + a12 * z + a13) * inv;
-                const floatV tu = u + 0.5f, tw = w + 0.5f;  // centre pixel: floor(tu), floor(tw)
-                if (layered) {
+            if (layered) {
+                for (int v = BLOCK * blk; v < BLOCK * (blk + 1); v += LANES) {
+                    intV keep;
+                    floatV tu, tw;
+                    if (!project_lanes(vertices, N4, v, all_facing, a, b, &keep, &tu, &tw))
+                        continue;
                     // a centre in the padded layer: in range as a float, so floor needs no clamp
                     const intV in = keep & (tu >= (float)-PAD) & (tu < (float)(width + PAD))
                                     & (tw >= (float)-PAD) & (tw < (float)(height + PAD));
@@ -320,12 +341,25 @@ void silhouette_counts(
                     hiV = MAX(hiV, in ? py : -1);
                     leftV = MIN(leftV, in ? px : leftV);
                     rightV = MAX(rightV, in ? px : -1);
-                    const intV k = in ? py * pstride + (px >> 5) : 0;
+                    // a lane that is not in ORs 0 into a word of its own, the layer's lane-th
+                    // (padding): lanes that share one word wait for each other's writes
+                    const intV k = in ? py * pstride + (px >> 5) : LANE_INDEX;
                     const uintV bit = as_uintV(in) & ((uintV)(1u) << (convert_uintV(px) & 31u));
+                    // through memory, lane by lane, unrolled: extracting lanes from registers
+                    // instead is slower (measured)
+                    volatile intV k_lanes = k;
+                    volatile uintV bit_lanes = bit;
+#pragma unroll
                     for (int i = 0; i < LANES; ++i)
-                        OR_WORD(layer + LANE(int, k, i), LANE(uint, bit, i));
-                    continue;
+                        OR_WORD(layer + ((volatile int *)&k_lanes)[i],
+                                ((volatile uint *)&bit_lanes)[i]);
                 }
+                continue;
+            }
+            for (int v = BLOCK * blk; v < BLOCK * (blk + 1); v += LANES) {
+                intV keep;
+                floatV tu, tw;
+                if (!project_lanes(vertices, N4, v, all_facing, a, b, &keep, &tu, &tw)) continue;
                 const intV cx = floor_int(tu), cy = floor_int(tw);
                 if (s > 32) {  // large patches (a body part close to the camera): one by one
                     for (int i = 0; i < LANES; ++i)
