@@ -55,6 +55,7 @@ _BLOCK = 128  # vertices per culling cone (the kernel's BLOCK): 3-4 % faster tha
 # bound on the float32 rounding of the culling test n . v + n . b, relative to |n . v| + |b|
 # (about 6 rounding errors of 2^-24 each: 3.6e-7), the kernel's ROUNDING
 _ROUNDING = 1e-6
+_TRANSFORMS_ARG = 3  # the kernel's argument that changes with every call
 
 
 def _private_pocl_cache() -> None:
@@ -228,7 +229,8 @@ class _Lane:
 
     def bind(self, *args) -> None:
         """Set the kernel's arguments unless they are the last call's (the same buffer
-        objects, equal values): setting them costs about as much as a small copy."""
+        objects, equal values): setting them costs about as much as a small copy. The
+        transforms (None here) are set by the caller on every call."""
         key = [a.size if isinstance(a, cl.LocalMemory) else a for a in args]
         if len(key) != len(self.bound) or not all(map(_same, key, self.bound)):
             self.kernel.set_args(*args)
@@ -344,23 +346,29 @@ class OpenCLEvaluator(SilhouetteEvaluator):
         T = np.ascontiguousarray(T[:, :, :3]).reshape(n, J * 12)   # [R t] rows per joint
         counts = np.empty((n * C, 2), np.int32)
         masks = np.empty((n * C if write_masks else 1, self._mask_words), np.uint32)
-        edges = np.round(np.r_[0, np.cumsum(self._weights)] / self._weights.sum() * n).astype(int)
+        if len(self._lanes) == 1:
+            edges = [0, n]
+        else:
+            edges = np.round(np.r_[0, np.cumsum(self._weights)] / self._weights.sum() * n).astype(int)
         events = []
         for lane, a, b in zip(self._lanes, edges[:-1], edges[1:]):
             if a == b:
                 continue
             views = slice(a * C, b * C)
             nV = (b - a) * C
-            rows = lane.buffer("transforms", T[a:b].nbytes)
+            # a new buffer, filled as it is made: about 1 us, where an enqueued write into a
+            # kept one took 45 us (PoCL runs it as a command of its own)
+            rows = cl.Buffer(lane.ctx, cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR,
+                             hostbuf=T[a:b])
             out = lane.buffer("counts", counts[views].nbytes)
             img = lane.buffer("masks", masks[views].nbytes if write_masks else 4)
-            cl.enqueue_copy(lane.queue, rows, T[a:b], is_blocking=False)
             f = lane.frame
-            lane.bind(f["vertices"], f["start"], f["cones"], rows, f["cameras"], f["joints"],
+            lane.bind(f["vertices"], f["start"], f["cones"], None, f["cameras"], f["joints"],
                       f["shapes"], f["fg"],
                       np.int32(C), np.int32(J), cl.LocalMemory(4 * self._local_words),
                       np.int32(self._max_layers), out,
                       np.int32(write_masks), np.int32(self._mask_words), img)
+            lane.kernel.set_arg(_TRANSFORMS_ARG, rows)
             cl.enqueue_nd_range_kernel(lane.queue, lane.kernel, (nV * lane.local_size,),
                                        (lane.local_size,))
             events.append(cl.enqueue_copy(lane.queue, counts[views], out, is_blocking=False))
