@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from mmocap.body import skeleton
-from mmocap.body.kinematics import global_transforms, skinning_transforms
+from mmocap.body.kinematics import KinematicChain, global_transforms
 from mmocap.body.mesh import SkinMesh, fit_subject, load_makehuman, resample, subject_dimensions
 from mmocap.body.skeleton import JOINTS
 from mmocap.errors import ConfigError
@@ -83,7 +83,8 @@ class BodyModel:
 
     Attributes used by the evaluators: ``rest_vertices`` (N, 3) mm, ``rest_normals``
     (N, 3), ``vertex_joint`` (N,), ``joint_rest_positions`` (16, 3) mm, ``patch_mm``
-    (16,) mm, and :meth:`transforms`.
+    (16,) mm, :meth:`transforms` and ``chain``, the :class:`KinematicChain` that computes
+    them (the OpenCL evaluator computes them on the device from it).
     """
 
     def __init__(self, subject: str = "S1", dof: int = 39, vertices: int | None = None, seed: int = 0):
@@ -98,6 +99,7 @@ class BodyModel:
         self.patch_mm = samples.patch_mm
         self.joint_rest_positions = self.mesh.pivots
         self.rest_frames = rest_frames(self.mesh)
+        self.chain = KinematicChain(self.joint_rest_positions, self.rest_frames)
         marker_idx = marker_vertices(self.mesh)
         self.marker_names = MARKER_NAMES
         self.marker_rest = self.mesh.vertices[marker_idx]
@@ -128,8 +130,9 @@ class BodyModel:
         return global_transforms(X, self.joint_rest_positions, self.rest_frames)
 
     def transforms(self, X: np.ndarray) -> np.ndarray:
-        """(n, 51) poses -> (n, 16, 4, 4) skinning transforms (rest mm -> world mm)."""
-        return skinning_transforms(self.global_transforms(X), self.joint_rest_positions)
+        """(n, 51) poses -> (n, 16, 4, 4) skinning transforms (rest mm -> world mm), those of
+        :attr:`chain`."""
+        return self.chain.transforms(X)
 
     def joint_positions(self, X: np.ndarray) -> np.ndarray:
         """(n, 51) poses -> (n, 16, 3) joint positions in world mm."""

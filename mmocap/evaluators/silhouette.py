@@ -282,7 +282,9 @@ class SilhouetteEvaluator:
 
     The body passed to :meth:`setup` provides ``rest_vertices`` (N, 3) mm, ``rest_normals``
     (N, 3) unit, ``vertex_joint`` (N,) int, ``joint_rest_positions`` (J, 3) mm, ``patch_mm``
-    (J,) mm and ``transforms(X)``: (n, P) -> (n, J, 4, 4) rigid rest-to-world transforms.
+    (J,) mm and ``transforms(X)``: (n, P) -> (n, J, 4, 4) rigid rest-to-world transforms;
+    optionally ``chain``, a :class:`~mmocap.body.kinematics.KinematicChain` whose
+    ``transforms`` are ``body.transforms``, from which a backend may compute them itself.
 
     Subclasses implement ``_counts(X)`` and ``_render(x, camera_index)`` and may extend
     ``_prepare()``, called at the end of :meth:`setup`.

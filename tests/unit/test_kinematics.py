@@ -119,3 +119,37 @@ def test_skinning_transform_definition():
     # S_j maps the joint's own rest position to its posed position
     posed = np.einsum("njab,jb->nja", S[..., :3, :3], rest) + S[..., :3, 3]
     np.testing.assert_allclose(posed, G[..., :3, 3], atol=1e-9)
+
+
+def test_kinematic_chain_is_the_bodys_transforms_and_describes_its_inputs(body):
+    from mmocap.body.kinematics import KinematicChain
+    rng = np.random.default_rng(2)
+    X = rng.normal(0, 0.4, size=(5, skeleton.N_FULL))
+    X[:, :3] = rng.normal(0, 500, (5, 3))
+    chain = body.chain
+    assert isinstance(chain, KinematicChain)
+    np.testing.assert_array_equal(chain.transforms(X), body.transforms(X))
+    # the same transforms from plain matrix products, A R A^T and the parent chain
+    rest, frames = body.joint_rest_positions, body.rest_frames
+    L = frames @ euler_xyz(X[:, 3:].reshape(5, 16, 3)) @ np.swapaxes(frames, -1, -2)
+    G = np.zeros((5, 16, 4, 4))
+    for j, p in enumerate(skeleton.PARENT_INDEX):
+        local = np.tile(np.eye(4), (5, 1, 1))
+        local[:, :3, :3] = L[:, j]
+        local[:, :3, 3] = X[:, :3] if p < 0 else rest[j] - rest[p]
+        G[:, j] = local if p < 0 else G[:, p] @ local
+    np.testing.assert_allclose(chain.transforms(X), skinning_transforms(G, rest), atol=1e-9)
+    # the device inputs: translation then cos, sin per joint; A, offset, rest position, parent
+    rows = chain.pose_rows(X)
+    assert rows.shape == (5, 3 + 6 * 16)
+    np.testing.assert_array_equal(rows[:, :3], X[:, :3])
+    np.testing.assert_array_equal(rows[:, 3 + 6 * 4:3 + 6 * 5],
+                                  np.c_[np.cos(X[:, 15:18]), np.sin(X[:, 15:18])])
+    table = chain.rows()
+    assert table.shape == (16, 16)
+    np.testing.assert_array_equal(table[:, 15], skeleton.PARENT_INDEX)
+    np.testing.assert_array_equal(table[:, :9], frames.reshape(16, 9))
+    np.testing.assert_array_equal(table[:, 12:15], rest)
+    child = skeleton.JOINTS.index("LKnee")
+    np.testing.assert_array_equal(table[child, 9:12],
+                                  rest[child] - rest[skeleton.PARENT_INDEX[child]])

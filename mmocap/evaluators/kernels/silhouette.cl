@@ -238,6 +238,65 @@ inline int patch_side(__global const double *camera, __global const double *T,
     return s < 1.0 ? 1 : s > MAX_SIDE ? MAX_SIDE : (int)s;
 }
 
+// The joint transforms of a body with a KinematicChain (mmocap/body/kinematics.py), in its
+// float64 order, one candidate per work-item: the [R t] rows of the skinning transforms S_j,
+// the input of silhouette_counts. Joints come after their parents.
+// A fixed work-group size of 1: PoCL compiles a kernel again for every other size it is
+// launched with, which took longer than a CMA-ES frame.
+#define MAX_JOINTS 32
+__kernel __attribute__((reqd_work_group_size(1, 1, 1)))
+void joint_transforms(
+    __global const double *poses,      // (n, 3 + 6 J) KinematicChain.pose_rows: T (mm), then
+                                       // per joint cos a, cos b, cos c, sin a, sin b, sin c
+    __global const double *chain,      // (J, 16) KinematicChain.rows: A (3x3, row-major),
+                                       // o_j - o_parent (mm), o_j (mm), parent (-1: root)
+    const int n, const int J,          // candidates, joints (J <= MAX_JOINTS)
+    __global double *transforms)       // (n, J, 12) S_j = [R t] (3x4, row-major, mm)
+{
+    const int i = get_global_id(0);
+    if (i >= n) return;
+    __global const double *pose = poses + i * (3 + 6 * J);
+    __global double *out = transforms + i * J * 12;
+    double G[MAX_JOINTS][12];  // [R t] of the global transforms G_j
+    for (int j = 0; j < J; ++j) {
+        __global const double *A = chain + 16 * j, *q = pose + 3 + 6 * j;
+        const double ca = q[0], cb = q[1], cc = q[2], sa = q[3], sb = q[4], sc = q[5];
+        const double R[9] = {cb * cc, -cb * sc, sb,
+                             ca * sc + sa * sb * cc, ca * cc - sa * sb * sc, -sa * cb,
+                             sa * sc - ca * sb * cc, sa * cc + ca * sb * sc, ca * cb};
+        double M[9], L[9];  // M = R A^T, L = A M
+        for (int a = 0; a < 3; ++a)
+            for (int k = 0; k < 3; ++k)
+                M[3 * a + k] = (R[3 * a] * A[3 * k] + R[3 * a + 1] * A[3 * k + 1])
+                               + R[3 * a + 2] * A[3 * k + 2];
+        for (int a = 0; a < 3; ++a)
+            for (int k = 0; k < 3; ++k)
+                L[3 * a + k] = (A[3 * a] * M[k] + A[3 * a + 1] * M[3 + k]) + A[3 * a + 2] * M[6 + k];
+        const int parent = (int)A[15];
+        double *g = G[j];
+        if (parent < 0) {
+            for (int a = 0; a < 3; ++a) {
+                for (int k = 0; k < 3; ++k) g[4 * a + k] = L[3 * a + k];
+                g[4 * a + 3] = pose[a];
+            }
+        } else {
+            const double *P = G[parent];
+            for (int a = 0; a < 3; ++a) {
+                for (int k = 0; k < 3; ++k)
+                    g[4 * a + k] = (P[4 * a] * L[k] + P[4 * a + 1] * L[3 + k])
+                                   + P[4 * a + 2] * L[6 + k];
+                g[4 * a + 3] = ((P[4 * a] * A[9] + P[4 * a + 1] * A[10]) + P[4 * a + 2] * A[11])
+                               + P[4 * a + 3];
+            }
+        }
+        for (int a = 0; a < 3; ++a) {  // S_j = G_j translate(-o_j)
+            for (int k = 0; k < 3; ++k) out[12 * j + 4 * a + k] = g[4 * a + k];
+            out[12 * j + 4 * a + 3] = g[4 * a + 3] - ((g[4 * a] * A[12] + g[4 * a + 1] * A[13])
+                                                      + g[4 * a + 2] * A[14]);
+        }
+    }
+}
+
 __kernel __attribute__((reqd_work_group_size(LOCAL_SIZE, 1, 1)))
 void silhouette_counts(
     __global const float *vertices,    // (7, N4) rest x, y, z (mm), normal x, y, z, n . v
