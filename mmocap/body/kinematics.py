@@ -43,7 +43,8 @@ def _product(P: np.ndarray, Q: np.ndarray) -> np.ndarray:
 
 def _apply(P: np.ndarray, v: np.ndarray) -> np.ndarray:
     """(..., 3, 3) and (..., 3) -> (..., 3) ``P v`` in the module's order."""
-    return (P[..., :, 0] * v[..., None, 0] + P[..., :, 1] * v[..., None, 1]) + P[..., :, 2] * v[..., None, 2]
+    return ((P[..., :, 0] * v[..., None, 0] + P[..., :, 1] * v[..., None, 1])
+            + P[..., :, 2] * v[..., None, 2])
 
 
 def _euler(c: np.ndarray, s: np.ndarray) -> np.ndarray:
@@ -141,8 +142,8 @@ class KinematicChain:
         cos a, cos b, cos c, sin a, sin b, sin c (:func:`joint_trig`)."""
         poses = np.atleast_2d(np.asarray(poses, dtype=np.float64))
         c, s = joint_trig(poses)
-        return np.concatenate([poses[:, :3], np.concatenate([c, s], axis=2).reshape(len(poses), -1)],
-                              axis=1)
+        trig = np.concatenate([c, s], axis=2).reshape(len(poses), -1)
+        return np.concatenate([poses[:, :3], trig], axis=1)
 
     def rows(self) -> np.ndarray:
         """(J, 16) float64 per joint: A_j (3x3 row-major), o_j - o_parent (3, mm, 0 for the

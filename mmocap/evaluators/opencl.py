@@ -358,13 +358,15 @@ class OpenCLEvaluator(SilhouetteEvaluator):
         if self._chain is not None:  # the transforms come from the joint_transforms kernel
             rows_in = self._chain.pose_rows(X)
         else:  # [R t] rows per joint
-            rows_in = np.ascontiguousarray(body_transforms(self.body, X)[:, :, :3]).reshape(n, J * 12)
+            rows_in = np.ascontiguousarray(body_transforms(self.body, X)[:, :, :3])
+            rows_in = rows_in.reshape(n, J * 12)
         counts = np.empty((n * C, 2), np.int32)
         masks = np.empty((n * C if write_masks else 1, self._mask_words), np.uint32)
         if len(self._lanes) == 1:
             edges = [0, n]
         else:
-            edges = np.round(np.r_[0, np.cumsum(self._weights)] / self._weights.sum() * n).astype(int)
+            shares = np.r_[0, np.cumsum(self._weights)] / self._weights.sum()
+            edges = np.round(shares * n).astype(int)
         events = []
         for lane, a, b in zip(self._lanes, edges[:-1], edges[1:]):
             if a == b:
@@ -403,6 +405,7 @@ class OpenCLEvaluator(SilhouetteEvaluator):
         for lane in self._lanes:
             lane.frame = {}
         self._body_uploaded = None
+        self._chain = None
         super().close()
 
 
@@ -447,7 +450,9 @@ def _device_chain(body) -> KinematicChain | None:
     """The body's kinematic chain when the kernel can compute its transforms (``body.chain``
     a :class:`KinematicChain` of at most ``_MAX_JOINTS`` joints), else None."""
     chain = getattr(body, "chain", None)
-    if isinstance(chain, KinematicChain) and len(chain.rest_positions) <= _MAX_JOINTS:
+    joints = len(body.joint_rest_positions)
+    if (isinstance(chain, KinematicChain) and len(chain.rest_positions) == joints
+            and joints <= _MAX_JOINTS):
         return chain
     return None
 

@@ -217,5 +217,6 @@ def test_a_body_with_a_kinematic_chain_gets_its_transforms_on_the_device_bit_for
     lane = ev._lanes[0]
     device = np.empty((len(X), 16, 12))
     cl.enqueue_copy(lane.queue, device, lane.batch["transforms"][1], is_blocking=True)
-    np.testing.assert_array_equal(device, scene.body.transforms(X)[:, :, :3].reshape(len(X), 16, 12))
+    host = scene.body.transforms(X)[:, :, :3].reshape(len(X), 16, 12)
+    np.testing.assert_array_equal(device, host)
     ev.close()

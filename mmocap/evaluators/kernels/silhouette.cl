@@ -241,8 +241,8 @@ inline int patch_side(__global const double *camera, __global const double *T,
 // The joint transforms of a body with a KinematicChain (mmocap/body/kinematics.py), in its
 // float64 order, one candidate per work-item: the [R t] rows of the skinning transforms S_j,
 // the input of silhouette_counts. Joints come after their parents.
-// A fixed work-group size of 1: PoCL compiles a kernel again for every other size it is
-// launched with, which took longer than a CMA-ES frame.
+// A fixed work-group size of 1: PoCL compiles a kernel again for each new work-group size
+// it is launched with (about 0.1 s each, measured).
 #define MAX_JOINTS 32
 __kernel __attribute__((reqd_work_group_size(1, 1, 1)))
 void joint_transforms(
@@ -271,7 +271,8 @@ void joint_transforms(
                                + R[3 * a + 2] * A[3 * k + 2];
         for (int a = 0; a < 3; ++a)
             for (int k = 0; k < 3; ++k)
-                L[3 * a + k] = (A[3 * a] * M[k] + A[3 * a + 1] * M[3 + k]) + A[3 * a + 2] * M[6 + k];
+                L[3 * a + k] = (A[3 * a] * M[k] + A[3 * a + 1] * M[3 + k])
+                               + A[3 * a + 2] * M[6 + k];
         const int parent = (int)A[15];
         double *g = G[j];
         if (parent < 0) {
