@@ -62,7 +62,9 @@ _BLOCK = 128  # vertices per culling cone (the kernel's BLOCK): 3-4 % faster tha
 # bound on the float32 rounding of the culling test n . v + n . b, relative to |n . v| + |b|
 # (about 6 rounding errors of 2^-24 each: 3.6e-7), the kernel's ROUNDING
 _ROUNDING = 1e-6
-_TRANSFORMS_ARG = 3  # the kernel's argument that changes with every call
+# the kernels' arguments that change with every call: silhouette_counts' transforms and
+# joint_transforms' poses
+_TRANSFORMS_ARG, _POSES_ARG = 3, 0
 
 
 def _private_pocl_cache() -> None:
@@ -227,7 +229,7 @@ class _Lane:
         self.kinematics = cl.Kernel(program(ctx, self.local_size, lanes), "joint_transforms")
         self.frame: dict[str, cl.Buffer] = {}
         self.batch: dict[str, tuple[int, cl.Buffer]] = {}
-        self.bound: list = []  # the kernel's arguments, see bind
+        self.bound: dict = {}  # each kernel's arguments, see bind
 
     def upload(self, **arrays: np.ndarray) -> None:
         """Read-only buffers kept until replaced (per frame, or per body)."""
@@ -235,14 +237,15 @@ class _Lane:
         self.frame.update({k: cl.Buffer(self.ctx, flags, hostbuf=np.ascontiguousarray(a))
                            for k, a in arrays.items()})
 
-    def bind(self, *args) -> None:
-        """Set the kernel's arguments unless they are the last call's (the same buffer
-        objects, equal values): setting them costs about as much as a small copy. The
-        transforms (None here) are set by the caller on every call."""
+    def bind(self, kernel: cl.Kernel, *args) -> None:
+        """Set a kernel's arguments unless they are its last call's (the same buffer objects,
+        equal values): setting them costs about as much as a small copy. The buffer that is
+        new with every call (None here) is set by the caller."""
         key = [a.size if isinstance(a, cl.LocalMemory) else a for a in args]
-        if len(key) != len(self.bound) or not all(map(_same, key, self.bound)):
-            self.kernel.set_args(*args)
-            self.bound = key
+        bound = self.bound.get(kernel.int_ptr, [])
+        if len(key) != len(bound) or not all(map(_same, key, bound)):
+            kernel.set_args(*args)
+            self.bound[kernel.int_ptr] = key
 
     def buffer(self, name: str, nbytes: int) -> cl.Buffer:
         """A per-call buffer of at least ``nbytes``, grown as needed."""
@@ -379,16 +382,17 @@ class OpenCLEvaluator(SilhouetteEvaluator):
                               hostbuf=rows_in[a:b])
             if self._chain is not None:
                 rows = lane.buffer("transforms", (b - a) * J * 12 * 8)
-                lane.kinematics.set_args(given, lane.frame["chain"], np.int32(b - a), np.int32(J),
-                                         rows)
+                lane.bind(lane.kinematics, None, lane.frame["chain"], np.int32(b - a),
+                          np.int32(J), rows)
+                lane.kinematics.set_arg(_POSES_ARG, given)
                 cl.enqueue_nd_range_kernel(lane.queue, lane.kinematics, (b - a,), (1,))
             else:
                 rows = given
             out = lane.buffer("counts", counts[views].nbytes)
             img = lane.buffer("masks", masks[views].nbytes if write_masks else 4)
             f = lane.frame
-            lane.bind(f["vertices"], f["start"], f["cones"], None, f["cameras"], f["joints"],
-                      f["shapes"], f["fg"],
+            lane.bind(lane.kernel, f["vertices"], f["start"], f["cones"], None, f["cameras"],
+                      f["joints"], f["shapes"], f["fg"],
                       np.int32(C), np.int32(J), cl.LocalMemory(4 * self._local_words),
                       np.int32(self._max_layers), out,
                       np.int32(write_masks), np.int32(self._mask_words), img)
