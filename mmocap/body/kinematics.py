@@ -27,7 +27,7 @@ import numpy as np
 
 from mmocap.body.skeleton import PARENT_INDEX
 
-# joints by depth in the tree, each level after its parents' (all of them at once)
+# the joints below the root by depth in the tree: each level's parents are in earlier ones
 _DEPTH = np.zeros(len(PARENT_INDEX), dtype=int)
 for _j, _p in enumerate(PARENT_INDEX):  # parents come before their children
     _DEPTH[_j] = 0 if _p < 0 else _DEPTH[_p] + 1
