@@ -1,4 +1,7 @@
 """The evaluator benchmark (mmocap.bench) end to end on a tiny setting."""
+import time
+
+import numpy as np
 import pandas as pd
 import pytest
 
@@ -27,3 +30,37 @@ def test_bench_rejects_an_unknown_backend(capsys):
     with pytest.raises(SystemExit):
         bench.main(["table2", "--backends", "numpy,warp-drive"])
     assert "unknown backend(s) warp-drive" in capsys.readouterr().err
+
+
+class CountingEvaluator:
+    """A stand-in evaluator that counts its calls; each call takes ``delay`` seconds."""
+
+    def __init__(self, delay: float):
+        self.delay, self.calls = delay, 0
+
+    def setup(self, body, cameras, foreground):
+        pass
+
+    def __call__(self, X):
+        self.calls += 1
+        time.sleep(self.delay)
+        return np.random.default_rng(self.calls).random(len(X))
+
+
+@pytest.fixture(scope="module")
+def small_scene():
+    return bench.Scene(2000, cameras=1)
+
+
+@pytest.mark.parametrize("delay, frames, seconds, expected", [
+    (0.0, 1, 0.0, 1),      # no time budget: the frames asked for
+    (0.0, 2, 10.0, 5),     # fast frames: more, up to MAX_FRAMES
+    (0.02, 1, 0.1, 1),     # a frame of 10 calls takes 0.2 s: no second one within 0.1 s
+    (0.02, 3, 0.1, 3),     # but never fewer than asked for
+])
+def test_frame_ms_adds_frames_that_fit_in_the_time_given(small_scene, delay, frames, seconds,
+                                                         expected):
+    ev = CountingEvaluator(delay)
+    bench.frame_ms(ev, small_scene, 140, frames, seconds)  # CMA-ES: 10 calls of 14 per frame
+    assert bench.MAX_FRAMES == 5
+    assert ev.calls == 1 + expected * 10  # the warm-up call, then 10 calls per frame
