@@ -32,9 +32,9 @@
 // per-vertex culling test; the others are culled vertex by vertex.
 
 // Vertices are processed LANES (4, 8 or 16, dividing BLOCK) at a time in vectors of that
-// width (8 floats: one AVX2 register). The vertex arrays are structures of arrays, each
-// joint's run padded to a multiple of BLOCK with zero-normal vertices, which the culling
-// test always rejects.
+// width (8 floats: one AVX2 register). The vertex array holds per vector its seven rows of
+// LANES floats side by side (_interleaved in opencl.py); each joint's run is padded to a
+// multiple of BLOCK with zero-normal vertices, which the culling test always rejects.
 #define CAT_(a, b) a##b
 #define CAT(a, b) CAT_(a, b)
 #define floatV CAT(float, LANES)
@@ -191,20 +191,19 @@ BIT_COUNT(uint8)
 // Steps 3-4 for the LANES vertices from v (coefficients a, b of view_geometry): whether each
 // is kept, and u + 0.5, v + 0.5 (the centre pixel is their floor); 0 when none faces the
 // camera. all_facing skips the culling test (see the block tests below).
-inline int project_lanes(__global const float *vertices, const int N4, const int v,
-                         const int all_facing, const float *a, const float *b, intV *keep,
-                         floatV *tu, floatV *tw)
+inline int project_lanes(__global const float *vertices, const int v, const int all_facing,
+                         const float *a, const float *b, intV *keep, floatV *tu, floatV *tw)
 {
+    __global const float *row = vertices + 7 * v;  // x, y, z, nx, ny, nz, n . v of each lane
     // culling first: n' . p = n . v + n . (R^T t); all back faces: nothing else to do
     intV facing = (intV)(-1);
     if (!all_facing) {
-        const floatV nx = LOAD(vertices + 3 * N4 + v), ny = LOAD(vertices + 4 * N4 + v),
-                     nz = LOAD(vertices + 5 * N4 + v), nv = LOAD(vertices + 6 * N4 + v);
+        const floatV nx = LOAD(row + 3 * LANES), ny = LOAD(row + 4 * LANES),
+                     nz = LOAD(row + 5 * LANES), nv = LOAD(row + 6 * LANES);
         facing = nv + (nx * b[0] + ny * b[1] + nz * b[2]) < 0.0f;
         if (!any_lane(facing)) return 0;
     }
-    const floatV x = LOAD(vertices + v), y = LOAD(vertices + N4 + v),
-                 z = LOAD(vertices + 2 * N4 + v);
+    const floatV x = LOAD(row), y = LOAD(row + LANES), z = LOAD(row + 2 * LANES);
     const floatV pz = a[8] * x + a[9] * y + a[10] * z + a[11];
     *keep = facing & (pz > (float)NEAR_MM);  // lanes off: masked by the caller
     const floatV inv = 1.0f / pz;
@@ -300,7 +299,8 @@ void joint_transforms(
 
 __kernel __attribute__((reqd_work_group_size(LOCAL_SIZE, 1, 1)))
 void silhouette_counts(
-    __global const float *vertices,    // (7, N4) rest x, y, z (mm), normal x, y, z, n . v
+    __global const float *vertices,    // (N4 / LANES, 7, LANES) rest x, y, z (mm),
+                                       // normal x, y, z, n . v
     __global const int *joint_start,   // (J + 1,) first vertex of each joint (multiples of BLOCK)
     __global const double *cones,      // (N4 / BLOCK, 10) normal cone axis (3), cos, sin,
                                        // sphere centre (3, mm), radius (mm), 1 if no padding
@@ -327,7 +327,6 @@ void silhouette_counts(
     const int width = shapes[3 * c], height = shapes[3 * c + 1];
     const int stride = (width + 31) / 32;                               // words of a row
     const int pitch = (stride + PITCH_WORDS - 1) / PITCH_WORDS * PITCH_WORDS;  // words per row
-    const int N4 = joint_start[J];
     int side_of[MAX_LAYERS], layers = 0, layered = 1;  // the distinct patch sides, one per layer
     for (int j = 0; j < J; ++j) {
         const int s = patch_side(camera, T0 + 12 * j, joints + 4 * j);
@@ -389,7 +388,7 @@ void silhouette_counts(
                 for (int v = BLOCK * blk; v < BLOCK * (blk + 1); v += LANES) {
                     intV keep;
                     floatV tu, tw;
-                    if (!project_lanes(vertices, N4, v, all_facing, a, b, &keep, &tu, &tw))
+                    if (!project_lanes(vertices, v, all_facing, a, b, &keep, &tu, &tw))
                         continue;
                     // a centre in the padded layer: in range as a float, so floor needs no clamp
                     const intV in = keep & (tu >= (float)-PAD) & (tu < (float)(width + PAD))
@@ -419,7 +418,7 @@ void silhouette_counts(
             for (int v = BLOCK * blk; v < BLOCK * (blk + 1); v += LANES) {
                 intV keep;
                 floatV tu, tw;
-                if (!project_lanes(vertices, N4, v, all_facing, a, b, &keep, &tu, &tw)) continue;
+                if (!project_lanes(vertices, v, all_facing, a, b, &keep, &tu, &tw)) continue;
                 const intV cx = floor_int(tu), cy = floor_int(tw);
                 if (s > 32) {  // large patches (a body part close to the camera): one by one
                     for (int i = 0; i < LANES; ++i)
