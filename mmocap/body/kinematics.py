@@ -27,12 +27,24 @@ import numpy as np
 
 from mmocap.body.skeleton import PARENT_INDEX
 
-# the joints below the root by depth in the tree: each level's parents are in earlier ones
-_DEPTH = np.zeros(len(PARENT_INDEX), dtype=int)
-for _j, _p in enumerate(PARENT_INDEX):  # parents come before their children
-    _DEPTH[_j] = 0 if _p < 0 else _DEPTH[_p] + 1
-_LEVELS = [np.flatnonzero(_DEPTH == d) for d in range(1, _DEPTH.max() + 1)]
+
+def _depth_levels() -> list[np.ndarray]:
+    """The joints below the root by depth in the tree: each level's parents are in earlier ones."""
+    depth = np.zeros(len(PARENT_INDEX), dtype=int)
+    for j, p in enumerate(PARENT_INDEX):  # parents come before their children
+        depth[j] = 0 if p < 0 else depth[p] + 1
+    return [np.flatnonzero(depth == d) for d in range(1, depth.max() + 1)]
+
+
+_LEVELS = _depth_levels()
 _ROOT = int(np.flatnonzero(PARENT_INDEX < 0)[0])
+
+
+def parent_offsets(rest_positions: np.ndarray) -> np.ndarray:
+    """(J, 3) ``o_j - o_parent`` (mm), each rounded once; 0 for the root."""
+    offsets = rest_positions - rest_positions[np.maximum(PARENT_INDEX, 0)]
+    offsets[_ROOT] = 0.0
+    return offsets
 
 
 def _product(P: np.ndarray, Q: np.ndarray) -> np.ndarray:
@@ -93,7 +105,7 @@ def global_transforms(poses: np.ndarray, rest_positions: np.ndarray,
     n, J = poses.shape[0], len(PARENT_INDEX)
     c, s = joint_trig(poses)
     L = _product(rest_frames, _product(_euler(c, s), np.swapaxes(rest_frames, -1, -2)))
-    offsets = rest_positions - rest_positions[np.maximum(PARENT_INDEX, 0)]
+    offsets = parent_offsets(rest_positions)
     rotation, translation = np.empty((n, J, 3, 3)), np.empty((n, J, 3))
     rotation[:, _ROOT] = L[:, _ROOT]
     translation[:, _ROOT] = poses[:, :3]
@@ -148,7 +160,5 @@ class KinematicChain:
     def rows(self) -> np.ndarray:
         """(J, 16) float64 per joint: A_j (3x3 row-major), o_j - o_parent (3, mm, 0 for the
         root), o_j (3, mm) and the parent's index (-1 for the root)."""
-        offsets = self.rest_positions - self.rest_positions[np.maximum(PARENT_INDEX, 0)]
-        offsets[PARENT_INDEX < 0] = 0.0
-        return np.c_[self.rest_frames.reshape(-1, 9), offsets, self.rest_positions,
-                     PARENT_INDEX.astype(np.float64)]
+        return np.c_[self.rest_frames.reshape(-1, 9), parent_offsets(self.rest_positions),
+                     self.rest_positions, PARENT_INDEX.astype(np.float64)]
