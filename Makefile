@@ -3,6 +3,7 @@ PYTHON ?= python3
 VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
+MMOCAP := $(VENV)/bin/mmocap
 # Example plugins, installed (not editable: Hydra finds their configs in site-packages) so
 # that the test suite runs them like a user's own plugin.
 PLUGINS       := plugins/mmocap-pycma
@@ -27,25 +28,25 @@ install: $(STAMP) ## Create .venv; install mmocap, its test dependencies and the
 # The demo tracks afresh each time (a run's record would otherwise make it a no-op).
 demo: $(STAMP) ## Generate synthetic S1 walking, track it with CMA-ES, write outputs/demo/
 	rm -rf outputs/demo
-	$(PY) -m mmocap +experiment=demo
+	$(MMOCAP) +experiment=demo
 
 # FOREGROUND_ARGS adds overrides, e.g. FOREGROUND_ARGS="dataset.subject=S2 dataset.action=gestures".
 FOREGROUND_ARGS ?=
 foreground: $(STAMP) ## Precision, recall and IoU of each background method per camera on the demo sequence; outputs/tables/foreground.*
-	$(PY) -m mmocap.stages.foreground_quality progress=false 'dataset.cameras=$${dataset.all_cameras}' $(FOREGROUND_ARGS)
+	$(MMOCAP) foreground-quality progress=false 'dataset.cameras=$${dataset.all_cameras}' $(FOREGROUND_ARGS)
 
 # The OpenCL evaluator counts exactly as numpy does (the conformance suite) and is faster.
 optimizers: $(STAMP) ## Demo sequence with every built-in optimiser, holistic and hierarchical (about 3 min); table in outputs/tables/
 	rm -rf outputs/optimizers
-	$(PY) -m mmocap -m +experiment=demo optimizer=cmaes,de,pso,apf,psapf strategy=holistic,hierarchical \
+	$(MMOCAP) -m +experiment=demo optimizer=cmaes,de,pso,apf,psapf strategy=holistic,hierarchical \
 		evaluator=opencl overlays=0 progress=false hydra.sweep.dir=outputs/optimizers
 	@mkdir -p outputs/tables
-	$(PY) -m mmocap.report.summaries outputs/optimizers --csv outputs/tables/optimizers.csv \
+	$(MMOCAP) summaries outputs/optimizers --csv outputs/tables/optimizers.csv \
 		| tee outputs/tables/optimizers.md
 
 # BLAS on one thread: its idle threads spinning beside OpenCL's or the workers' would
 # inflate CMA-ES's share of a frame many times over on a small machine.
-BENCH := OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 $(PY) -m mmocap.bench
+BENCH := OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 $(MMOCAP) bench
 
 bench: $(STAMP) ## Evaluator benchmark, 27393 vertices: time per model-view and per CMA-ES frame (500, 1500 evaluations); outputs/tables/bench_* (tables and Fig. 3)
 	$(BENCH) all --vertices 27393 --budgets 500,1500 --prefix bench_
@@ -63,8 +64,8 @@ table2: $(STAMP) ## Cano Table 2 for this machine: time per model-view per backe
 SCALE      ?= smoke
 SWEEP_ARGS ?=
 define paper_sweep
-	$(PY) -m mmocap -m +experiment=$(1) scale=$(SCALE) $(2) $(SWEEP_ARGS)
-	$(PY) -m mmocap.report.paper $(1) outputs/sweeps/$(1)/$(SCALE)
+	$(MMOCAP) -m +experiment=$(1) scale=$(SCALE) $(2) $(SWEEP_ARGS)
+	$(MMOCAP) paper $(1) outputs/sweeps/$(1)/$(SCALE)
 endef
 
 tables: table4 table5 table6 table7 fig7 fig10 cano_table3 fig4 fig5 ## Every paper table and figure at SCALE (smoke: minutes)
@@ -95,7 +96,7 @@ fig4: $(STAMP) ## Cano Fig. 4: time vs error per mesh x evaluations x backend, P
 
 fig5: $(STAMP) ## Cano Fig. 5: the tracked model over S1 walking, first and last of 20 frames (one run, any SCALE)
 	rm -rf outputs/fig5
-	$(PY) -m mmocap +experiment=fig5 progress=false
+	$(MMOCAP) +experiment=fig5 progress=false
 	@mkdir -p outputs/figures
 	for f in outputs/fig5/overlays/*.png; do cp $$f outputs/figures/fig5_$$(basename $$f); done
 

@@ -18,9 +18,9 @@ pose; candidates are that pose with normal noise on the joint angles.
 
 Usage::
 
-    python -m mmocap.bench table2 --vertices 27393,20544,13695
-    python -m mmocap.bench table1 --budgets 500,1500,3000,5000
-    python -m mmocap.bench all --vertices 27393 --budgets 500,1500 --prefix bench_
+    mmocap bench table2 --vertices 27393,20544,13695
+    mmocap bench table1 --budgets 500,1500,3000,5000
+    mmocap bench all --vertices 27393 --budgets 500,1500 --prefix bench_
 """
 from __future__ import annotations
 
@@ -34,10 +34,10 @@ import numpy as np
 import pandas as pd
 
 from mmocap import registry
+from mmocap.analysis.figures import plot_frames_per_second
 from mmocap.body.model import BodyModel
 from mmocap.data.synthetic import CAMERA_RING, camera_rig
-from mmocap.pipeline import TimedEvaluator
-from mmocap.report.figures import plot_frames_per_second
+from mmocap.evaluators.timed import TimedEvaluator
 from mmocap.stages.tracking import Holistic
 
 BACKENDS = ("naive", "numpy", "multiprocessing", "opencl", "multidevice")
@@ -173,8 +173,8 @@ def write(df: pd.DataFrame, out: Path, name: str, title: str) -> None:
     print(text)
 
 
-def main(argv=None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+def main(argv: list[str], prog: str) -> None:
+    parser = argparse.ArgumentParser(prog=prog, description=__doc__.split("\n\n")[0])
     parser.add_argument("table", choices=["table1", "table2", "all"])
     parser.add_argument("--backends", default=",".join(BACKENDS))
     parser.add_argument("--vertices", default="27393,20544,13695")
@@ -220,7 +220,3 @@ def main(argv=None) -> None:
     finally:
         for ev in evaluators.values():
             ev.close()
-
-
-if __name__ == "__main__":
-    main()

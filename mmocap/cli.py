@@ -1,9 +1,10 @@
-"""Command line: ``mmocap [hydra overrides]`` tracks; ``mmocap list`` shows plugins;
-``mmocap generate [overrides]`` only renders the configured synthetic sequence;
-``mmocap export-humaneva SEQUENCE OUT`` writes a sequence folder in the HumanEva-I layout.
+"""The command line, ``mmocap <subcommand> [arguments]``: the top layer of mmocap.
 
-Errors the user can fix (:class:`mmocap.errors.MmocapError`) print one line naming the
-culprit and exit with status 2, without a traceback.
+``mmocap [hydra overrides]`` (or ``mmocap track ...``) tracks a sequence; ``mmocap --help``
+lists the subcommands. This is the one place that turns errors into exit codes: an error the
+user can fix (:class:`mmocap.errors.MmocapError`, also when Hydra wraps it) prints one line
+naming the culprit and exits with status 2, without a traceback; warnings print as one
+``mmocap: warning: ...`` line each.
 """
 from __future__ import annotations
 
@@ -13,8 +14,9 @@ import os
 # (and fight with process-level parallelism), so default to one unless the user says.
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
-import argparse  # noqa: E402
+import importlib  # noqa: E402
 import sys  # noqa: E402
+import warnings  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import hydra  # noqa: E402
@@ -23,10 +25,9 @@ from hydra.errors import InstantiationException  # noqa: E402
 from hydra.utils import instantiate  # noqa: E402
 from omegaconf import DictConfig  # noqa: E402
 
-from mmocap import registry  # noqa: E402
+from mmocap.config import CONFIG_NAME, CONFIG_PATH, HYDRA_VERSION_BASE  # noqa: E402
 from mmocap.errors import MmocapError  # noqa: E402
-
-CONFIG_PATH = str(Path(__file__).resolve().parent.parent / "conf")
+from mmocap.sweep import SweepProgress  # noqa: E402
 
 
 def _user_error(exc: BaseException) -> MmocapError | None:
@@ -38,8 +39,13 @@ def _user_error(exc: BaseException) -> MmocapError | None:
     return None
 
 
+def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    print(f"mmocap: warning: {message}", file=sys.stderr)
+
+
 def guarded(job):
     """``job()``; a user error (also one Hydra wraps) becomes one line on stderr and exit 2."""
+    warnings.showwarning = _show_warning
     try:
         return job()
     except (MmocapError, InstantiationException) as exc:
@@ -50,7 +56,7 @@ def guarded(job):
         raise SystemExit(2) from None
 
 
-@hydra.main(config_path=CONFIG_PATH, config_name="config", version_base="1.3")
+@hydra.main(config_path=CONFIG_PATH, config_name=CONFIG_NAME, version_base=HYDRA_VERSION_BASE)
 def track_app(cfg: DictConfig) -> None:
     from mmocap.pipeline import run
 
@@ -62,18 +68,28 @@ def track_app(cfg: DictConfig) -> None:
           f"{summary['seconds_per_frame']:.2f} s/frame ({summary['backend']} backend) -> {output_dir}")
 
 
-@hydra.main(config_path=CONFIG_PATH, config_name="config", version_base="1.3")
+@hydra.main(config_path=CONFIG_PATH, config_name=CONFIG_NAME, version_base=HYDRA_VERSION_BASE)
 def generate_app(cfg: DictConfig) -> None:
     sequence = guarded(lambda: instantiate(cfg.dataset).open(progress=cfg.progress))
     print(f"sequence ready: {sequence.root} ({sequence.n_frames} frames, "
           f"cameras {', '.join(c.name for c in sequence.cameras)})")
 
 
-def export_humaneva(args: list[str]) -> None:
+class SweepCallback(SweepProgress):
+    """:class:`mmocap.sweep.SweepProgress` whose checks before a sweep end the command with
+    one line and exit 2 (``hydra.callbacks`` in ``conf/config.yaml``)."""
+
+    def on_multirun_start(self, config: DictConfig, **kwargs) -> None:
+        guarded(lambda: SweepProgress.on_multirun_start(self, config, **kwargs))
+
+
+def export_humaneva(args: list[str], prog: str) -> None:
+    import argparse
+
     from mmocap.data.humaneva import TRIALS, export
 
     parser = argparse.ArgumentParser(
-        prog="mmocap export-humaneva",
+        prog=prog,
         description="Write a synthetic sequence folder in the HumanEva-I layout (S*/Calibration_Data, "
                     "Image_Data, Sync_Data, Mocap_Data at 120 Hz, Background).")
     parser.add_argument("sequence", help="a sequence folder (the one holding sequence.json)")
@@ -84,24 +100,65 @@ def export_humaneva(args: list[str]) -> None:
     parser.add_argument("--mocap-lead", type=int, default=4,
                         help="mocap frames, all markers missing, before the video starts (default 4)")
     options = parser.parse_args(args)
-    out = guarded(lambda: export(options.sequence, options.out, trial=options.trial, images=options.images,
-                                  mocap_lead=options.mocap_lead))
+    out = export(options.sequence, options.out, trial=options.trial, images=options.images,
+                 mocap_lead=options.mocap_lead)
     print(f"HumanEva-I layout written to {out}")
 
 
-def main() -> None:
-    args = sys.argv[1:]
-    if args and args[0] == "list":
-        print(registry.describe())
+def list_components(args: list[str], prog: str) -> None:
+    from mmocap import registry
+
+    print(registry.describe())
+
+
+def _hydra_app(app):
+    def command(args: list[str], prog: str) -> None:
+        sys.argv = [prog, *args]
+        app()
+    return command
+
+
+def _main_of(module_name: str):
+    def command(args: list[str], prog: str) -> None:
+        importlib.import_module(module_name).main(args, prog=prog)
+    return command
+
+
+# name -> (command(args, prog), one line of help); the commands raise MmocapError for bad input.
+SUBCOMMANDS = {
+    "track": (_hydra_app(track_app), "track a sequence (the default): `mmocap [track] optimizer=pso ...`"),
+    "generate": (_hydra_app(generate_app), "render the configured synthetic sequence only [Hydra overrides]"),
+    "list": (list_components, "the installed optimisers and evaluators, and why any is unavailable"),
+    "export-humaneva": (export_humaneva, "write a synthetic sequence folder in the HumanEva-I layout"),
+    "collect": (_main_of("mmocap.analysis.results"), "write runs.csv and frames.csv of a sweep folder"),
+    "summaries": (_main_of("mmocap.report.summaries"), "table of the run summaries below a folder"),
+    "stats": (_main_of("mmocap.report.stats"), "Friedman test and Holm's comparisons on a table of results"),
+    "paper": (_main_of("mmocap.report.paper"), "make a paper table or figure from a sweep's runs.csv"),
+    "bench": (_main_of("mmocap.bench"), "evaluator benchmark: Cano Tables 1 and 2 and Fig. 3 here"),
+    "foreground-quality": (_main_of("mmocap.report.foreground_quality"),
+                           "precision, recall and IoU of each background method per camera"),
+}
+
+
+def usage() -> str:
+    width = max(map(len, SUBCOMMANDS))
+    lines = ["usage: mmocap [SUBCOMMAND] [ARGUMENTS]", "",
+             "Markerless multi-camera motion capture. Without a subcommand the arguments are Hydra",
+             "overrides of a tracking run; `mmocap track --help` shows its config, `--hydra-help` Hydra's.",
+             "", "subcommands:"]
+    lines += [f"  {name:<{width}}  {text}" for name, (_, text) in SUBCOMMANDS.items()]
+    lines += ["", "`mmocap SUBCOMMAND --help` describes one."]
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> None:
+    args = sys.argv[1:] if argv is None else list(argv)
+    if args and args[0] in ("-h", "--help"):
+        print(usage())
         return
-    if args and args[0] == "generate":
-        sys.argv = [sys.argv[0]] + args[1:]
-        generate_app()
-        return
-    if args and args[0] == "export-humaneva":
-        export_humaneva(args[1:])
-        return
-    track_app()
+    name = args.pop(0) if args and args[0] in SUBCOMMANDS else "track"
+    command, _ = SUBCOMMANDS[name]
+    guarded(lambda: command(args, f"mmocap {name}"))
 
 
 if __name__ == "__main__":

@@ -2,15 +2,13 @@
 
 Outputs in ``output_dir``: ``frames.csv`` (one row per frame, written as it goes),
 ``summary.json``, ``error_per_frame.png`` and ``overlays/*.png``; and the run's record in
-the results store (:mod:`mmocap.stages.results`). A run whose record is already in the
+the results store (:mod:`mmocap.analysis.results`). A run whose record is already in the
 store, or in one of ``results.reuse``, is not run again.
 """
 from __future__ import annotations
 
-import fcntl
 import logging
 import time
-from contextlib import contextmanager
 from pathlib import Path
 
 import cv2
@@ -21,11 +19,14 @@ from hydra.utils import instantiate
 from omegaconf import DictConfig, OmegaConf
 from tqdm.auto import tqdm
 
+from mmocap import provenance
+from mmocap.analysis.figures import overlay, plot_error_per_frame
+from mmocap.analysis.results import ResultsStore, make_record, run_key, store_folder
 from mmocap.errors import ConfigError, DataError
-from mmocap.report.figures import overlay, plot_error_per_frame
-from mmocap.stages.evaluation import FrameLog, marker_error, write_json_atomic
+from mmocap.evaluators.timed import TimedEvaluator
+from mmocap.io import exclusive, write_json_atomic
+from mmocap.stages.evaluation import FrameLog, marker_error
 from mmocap.stages.foreground import Foreground
-from mmocap.stages.results import ResultsStore, make_record, now, provenance, run_key, store_folder
 from mmocap.stages.tracking import check_budget, track
 
 log = logging.getLogger(__name__)
@@ -45,7 +46,7 @@ def run(cfg: DictConfig, output_dir: Path) -> dict:
         log.info("run %s already finished (record %s): skipped; delete the record to run it again",
                  run_id, store.path(run_id))
         return done["summary"]
-    started = now()
+    started = provenance.now()
 
     check_budget(cfg.tracking.evaluations)
     # Components first: a bad value fails before any data is rendered or read.
@@ -107,7 +108,7 @@ def run(cfg: DictConfig, output_dir: Path) -> dict:
         "sequence": str(sequence.root),
         "seed": int(cfg.seed),
         "run_id": run_id,
-        "provenance": provenance(),
+        "provenance": provenance.facts(),
         "config": OmegaConf.to_container(cfg, resolve=True),
     }
     write_json_atomic(output_dir / "summary.json", summary)
@@ -127,47 +128,6 @@ def sweep_folder() -> Path | None:
     if HydraConfig.initialized() and HydraConfig.get().mode == RunMode.MULTIRUN:
         return Path(HydraConfig.get().sweep.dir)
     return None
-
-
-class TimedEvaluator:
-    """An evaluator that adds up the wall time spent evaluating candidates (``seconds``)."""
-
-    def __init__(self, evaluator):
-        self.evaluator = evaluator
-        self.seconds = 0.0
-
-    def warm_up(self, body, foreground, x0: np.ndarray) -> None:
-        """One untimed evaluation of the start pose (51,) on frame 0, so that building
-        kernels, starting worker pools and filling caches do not count as tracking time."""
-        self.evaluator.setup(body, foreground.cameras, foreground.masks(0))
-        self.evaluator(body.clip(np.asarray(x0)[None]))
-
-    def __call__(self, X: np.ndarray) -> np.ndarray:
-        start = time.perf_counter()
-        try:
-            return self.evaluator(X)
-        finally:
-            self.seconds += time.perf_counter() - start
-
-    def __getattr__(self, name):
-        return getattr(self.evaluator, name)
-
-
-@contextmanager
-def exclusive(path: Path | None):
-    """Hold an exclusive lock on ``<path>.lock`` (nothing when ``path`` is None), so that
-    parallel jobs of a sweep do not render the same sequence at once."""
-    if path is None:
-        yield
-        return
-    lock = Path(path).with_name(Path(path).name + ".lock")
-    lock.parent.mkdir(parents=True, exist_ok=True)
-    with open(lock, "w") as handle:
-        fcntl.flock(handle, fcntl.LOCK_EX)
-        try:
-            yield
-        finally:
-            fcntl.flock(handle, fcntl.LOCK_UN)
 
 
 def write_overlays(folder: Path, sequence, foreground, evaluator, body, results, truth, count: int) -> None:

@@ -9,7 +9,7 @@ Configured in ``conf/config.yaml`` under ``hydra.callbacks``. For a multirun it
   overrides, the sweeper's parameters, the launcher, git commit, package versions, host;
 - logs after each job how many runs of the sweep are done and about how long is left
   (jobs append a line to ``progress.jsonl``, so this works across processes and machines);
-- writes ``runs.csv`` and ``frames.csv`` (:func:`mmocap.stages.results.export`) at the end.
+- writes ``runs.csv`` and ``frames.csv`` (:func:`mmocap.analysis.results.export`) at the end.
 """
 from __future__ import annotations
 
@@ -27,11 +27,10 @@ from hydra.experimental.callback import Callback
 from hydra.types import RunMode
 from omegaconf import DictConfig
 
-from mmocap import registry
-from mmocap.cli import guarded
+from mmocap import provenance, registry
+from mmocap.analysis.results import ResultsStore, export, run_key, store_folder
 from mmocap.errors import ConfigError
-from mmocap.stages.evaluation import write_json_atomic
-from mmocap.stages.results import ResultsStore, export, now, provenance, run_key, store_folder
+from mmocap.io import write_json_atomic
 
 log = logging.getLogger(__name__)
 
@@ -54,7 +53,7 @@ def sweep_overrides(config: DictConfig) -> dict[str, list[str]]:
 def check_sweep(config: DictConfig, values: dict[str, list[str]]) -> None:
     """ConfigError, before any job starts, for a sweep that cannot run: an optimiser or
     evaluator name (``optimizer.name=...``, ``evaluator.name=...``) that is not installed, or
-    the multiprocessing evaluator under the joblib launcher, whose worker processes cannot
+    an evaluator that starts worker processes (``starts_processes``) under the joblib launcher, whose worker processes cannot
     start a pool of their own. Config-group choices (``optimizer=nope``) Hydra checks itself
     when it composes the jobs."""
     for kind in ("optimizer", "evaluator"):
@@ -62,10 +61,14 @@ def check_sweep(config: DictConfig, values: dict[str, list[str]]) -> None:
             registry.load(kind, name)
     evaluators = set(values.get("evaluator", []) + values.get("evaluator.name", [])) or {config.evaluator.name}
     launcher = config.hydra.launcher
-    if "multiprocessing" in evaluators and "joblib" in str(launcher.get("_target_")) and launcher.n_jobs != 1:
-        raise ConfigError("evaluator=multiprocessing cannot start its workers inside the joblib launcher's "
-                          "processes: add hydra.launcher.n_jobs=1 (jobs in turn, in this process) or "
-                          "choose another evaluator")
+    if "joblib" not in str(launcher.get("_target_")) or launcher.n_jobs == 1:
+        return
+    registered = registry.available("evaluator")
+    for name in sorted(evaluators & set(registered)):
+        if getattr(registry.load("evaluator", name), "starts_processes", False):
+            raise ConfigError(f"evaluator={name} cannot start its workers inside the joblib launcher's "
+                              "processes: add hydra.launcher.n_jobs=1 (jobs in turn, in this process) or "
+                              "choose another evaluator")
 
 
 class SweepProgress(Callback):
@@ -74,20 +77,20 @@ class SweepProgress(Callback):
     def on_multirun_start(self, config: DictConfig, **kwargs) -> None:
         sweep_dir = Path(config.hydra.sweep.dir)
         values = sweep_overrides(config)
-        guarded(lambda: check_sweep(config, values))
+        check_sweep(config, values)
         total = math.prod(len(v) for v in values.values())
         sweep_dir.mkdir(parents=True, exist_ok=True)
         store = ResultsStore(store_folder(config, sweep_dir))
         already = len(store.run_ids())
         info = {
-            "session": f"{now()}-{os.getpid()}",
+            "session": f"{provenance.now()}-{os.getpid()}",
             "started": time.time(),
             "jobs": total,
             "store": str(store.folder),
             "overrides": list(config.hydra.overrides.task),
             "sweeper_params": {k: str(v) for k, v in (config.hydra.sweeper.get("params") or {}).items()},
             "launcher": config.hydra.launcher.get("_target_"),
-            "provenance": provenance(),
+            "provenance": provenance.facts(),
         }
         write_json_atomic(sweep_dir / "sweep.json", info)
         log.info("sweep of %d runs into %s (%d records already in the store)", total, sweep_dir, already)

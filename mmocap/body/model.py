@@ -10,7 +10,13 @@ import numpy as np
 
 from mmocap.body import skeleton
 from mmocap.body.kinematics import KinematicChain, global_transforms
-from mmocap.body.mesh import SkinMesh, fit_subject, load_makehuman, resample, subject_dimensions
+from mmocap.body.mesh import (
+    SkinMesh,
+    fit_subject,
+    load_makehuman,
+    resample,
+    subject_dimensions,
+)
 from mmocap.body.skeleton import JOINTS
 from mmocap.errors import ConfigError
 

@@ -46,6 +46,7 @@ from omegaconf import OmegaConf
 from scipy.optimize import least_squares
 from tqdm.auto import tqdm
 
+from mmocap import config
 from mmocap.body.model import MARKER_NAMES, BodyModel
 from mmocap.body.skeleton import dof_mask
 from mmocap.camera import Camera
@@ -64,7 +65,6 @@ SYNTHETIC_ACTIONS = {"walking": "Walking", "gestures": "Gestures", "boxing": "Bo
 TORSO_MARKERS = ("head", "neck", "pelvis", "l_shoulder", "r_shoulder", "l_hip", "r_hip")
 # Pull of every joint angle towards the rest pose in the x0 fit: residual mm per rad.
 REST_PULL_MM_PER_RAD = 20.0
-CONFIG_FILE = Path(__file__).resolve().parents[2] / "conf" / "dataset" / "humaneva.yaml"
 
 
 def is_colour(camera: str) -> bool:
@@ -74,7 +74,7 @@ def is_colour(camera: str) -> bool:
 
 def default_marker_map() -> dict[str, list[str]]:
     """The marker map of ``conf/dataset/humaneva.yaml``."""
-    return OmegaConf.to_container(OmegaConf.load(CONFIG_FILE).marker_map)
+    return OmegaConf.to_container(config.load("dataset/humaneva.yaml").marker_map)
 
 
 # --- synchronisation ----------------------------------------------------------------------

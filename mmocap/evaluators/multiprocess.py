@@ -37,6 +37,7 @@ class MultiprocessingEvaluator(SilhouetteEvaluator):
     """
 
     owns_cores = True
+    starts_processes = True
 
     def __init__(self, patch_scale: float = 1.0, workers: int | None = None, inner: str = "numpy"):
         super().__init__(patch_scale)

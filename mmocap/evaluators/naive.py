@@ -9,7 +9,12 @@ import math
 
 import numpy as np
 
-from mmocap.evaluators.silhouette import NEAR_MM, SilhouetteEvaluator, vertex_table, view_geometry
+from mmocap.evaluators.silhouette import (
+    NEAR_MM,
+    SilhouetteEvaluator,
+    vertex_table,
+    view_geometry,
+)
 
 ONE, HALF, NEAR = np.float32(1.0), np.float32(0.5), np.float32(NEAR_MM)
 

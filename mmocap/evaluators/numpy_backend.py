@@ -28,7 +28,12 @@ import cv2
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
-from mmocap.evaluators.silhouette import SilhouetteEvaluator, project, vertex_table, view_geometry
+from mmocap.evaluators.silhouette import (
+    SilhouetteEvaluator,
+    project,
+    vertex_table,
+    view_geometry,
+)
 
 MAX_DILATE_SIDE = 33
 _MAX_REACH = MAX_DILATE_SIDE // 2

@@ -45,11 +45,18 @@ from pathlib import Path
 
 import numpy as np
 
+from mmocap.bitmask import pack_rows
 from mmocap.body.kinematics import KinematicChain
 from mmocap.errors import ConfigError
-from mmocap.evaluators.silhouette import (MAX_SIDE, NEAR_MM, SilhouetteEvaluator, body_transforms,
-                                          camera_rows, joint_rows, vertex_table)
-from mmocap.stages.foreground import pack_rows
+from mmocap.evaluators.silhouette import (
+    MAX_SIDE,
+    NEAR_MM,
+    SilhouetteEvaluator,
+    body_transforms,
+    camera_rows,
+    joint_rows,
+    vertex_table,
+)
 
 log = logging.getLogger(__name__)
 KERNEL = Path(__file__).with_name("kernels") / "silhouette.cl"

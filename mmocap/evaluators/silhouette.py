@@ -295,6 +295,9 @@ class SilhouetteEvaluator:
     #: OpenBLAS threads spin after each call (an optimiser's eigendecomposition, say) and
     #: take the cores from the workers: CMA-ES frames on PoCL took 1.35x as long.
     owns_cores = False
+    #: True for a backend that starts worker processes of its own: it cannot run inside
+    #: a launcher's worker processes (joblib's are daemons), which the sweep checks.
+    starts_processes = False
 
     def __init__(self, patch_scale: float = 1.0):
         try:

@@ -58,7 +58,8 @@ import numpy as np
 from scipy.optimize import brentq
 
 from mmocap.errors import ConfigError
-from mmocap.optimizers.base import PopulationOptimizer, check_number, is_real
+from mmocap.optimizers.base import PopulationOptimizer
+from mmocap.validate import check_number
 
 #: fewest particles in a layer
 MIN_PARTICLES = 2
@@ -118,13 +119,11 @@ class AnnealedParticleFilter(PopulationOptimizer):
     def __init__(self, layers: int = 10, survival_rate: float = 0.5, init_spread: float = 0.05,
                  diffusion: float = 1.0):
         super().__init__()
-        self.layers = check_number("layers", layers, 1, integer=True)
-        if not (is_real(survival_rate) and 0 < survival_rate < 1):
-            raise ConfigError(f"optimizer.survival_rate must be a number in (0, 1), "
-                              f"got {survival_rate!r}")
-        self.survival_rate = float(survival_rate)
-        self.init_spread = check_number("init_spread", init_spread, 0.0, low_open=True)
-        self.diffusion = check_number("diffusion", diffusion, 0.0, low_open=True)
+        self.layers = check_number("optimizer.layers", layers, 1, integer=True)
+        self.survival_rate = check_number("optimizer.survival_rate", survival_rate, 0, 1,
+                                          low_open=True, high_open=True)
+        self.init_spread = check_number("optimizer.init_spread", init_spread, 0.0, low_open=True)
+        self.diffusion = check_number("optimizer.diffusion", diffusion, 0.0, low_open=True)
 
     def population_size(self, dim: int) -> int:
         """Fewest particles per layer; the actual number is fixed by the budget."""

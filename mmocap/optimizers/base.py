@@ -163,32 +163,3 @@ class PopulationOptimizer(ABC):
     def _require_setup(self) -> None:
         if self._space is None:
             raise RuntimeError("call setup() before using the optimiser")
-
-
-def is_real(value) -> bool:
-    """True for an int or float (numpy's too), False for bool and anything else."""
-    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool)
-
-
-def check_number(name: str, value, low: float, high: float = math.inf, *,
-                 low_open: bool = False, integer: bool = False):
-    """Return ``value`` if it is a finite number in [low, high] (``(low, high]`` with
-    ``low_open``; an integer with ``integer``), else raise a ConfigError naming
-    ``optimizer.<name>``."""
-    ok = (isinstance(value, (int, np.integer)) and not isinstance(value, bool)) if integer \
-        else is_real(value)
-    if ok:
-        ok = math.isfinite(value) and (value > low if low_open else value >= low) and value <= high
-    if not ok:
-        kind = "an integer" if integer else "a number"
-        interval = f"{'(' if low_open else '['}{low}, {high}{']' if high != math.inf else ')'}"
-        raise ConfigError(f"optimizer.{name} must be {kind} in {interval}, got {value!r}")
-    return int(value) if integer else float(value)
-
-
-def check_flag(name: str, value) -> bool:
-    """Return ``value`` as a bool if it is one, else raise a ConfigError naming
-    ``optimizer.<name>``."""
-    if not isinstance(value, (bool, np.bool_)):
-        raise ConfigError(f"optimizer.{name} must be true or false, got {value!r}")
-    return bool(value)

@@ -28,7 +28,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from mmocap.errors import ConfigError
-from mmocap.optimizers.base import PopulationOptimizer, check_number
+from mmocap.optimizers.base import PopulationOptimizer
+from mmocap.validate import check_number
 
 _MAX_CONDITION = 1e14
 
@@ -103,10 +104,10 @@ class CMAES(PopulationOptimizer):
     def __init__(self, popsize: int | None = None, sigma0: float = 1.0, tolx: float = 1e-12,
                  tolfun: float = 1e-12):
         super().__init__()
-        self.popsize = None if popsize is None else check_number("popsize", popsize, 2, integer=True)
-        self.sigma0 = check_number("sigma0", sigma0, 0.0, low_open=True)
-        self.tolx = check_number("tolx", tolx, 0.0)
-        self.tolfun = check_number("tolfun", tolfun, 0.0)
+        self.popsize = None if popsize is None else check_number("optimizer.popsize", popsize, 2, integer=True)
+        self.sigma0 = check_number("optimizer.sigma0", sigma0, 0.0, low_open=True)
+        self.tolx = check_number("optimizer.tolx", tolx, 0.0)
+        self.tolfun = check_number("optimizer.tolfun", tolfun, 0.0)
         self.params: StrategyParameters | None = None
 
     def population_size(self, dim: int) -> int:

@@ -44,7 +44,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from mmocap.optimizers.base import PopulationOptimizer, check_flag, check_number
+from mmocap.optimizers.base import PopulationOptimizer
+from mmocap.validate import check_flag, check_number
 
 #: probability that an alpha of the placing vector is redrawn when it is passed on
 ALPHA_RESET = 0.1
@@ -98,15 +99,15 @@ class DifferentialEvolution(PopulationOptimizer):
                  n_correcting: int = 5, cr: float = 0.5, f: float = 0.5,
                  init_spread: float = 0.3, include_x0: bool = True):
         super().__init__()
-        self.popsize = check_number("popsize", popsize, 4, integer=True)
-        self.n_placing = check_number("n_placing", n_placing, 1, self.popsize, integer=True)
-        self.n_leading = check_number("n_leading", n_leading, 1, self.popsize, integer=True)
-        self.n_correcting = check_number("n_correcting", n_correcting, 1, self.popsize,
+        self.popsize = check_number("optimizer.popsize", popsize, 4, integer=True)
+        self.n_placing = check_number("optimizer.n_placing", n_placing, 1, self.popsize, integer=True)
+        self.n_leading = check_number("optimizer.n_leading", n_leading, 1, self.popsize, integer=True)
+        self.n_correcting = check_number("optimizer.n_correcting", n_correcting, 1, self.popsize,
                                          integer=True)
-        self.cr = check_number("cr", cr, 0.0, 1.0)
-        self.f = check_number("f", f, 0.0, low_open=True)
-        self.init_spread = check_number("init_spread", init_spread, 0.0, low_open=True)
-        self.include_x0 = check_flag("include_x0", include_x0)
+        self.cr = check_number("optimizer.cr", cr, 0.0, 1.0)
+        self.f = check_number("optimizer.f", f, 0.0, low_open=True)
+        self.init_spread = check_number("optimizer.init_spread", init_spread, 0.0, low_open=True)
+        self.include_x0 = check_flag("optimizer.include_x0", include_x0)
 
     def population_size(self, dim: int) -> int:
         return self.popsize

@@ -38,7 +38,8 @@ import math
 import numpy as np
 
 from mmocap.errors import ConfigError
-from mmocap.optimizers.base import PopulationOptimizer, check_flag, check_number
+from mmocap.optimizers.base import PopulationOptimizer
+from mmocap.validate import check_flag, check_number
 
 
 def inertia_schedule(w_max: float, w_min: float, moves: int) -> np.ndarray:
@@ -79,17 +80,17 @@ class ParticleSwarm(PopulationOptimizer):
                  w_max: float = 2.0, w_min: float = 0.1, v_max: float | None = 0.1,
                  init_spread: float = 0.1, include_x0: bool = True):
         super().__init__()
-        self.popsize = check_number("popsize", popsize, 2, integer=True)
-        self.phi1 = check_number("phi1", phi1, 0.0)
-        self.phi2 = check_number("phi2", phi2, 0.0)
-        self.w_max = check_number("w_max", w_max, 0.0, low_open=True)
-        self.w_min = check_number("w_min", w_min, 0.0, low_open=True)
+        self.popsize = check_number("optimizer.popsize", popsize, 2, integer=True)
+        self.phi1 = check_number("optimizer.phi1", phi1, 0.0)
+        self.phi2 = check_number("optimizer.phi2", phi2, 0.0)
+        self.w_max = check_number("optimizer.w_max", w_max, 0.0, low_open=True)
+        self.w_min = check_number("optimizer.w_min", w_min, 0.0, low_open=True)
         if self.w_min > self.w_max:
             raise ConfigError(f"optimizer.w_min must be <= optimizer.w_max ({self.w_max}), "
                               f"got {self.w_min}")
-        self.v_max = None if v_max is None else check_number("v_max", v_max, 0.0, low_open=True)
-        self.init_spread = check_number("init_spread", init_spread, 0.0, low_open=True)
-        self.include_x0 = check_flag("include_x0", include_x0)
+        self.v_max = None if v_max is None else check_number("optimizer.v_max", v_max, 0.0, low_open=True)
+        self.init_spread = check_number("optimizer.init_spread", init_spread, 0.0, low_open=True)
+        self.include_x0 = check_flag("optimizer.include_x0", include_x0)
 
     def population_size(self, dim: int) -> int:
         return self.popsize

@@ -28,19 +28,22 @@ significant, and write every statistic in ``NAME_data.csv``. Errors in mm, times
 from __future__ import annotations
 
 import argparse
-import sys
-import warnings
 from pathlib import Path
 from typing import Callable
 
 import numpy as np
 import pandas as pd
 
-from mmocap.errors import DataError, MmocapError
-from mmocap.report import figures
-from mmocap.report.tables import format_p, provenance, write_csv, write_table
-from mmocap.stages.pareto import summarise
-from mmocap.stages.statistics import FriedmanHolm, friedman_holm, read_table, require_columns
+from mmocap.analysis import figures
+from mmocap.analysis.pareto import summarise
+from mmocap.analysis.statistics import (
+    FriedmanHolm,
+    friedman_holm,
+    read_table,
+    require_columns,
+)
+from mmocap.analysis.tables import format_p, provenance, write_csv, write_table
+from mmocap.errors import DataError
 
 ERROR = "mean_marker_error_mm"
 OPTIMIZER_ORDER = ["cmaes", "de", "pso", "apf", "psapf"]
@@ -358,9 +361,8 @@ def make(names: list[str], folder: Path, out: Path, **options) -> tuple[Outputs,
     return written, skipped
 
 
-def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m mmocap.report.paper",
-                                     description=__doc__.split("\n\n")[0])
+def main(argv: list[str], prog: str) -> None:
+    parser = argparse.ArgumentParser(prog=prog, description=__doc__.split("\n\n")[0])
     parser.add_argument("name", choices=[*MAKERS, "all"])
     parser.add_argument("folder", type=Path, help="folder holding runs.csv (and frames.csv)")
     parser.add_argument("--out", type=Path, default=Path("outputs"),
@@ -371,20 +373,7 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     names = list(MAKERS) if args.name == "all" else [args.name]
     block = tuple(c.strip() for c in args.block.split(",") if c.strip())
-    try:
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always")
-            written, skipped = make(names, args.folder, args.out, block=block, alpha=args.alpha)
-    except MmocapError as err:
-        print(f"mmocap: error: {err}", file=sys.stderr)
-        return 2
-    for warning in caught:
-        print(f"mmocap: warning: {warning.message}", file=sys.stderr)
+    written, skipped = make(names, args.folder, args.out, block=block, alpha=args.alpha)
     for name, reason in skipped.items():
         print(f"skipped {name}: {reason}")
     print("written: " + ", ".join(map(str, written)))
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

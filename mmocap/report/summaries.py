@@ -7,10 +7,12 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 from pathlib import Path
 
 import pandas as pd
+
+from mmocap.errors import DataError
+from mmocap.io import write_text_atomic
 
 COLUMNS = ["optimizer", "strategy", "dof", "evaluations_per_frame", "subject", "action", "frames",
            "mean_marker_error_mm", "median_marker_error_mm", "max_marker_error_mm",
@@ -28,23 +30,16 @@ def collect(folder: Path) -> pd.DataFrame:
     return pd.DataFrame(rows).sort_values("mean_marker_error_mm", ignore_index=True)
 
 
-def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def main(argv: list[str], prog: str) -> None:
+    parser = argparse.ArgumentParser(prog=prog, description=__doc__.splitlines()[0])
     parser.add_argument("folder", type=Path)
     parser.add_argument("--csv", type=Path, help="also write the table as CSV")
     args = parser.parse_args(argv)
     if not args.folder.is_dir():
-        print(f"mmocap: error: no such folder: {args.folder}", file=sys.stderr)
-        return 2
+        raise DataError(f"no such folder: {args.folder}")
     table = collect(args.folder)
     if table.empty:
-        print(f"mmocap: error: no summary.json below {args.folder}", file=sys.stderr)
-        return 2
+        raise DataError(f"no summary.json below {args.folder}: has a sweep run into it?")
     if args.csv:
-        table.to_csv(args.csv, index=False)
+        write_text_atomic(args.csv, table.to_csv(index=False))
     print(table.drop(columns="run").to_markdown(index=False, floatfmt=".1f"))
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

@@ -17,13 +17,13 @@ opening, closing, removal of small components, keeping only the largest one.
 """
 from __future__ import annotations
 
-import numbers
 from abc import ABC, abstractmethod
 
 import cv2
 import numpy as np
 
 from mmocap.errors import ConfigError, DataError
+from mmocap.validate import check_flag, check_number
 
 # Labels of HorprasertBackground.classify.
 BACKGROUND, SHADOW, HIGHLIGHT, FOREGROUND = 0, 1, 2, 3
@@ -39,29 +39,6 @@ def _as_channels(image: np.ndarray) -> np.ndarray:
 
 def _where(name: str | None) -> str:
     return f"camera {name}: " if name else ""
-
-
-def _check_positive(param: str, value) -> float:
-    """A finite real number > 0, else a ConfigError naming ``background.<param>``."""
-    real = isinstance(value, numbers.Real) and not isinstance(value, bool)
-    if not (real and np.isfinite(value) and value > 0):
-        raise ConfigError(f"background.{param} must be a finite number > 0, got {value!r}")
-    return float(value)
-
-
-def _check_count(param: str, value, low: int = 0) -> int:
-    """An integer >= ``low``, else a ConfigError naming ``background.<param>``."""
-    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < low:
-        raise ConfigError(f"background.{param} must be an integer >= {low}, got {value!r}")
-    return int(value)
-
-
-def _check_fraction(param: str, value) -> float:
-    """A real number strictly between 0 and 1, else a ConfigError."""
-    real = isinstance(value, numbers.Real) and not isinstance(value, bool)
-    if not (real and 0 < value < 1):
-        raise ConfigError(f"background.{param} must be a number in (0, 1), got {value!r}")
-    return float(value)
 
 
 def _disc(size: int) -> np.ndarray:
@@ -81,12 +58,10 @@ class Cleanup:
 
     def __init__(self, open_px: int = 0, close_px: int = 3, min_area_px: int = 50,
                  largest_only: bool = False):
-        self.open_px = _check_count("open_px", open_px)
-        self.close_px = _check_count("close_px", close_px)
-        self.min_area_px = _check_count("min_area_px", min_area_px)
-        if not isinstance(largest_only, bool):
-            raise ConfigError(f"background.largest_only must be true or false, got {largest_only!r}")
-        self.largest_only = largest_only
+        self.open_px = check_number("background.open_px", open_px, 0, integer=True)
+        self.close_px = check_number("background.close_px", close_px, 0, integer=True)
+        self.min_area_px = check_number("background.min_area_px", min_area_px, 0, integer=True)
+        self.largest_only = check_flag("background.largest_only", largest_only)
 
     def __call__(self, mask: np.ndarray) -> np.ndarray:
         """(H, W) bool or 0/1 uint8 -> (H, W) bool."""
@@ -187,8 +162,8 @@ class GaussianBackground(BackgroundModel):
 
     def __init__(self, threshold: float = 4.0, min_sigma: float = 3.0, open_px: int = 0,
                  close_px: int = 3, min_area_px: int = 50, largest_only: bool = False):
-        self.threshold = _check_positive("threshold", threshold)
-        self.min_sigma = _check_positive("min_sigma", min_sigma)
+        self.threshold = check_number("background.threshold", threshold, 0, low_open=True)
+        self.min_sigma = check_number("background.min_sigma", min_sigma, 0, low_open=True)
         super().__init__(open_px, close_px, min_area_px, largest_only)
         self.mean: np.ndarray | None = None
         self.std: np.ndarray | None = None
@@ -267,13 +242,13 @@ class HorprasertBackground(BackgroundModel):
                  shadow_min_alpha: float = 0.55, highlight_max_alpha: float = 1.5,
                  grey_window_px: int = 5, open_px: int = 0, close_px: int = 3,
                  min_area_px: int = 50, largest_only: bool = False):
-        self.detection_rate = _check_fraction("detection_rate", detection_rate)
-        self.min_sigma = _check_positive("min_sigma", min_sigma)
-        self.shadow_min_alpha = _check_fraction("shadow_min_alpha", shadow_min_alpha)
-        self.highlight_max_alpha = _check_positive("highlight_max_alpha", highlight_max_alpha)
+        self.detection_rate = check_number("background.detection_rate", detection_rate, 0, 1, low_open=True, high_open=True)
+        self.min_sigma = check_number("background.min_sigma", min_sigma, 0, low_open=True)
+        self.shadow_min_alpha = check_number("background.shadow_min_alpha", shadow_min_alpha, 0, 1, low_open=True, high_open=True)
+        self.highlight_max_alpha = check_number("background.highlight_max_alpha", highlight_max_alpha, 0, low_open=True)
         if self.highlight_max_alpha <= 1:
             raise ConfigError(f"background.highlight_max_alpha must be > 1, got {highlight_max_alpha!r}")
-        self.grey_window_px = _check_count("grey_window_px", grey_window_px, low=1)
+        self.grey_window_px = check_number("background.grey_window_px", grey_window_px, 1, integer=True)
         if self.grey_window_px % 2 == 0:
             raise ConfigError(f"background.grey_window_px must be odd, got {grey_window_px!r}")
         super().__init__(open_px, close_px, min_area_px, largest_only)
@@ -392,10 +367,9 @@ class OpenCVBackground(BackgroundModel):
         if method not in self.METHODS:
             raise ConfigError(f"background.method must be one of {', '.join(self.METHODS)}, "
                               f"got {method!r}")
-        if not isinstance(detect_shadows, bool):
-            raise ConfigError(f"background.detect_shadows must be true or false, got {detect_shadows!r}")
+        detect_shadows = check_flag("background.detect_shadows", detect_shadows)
         self.method = method
-        self.threshold = _check_positive("threshold", threshold)
+        self.threshold = check_number("background.threshold", threshold, 0, low_open=True)
         self.detect_shadows = detect_shadows
         super().__init__(open_px, close_px, min_area_px, largest_only)
         self.subtractor = None

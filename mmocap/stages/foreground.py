@@ -25,62 +25,18 @@ import functools
 import hashlib
 import json
 import logging
-import os
-import tempfile
 import zipfile
 from pathlib import Path
 from typing import Callable
 
 import numpy as np
 
+from mmocap.bitmask import ForegroundMask, unpack_rows
+from mmocap.io import atomic_writer
+
 log = logging.getLogger(__name__)
 CACHE_FORMAT = 1   # bump when the masks of a given configuration change meaning
 DEFAULT_CACHE_DIR = Path("outputs/cache/foreground")
-
-
-def pack_rows(mask: np.ndarray) -> np.ndarray:
-    """(H, W) bool -> (H, ceil(W / 32)) little-endian uint32: pixel x of a row is bit
-    x % 32 of word x // 32 (the OpenCL evaluator's foreground layout); padding bits are 0."""
-    mask = np.asarray(mask, dtype=bool)
-    H, W = mask.shape
-    padded = np.zeros((H, (W + 31) // 32 * 32), bool)
-    padded[:, :W] = mask
-    return np.packbits(padded, axis=1, bitorder="little").view("<u4")
-
-
-def unpack_rows(packed: np.ndarray, width: int) -> np.ndarray:
-    """Inverse of :func:`pack_rows`: (H, ceil(W / 32)) uint32 -> (H, W) bool."""
-    bits = np.unpackbits(np.ascontiguousarray(packed, dtype="<u4").view(np.uint8), axis=1,
-                         bitorder="little")
-    return bits[:, :width].astype(bool)
-
-
-class ForegroundMask(np.ndarray):
-    """(H, W) bool foreground of one camera, with ``packed`` (:func:`pack_rows`) and
-    ``area`` = |F| in pixels.
-
-    Arrays derived from a mask (views, results of operations) are plain masks again:
-    their ``packed`` and ``area`` are None.
-    """
-
-    packed: np.ndarray | None
-    area: int | None
-
-    def __new__(cls, mask: np.ndarray, packed: np.ndarray | None = None) -> "ForegroundMask":
-        mask = np.asarray(mask, dtype=bool)
-        if mask.ndim != 2:
-            raise ValueError(f"a foreground mask is (H, W), got shape {mask.shape}")
-        obj = mask.view(cls)
-        obj.packed = pack_rows(mask) if packed is None else packed
-        obj.area = int(np.count_nonzero(mask))
-        return obj
-
-    def __array_finalize__(self, obj) -> None:
-        self.packed = None
-        self.area = None
-
-    def __reduce__(self):
-        return (ForegroundMask, (np.asarray(self),))
 
 
 def _describe(make_background) -> dict:
@@ -147,15 +103,8 @@ class MaskCache:
         if not self._writable:
             return
         try:
-            self.folder.mkdir(parents=True, exist_ok=True)
-            fd, tmp = tempfile.mkstemp(dir=self.folder, prefix=".tmp-", suffix=".npz")
-            try:
-                with os.fdopen(fd, "wb") as f:
-                    np.savez(f, **{cam.name: m.packed for cam, m in zip(self.cameras, masks)})
-                os.replace(tmp, self.path(frame))
-            except BaseException:
-                Path(tmp).unlink(missing_ok=True)
-                raise
+            with atomic_writer(self.path(frame), "wb") as f:
+                np.savez(f, **{cam.name: m.packed for cam, m in zip(self.cameras, masks)})
         except OSError as exc:
             log.warning("foreground cache %s not writable (%s); masks will not be cached",
                         self.folder, exc)

@@ -21,17 +21,15 @@ patches at the image border, NaN poses, and the config file.
 from __future__ import annotations
 
 from functools import lru_cache
-from pathlib import Path
 
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from mmocap import registry
+from mmocap import config, registry
 from mmocap.api import Evaluator
 from mmocap.camera import Camera
 
-CONF = Path(__file__).resolve().parents[2] / "conf"
 W, H = 320, 240
 
 
@@ -212,11 +210,9 @@ class EvaluatorConformance:
             ev(TRUE_POSE[None])
 
     def test_config_file_composes_and_instantiates(self, evaluator_name):
-        from hydra import compose, initialize_config_dir
         from hydra.utils import instantiate
 
-        with initialize_config_dir(config_dir=str(CONF), version_base="1.3"):
-            cfg = compose("config", overrides=[f"evaluator={evaluator_name}"])
+        cfg = config.compose([f"evaluator={evaluator_name}"])
         assert cfg.evaluator.name == evaluator_name
         ev = instantiate(cfg.evaluator)
         assert isinstance(ev, Evaluator)

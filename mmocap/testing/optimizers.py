@@ -16,16 +16,12 @@ sphere, and both tracking strategies on the 39-DOF body model.
 """
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 
-from mmocap import registry
+from mmocap import config, registry
 from mmocap.api import Optimizer, SearchSpace
 from mmocap.errors import ConfigError
-
-CONF = Path(__file__).resolve().parents[2] / "conf"
 
 
 def sphere(X: np.ndarray, centre: np.ndarray) -> np.ndarray:
@@ -81,11 +77,9 @@ class OptimizerConformance:
             opt.ask()
 
     def test_config_file_composes_and_instantiates(self, optimizer_name):
-        from hydra import compose, initialize_config_dir
         from hydra.utils import instantiate
 
-        with initialize_config_dir(config_dir=str(CONF), version_base="1.3"):
-            cfg = compose("config", overrides=[f"optimizer={optimizer_name}"])
+        cfg = config.compose([f"optimizer={optimizer_name}"])
         assert cfg.optimizer.name == optimizer_name
         assert isinstance(instantiate(cfg.optimizer), Optimizer)
 

@@ -9,9 +9,8 @@ import time
 
 import pandas as pd
 import pytest
-from hydra import compose, initialize_config_dir
 
-from mmocap.cli import CONFIG_PATH
+from mmocap import config as mmocap_config
 from tests.e2e.test_cli import mmocap, overrides
 
 
@@ -135,6 +134,5 @@ LAUNCHERS = [("local", "hydra_joblib_launcher", "JoblibLauncher", None),
 def test_launcher_configs_compose(name, plugin, target, extra):
     if importlib.util.find_spec(f"hydra_plugins.{plugin}") is None:
         pytest.skip(f"{plugin} not installed (pip install mmocap[{extra}])")
-    with initialize_config_dir(config_dir=CONFIG_PATH, version_base="1.3"):
-        cfg = compose("config", ["+experiment=table4", f"hydra/launcher={name}"], return_hydra_config=True)
+    cfg = mmocap_config.compose(["+experiment=table4", f"hydra/launcher={name}"], return_hydra_config=True)
     assert cfg.hydra.launcher._target_.endswith(target)

@@ -3,8 +3,11 @@ import pytest
 
 from mmocap.api import Optimizer, SearchSpace
 from mmocap.errors import ConfigError
-from mmocap.optimizers.apf import (AnnealedParticleFilter, PartitionedAnnealedParticleFilter,
-                                   anneal)
+from mmocap.optimizers.apf import (
+    AnnealedParticleFilter,
+    PartitionedAnnealedParticleFilter,
+    anneal,
+)
 
 D = 39
 #: six partitions of 39 coordinates, like the paper's root / torso / four limbs

@@ -5,7 +5,13 @@ import pytest
 
 from mmocap.errors import ConfigError, DataError
 from mmocap.stages.background import (
-    FOREGROUND, HIGHLIGHT, SHADOW, Cleanup, GaussianBackground, HorprasertBackground, OpenCVBackground,
+    FOREGROUND,
+    HIGHLIGHT,
+    SHADOW,
+    Cleanup,
+    GaussianBackground,
+    HorprasertBackground,
+    OpenCVBackground,
 )
 
 H, W = 120, 160

@@ -1,7 +1,13 @@
 import numpy as np
 import pytest
 
-from mmocap.body.mesh import SUBJECTS, SubjectDimensions, fit_subject, load_makehuman, resample
+from mmocap.body.mesh import (
+    SUBJECTS,
+    SubjectDimensions,
+    fit_subject,
+    load_makehuman,
+    resample,
+)
 from mmocap.body.model import MARKER_NAMES, BodyModel
 from mmocap.errors import ConfigError
 

@@ -1,25 +1,22 @@
 """Every config option composes, and every component in it instantiates."""
-from pathlib import Path
 
 import pytest
-from hydra import compose, initialize_config_dir
 from hydra.utils import instantiate
 
+from mmocap import config as mmocap_config
 from mmocap import registry
 from mmocap.api import Evaluator, Optimizer
 
-CONF = Path(__file__).resolve().parents[2] / "conf"
 GROUPS = ["body", "background", "evaluator", "optimizer", "strategy", "partition"]
 
 
 def options(group):
-    return sorted(p.stem for p in (CONF / group).glob("*.yaml"))
+    return mmocap_config.options(group)
 
 
 @pytest.mark.parametrize("group, option", [(g, o) for g in GROUPS for o in options(g)])
 def test_every_option_instantiates(group, option):
-    with initialize_config_dir(config_dir=str(CONF), version_base="1.3"):
-        cfg = compose("config", overrides=[f"{group}={option}"])
+    cfg = mmocap_config.compose([f"{group}={option}"])
     if group == "partition":
         strategy = instantiate(cfg.strategy)
         assert [list(s) for s in cfg.partition.steps] == strategy.steps
@@ -35,16 +32,14 @@ def test_every_option_instantiates(group, option):
 
 
 def test_demo_experiment_composes():
-    with initialize_config_dir(config_dir=str(CONF), version_base="1.3"):
-        cfg = compose("config", overrides=["+experiment=demo"], return_hydra_config=True)
+    cfg = mmocap_config.compose(["+experiment=demo"], return_hydra_config=True)
     assert cfg.hydra.run.dir == "outputs/demo"
     assert cfg.dataset.frames >= 60 and len(cfg.dataset.cameras) == 4
     assert cfg.tracking.evaluations == 1500 and cfg.body.dof == 39
 
 
 def test_fig5_experiment_is_the_cano_recommended_configuration():
-    with initialize_config_dir(config_dir=str(CONF), version_base="1.3"):
-        cfg = compose("config", overrides=["+experiment=fig5"], return_hydra_config=True)
+    cfg = mmocap_config.compose(["+experiment=fig5"], return_hydra_config=True)
     assert cfg.hydra.run.dir == "outputs/fig5" and cfg.overlays == 2
     assert (cfg.body.vertices, cfg.tracking.evaluations, cfg.evaluator.name) == (27393, 1500, "opencl")
     assert (cfg.dataset.subject, cfg.dataset.action) == ("S1", "walking")
@@ -58,6 +53,5 @@ def test_builtins_are_registered_as_entry_points():
 
 
 def test_search_seed_does_not_change_the_data():
-    with initialize_config_dir(config_dir=str(CONF), version_base="1.3"):
-        cfg = compose("config", overrides=["seed=7"])
+    cfg = mmocap_config.compose(["seed=7"])
     assert cfg.seed == 7 and cfg.dataset.seed == 0

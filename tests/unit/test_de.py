@@ -1,16 +1,23 @@
 import itertools
-from pathlib import Path
 
 import numpy as np
 import pytest
-from omegaconf import OmegaConf
 
+from mmocap import config as mmocap_config
 from mmocap.api import Optimizer, SearchSpace
 from mmocap.errors import ConfigError
 from mmocap.optimizers.de import DifferentialEvolution, assortative_mating
 from mmocap.registry import make_optimizer
 from tests.unit import objectives
-from tests.unit.objectives import D, SHIFT, TRACKING_LIKE, box, ellipsoid_1e3, random_search, sphere
+from tests.unit.objectives import (
+    SHIFT,
+    TRACKING_LIKE,
+    D,
+    box,
+    ellipsoid_1e3,
+    random_search,
+    sphere,
+)
 
 
 def minimise(f, space, seed, opt=None, asked=None):
@@ -23,7 +30,7 @@ def test_defaults_follow_table_3_but_cr_and_init_spread_and_the_yaml():
     assert (opt.cr, opt.f) == (0.5, 0.5)
     assert (opt.init_spread, opt.include_x0) == (0.3, True)
     assert isinstance(opt, Optimizer)
-    cfg = OmegaConf.load(Path(__file__).resolve().parents[2] / "conf/optimizer/de.yaml")
+    cfg = mmocap_config.load("optimizer/de.yaml")
     built = make_optimizer(**{k: v for k, v in cfg.items() if k != "_target_"})
     assert vars(built) == vars(opt)
 

@@ -8,8 +8,20 @@ from mmocap.errors import ConfigError, DataError
 from mmocap.evaluators.naive import NaiveEvaluator
 from mmocap.evaluators.numpy_backend import MAX_DILATE_SIDE, NumpyEvaluator
 from mmocap.evaluators.silhouette import fitness_from_counts, view_geometry
-from mmocap.testing.evaluators import (FRONT, H, HIGH, RIGS, SIDE, TRUE_POSE, W, BlobBody,
-                                       PlateBody, PointBody, empty_masks, test_poses)
+from mmocap.testing.evaluators import (
+    FRONT,
+    HIGH,
+    RIGS,
+    SIDE,
+    TRUE_POSE,
+    BlobBody,
+    H,
+    PlateBody,
+    PointBody,
+    W,
+    empty_masks,
+    test_poses,
+)
 
 BACKENDS = [NaiveEvaluator, NumpyEvaluator]
 

@@ -6,12 +6,13 @@ import pandas as pd
 import pytest
 
 from mmocap import bench
+from tests.conftest import run_cli
 
 
 def test_bench_writes_both_tables_with_speedups_against_naive(tmp_path, capsys):
-    bench.main(["all", "--backends", "naive,numpy", "--vertices", "2000", "--budgets", "60",
+    assert run_cli("bench", *["all", "--backends", "naive,numpy", "--vertices", "2000", "--budgets", "60",
                 "--cameras", "2", "--population", "4", "--repeats", "1", "--out", str(tmp_path),
-                "--prefix", "t_"])
+                "--prefix", "t_"]) == 0
     t2 = pd.read_csv(tmp_path / "t_table2.csv")
     assert list(t2.backend) == ["naive", "numpy"] and (t2.us_per_model_view > 0).all()
     assert t2.speedup_vs_naive.iloc[0] == 1.0
@@ -27,8 +28,7 @@ def test_bench_writes_both_tables_with_speedups_against_naive(tmp_path, capsys):
 
 
 def test_bench_rejects_an_unknown_backend(capsys):
-    with pytest.raises(SystemExit):
-        bench.main(["table2", "--backends", "numpy,warp-drive"])
+    assert run_cli("bench", "table2", "--backends", "numpy,warp-drive") == 2
     assert "unknown backend(s) warp-drive" in capsys.readouterr().err
 
 

@@ -6,7 +6,14 @@ import pytest
 
 from mmocap.errors import ConfigError
 from mmocap.evaluators.multiprocess import MultiprocessingEvaluator
-from mmocap.testing.evaluators import RIGS, TRUE_POSE, BlobBody, masks, naive_counts, test_poses
+from mmocap.testing.evaluators import (
+    RIGS,
+    TRUE_POSE,
+    BlobBody,
+    masks,
+    naive_counts,
+    test_poses,
+)
 
 
 @pytest.mark.parametrize("kwargs, message", [

@@ -170,6 +170,7 @@ def test_views_with_several_patch_sides_give_naive_counts_whatever_the_layer_lim
 
 def test_blas_runs_on_one_thread_while_a_cpu_device_is_set_up(monkeypatch):
     from threadpoolctl import threadpool_info, threadpool_limits
+
     from mmocap.evaluators import silhouette
     from mmocap.testing.evaluators import FRONT, empty_masks
     # evaluators of other tests that were never closed do not count here

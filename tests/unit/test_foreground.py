@@ -3,7 +3,6 @@ import functools
 import os
 import pickle
 import shutil
-
 from pathlib import Path
 
 import cv2
@@ -11,10 +10,12 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from mmocap import config as mmocap_config
+from mmocap.bitmask import ForegroundMask, pack_rows, unpack_rows
 from mmocap.data.sequence import Sequence
 from mmocap.data.synthetic import generate
 from mmocap.stages.background import HorprasertBackground
-from mmocap.stages.foreground import Foreground, ForegroundMask, pack_rows, unpack_rows
+from mmocap.stages.foreground import Foreground
 
 
 class CountingHorprasert(HorprasertBackground):
@@ -220,27 +221,28 @@ def test_undistorted_masks_match_a_distortion_free_rendering(tmp_path):
 def test_tracking_through_the_lens_matches_a_distortion_free_rendering(tmp_path, monkeypatch):
     """The demo's tracking on the same sequence rendered with its lens distortion (masks
     undistorted by this stage) and through ideal pin-holes: the errors agree within 3 mm."""
-    from hydra import compose, initialize_config_dir
-
-    from mmocap.cli import CONFIG_PATH
     from mmocap.pipeline import run
 
     monkeypatch.chdir(tmp_path)
     errors = {}
     for distortion in (1.0, 0.0):
-        with initialize_config_dir(config_dir=CONFIG_PATH, version_base="1.3"):
-            cfg = compose("config", overrides=[
-                "+experiment=demo", f"dataset.root={tmp_path / f'data{distortion}'}",
-                f"dataset.distortion={distortion}", "dataset.frames=10",
-                "dataset.all_cameras=${dataset.cameras}", "overlays=0", "progress=false"])
+        cfg = mmocap_config.compose([
+            "+experiment=demo", f"dataset.root={tmp_path / f'data{distortion}'}",
+            f"dataset.distortion={distortion}", "dataset.frames=10",
+            "dataset.all_cameras=${dataset.cameras}", "overlays=0", "progress=false"])
         errors[distortion] = run(cfg, tmp_path / f"run{distortion}")["mean_marker_error_mm"]
     assert errors[0.0] < 25
     assert abs(errors[1.0] - errors[0.0]) < 3, errors
 
 
 def test_quality_table_scores_each_method_per_camera(sequence):
+    from mmocap.report.foreground_quality import (
+        confusion,
+        quality_table,
+        scores,
+        to_markdown,
+    )
     from mmocap.stages.background import GaussianBackground
-    from mmocap.stages.foreground_quality import confusion, quality_table, scores, to_markdown
 
     truth = np.zeros((4, 5), bool)
     truth[1:3, 1:4] = True                     # 6 px
@@ -264,8 +266,7 @@ def test_quality_table_scores_each_method_per_camera(sequence):
 
 
 def test_quality_command_writes_the_tables(tiny_sequence, tmp_path, capsys):
-    from mmocap.stages.foreground_quality import main
-    from tests.conftest import TINY
+    from tests.conftest import TINY, run_cli
 
     shutil.copytree(tiny_sequence, tmp_path / "data" / "S1_walking")
     cameras = "[" + ",".join(TINY["cameras"]) + "]"
@@ -276,8 +277,8 @@ def test_quality_command_writes_the_tables(tiny_sequence, tmp_path, capsys):
                  f"dataset.seed={TINY['seed']}", "progress=false"]
     csv, md = tmp_path / "t" / "fg.csv", tmp_path / "t" / "fg.md"
     # options and overrides intermixed
-    main([*overrides[:3], "--methods", "horprasert,mog2", "--csv", str(csv), *overrides[3:],
-          "--md", str(md)])
+    assert run_cli("foreground-quality", *overrides[:3], "--methods", "horprasert,mog2", "--csv", csv,
+                   *overrides[3:], "--md", md) == 0
     table = pd.read_csv(csv)
     assert list(table.columns) == ["method", "camera", "precision", "recall", "iou"]
     assert len(table) == 2 * (len(TINY["cameras"]) + 1)
@@ -285,8 +286,6 @@ def test_quality_command_writes_the_tables(tiny_sequence, tmp_path, capsys):
     assert "S1 walking (4 frames)" in md.read_text()
     for args in (["--methods", "horprasert", "background.detection_rate=2"],   # out of range
                  ["background.detection_rate=0.99"]):                          # not in mog2
-        with pytest.raises(SystemExit) as exc:
-            main([*overrides, "--csv", str(csv), "--md", str(md), *args])
-        assert exc.value.code == 2
+        assert run_cli("foreground-quality", *overrides, "--csv", csv, "--md", md, *args) == 2
         err = capsys.readouterr().err
         assert err.startswith("mmocap: error:") and "background.detection_rate" in err

@@ -8,12 +8,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 import scipy.io
-from hydra import compose, initialize_config_dir
 
+from mmocap import config as mmocap_config
 from mmocap.body.model import MARKER_NAMES, BodyModel
 from mmocap.body.skeleton import dof_mask
 from mmocap.camera import Camera
-from mmocap.cli import CONFIG_PATH
 from mmocap.data import humaneva as he
 from mmocap.data.sequence import Sequence
 from mmocap.data.synthetic import generate
@@ -230,11 +229,10 @@ def test_bad_config_values(exported, kwargs, message):
 def test_pipeline_runs_on_the_exported_folder(exported, tmp_path):
     from mmocap.pipeline import run
 
-    with initialize_config_dir(config_dir=CONFIG_PATH, version_base="1.3"):
-        cfg = compose("config", overrides=[
-            "dataset=humaneva", f"dataset.root={exported}", "dataset.subject=S1", "dataset.action=Walking",
-            "dataset.trial=1", f"dataset.cameras=[{','.join(CAMERAS)}]", "tracking.frames=2",
-            "tracking.evaluations=200", "progress=false", "overlays=1", "body.vertices=2000"])
+    cfg = mmocap_config.compose([
+        "dataset=humaneva", f"dataset.root={exported}", "dataset.subject=S1", "dataset.action=Walking",
+        "dataset.trial=1", f"dataset.cameras=[{','.join(CAMERAS)}]", "tracking.frames=2",
+        "tracking.evaluations=200", "progress=false", "overlays=1", "body.vertices=2000"])
     summary = run(cfg, tmp_path / "run")
     assert summary["frames"] == 2 and summary["subject"] == "S1" and summary["action"] == "Walking"
     assert summary["cameras"] == CAMERAS

@@ -7,6 +7,7 @@ from PIL import Image
 
 from mmocap.errors import DataError
 from mmocap.report import paper
+from tests.conftest import run_cli
 
 SEQUENCES = ["S1_walking", "S1_boxing"]
 SEEDS = [0, 1]
@@ -65,7 +66,7 @@ def read(path):
 
 def test_table4_ranks_and_holm(sweep, tmp_path):
     out = tmp_path / "out"
-    assert paper.main(["table4", str(sweep), "--out", str(out)]) == 0
+    assert run_cli("paper", *["table4", str(sweep), "--out", str(out)]) == 0
     tables = out / "tables"
     assert (tables / "table4.csv").read_text().startswith("# mmocap ")  # provenance
     assert (tables / "table4.tex").read_text().startswith("% mmocap ")
@@ -96,7 +97,7 @@ def test_table4_ranks_and_holm(sweep, tmp_path):
 
 def test_table5_uses_28_dof_and_block_sequence_averages_seeds(sweep, tmp_path):
     out = tmp_path / "out"
-    assert paper.main(["table5", str(sweep), "--out", str(out), "--block", "sequence"]) == 0
+    assert run_cli("paper", *["table5", str(sweep), "--out", str(out), "--block", "sequence"]) == 0
     data = read(out / "tables" / "table5_data.csv")
     assert set(data.dof) == {28} and (data.n_blocks == 2).all()
     at450 = data[data.evaluations == 450].set_index("algorithm")["rank"]
@@ -107,8 +108,8 @@ def test_table5_uses_28_dof_and_block_sequence_averages_seeds(sweep, tmp_path):
 
 def test_tables6_and_7_group_hierarchical_and_holistic(sweep, tmp_path):
     out = tmp_path / "out"
-    assert paper.main(["table6", str(sweep), "--out", str(out)]) == 0
-    assert paper.main(["table7", str(sweep), "--out", str(out)]) == 0
+    assert run_cli("paper", *["table6", str(sweep), "--out", str(out)]) == 0
+    assert run_cli("paper", *["table7", str(sweep), "--out", str(out)]) == 0
     six = read(out / "tables" / "table6_data.csv")
     seven = read(out / "tables" / "table7_data.csv")
     assert list(six.algorithm.unique()) == ["H-CMAES", "PSAPF"]  # PSAPF searches by parts
@@ -126,7 +127,7 @@ def test_cano_table3_values_and_ranks(tmp_path):
     folder = tmp_path / "cano"
     folder.mkdir()
     runs.to_csv(folder / "runs.csv", index=False)
-    assert paper.main(["cano_table3", str(folder), "--out", str(tmp_path / "out")]) == 0
+    assert run_cli("paper", *["cano_table3", str(folder), "--out", str(tmp_path / "out")]) == 0
     table = read(tmp_path / "out" / "tables" / "cano_table3.csv").set_index("Sequence")
     assert table.columns.tolist() == ["3000 v, 150 ev.", "3000 v, 450 ev.", "2000 v, 150 ev.", "2000 v, 450 ev."]
     # S1_walking, 3000 vertices, 150 evaluations: 12 mm, seeds 0 and 1 -> 12.05
@@ -184,7 +185,7 @@ def test_frames_of_unknown_runs_are_an_error(sweep, tmp_path):
 
 
 def test_all_makes_what_it_can_and_names_the_rest(sweep, tmp_path, capsys):
-    assert paper.main(["all", str(sweep), "--out", str(tmp_path / "out")]) == 0
+    assert run_cli("paper", *["all", str(sweep), "--out", str(tmp_path / "out")]) == 0
     out = capsys.readouterr().out
     assert "skipped cano_table3: " in out
     for name in ("table4", "table5", "table6", "table7"):
@@ -203,12 +204,12 @@ def test_all_makes_what_it_can_and_names_the_rest(sweep, tmp_path, capsys):
 def test_bad_runs_exit_2_with_one_line(sweep, tmp_path, capsys, damage, message):
     runs = damage(read(sweep / "runs.csv"))
     runs.to_csv(sweep / "runs.csv", index=False)
-    assert paper.main(["table4", str(sweep), "--out", str(tmp_path / "out")]) == 2
+    assert run_cli("paper", *["table4", str(sweep), "--out", str(tmp_path / "out")]) == 2
     err = capsys.readouterr().err
     assert err.startswith(f"mmocap: error: {sweep / 'runs.csv'}") and message in err
     assert err.count("\n") == 1
 
 
 def test_missing_folder(tmp_path, capsys):
-    assert paper.main(["fig4", str(tmp_path / "nope")]) == 2
+    assert run_cli("paper", *["fig4", str(tmp_path / "nope")]) == 2
     assert capsys.readouterr().err == f"mmocap: error: {tmp_path / 'nope'}: no such folder\n"

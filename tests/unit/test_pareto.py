@@ -5,8 +5,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from mmocap.analysis.pareto import non_dominated, summarise
 from mmocap.errors import DataError
-from mmocap.stages.pareto import non_dominated, summarise
 
 
 def brute_force_front(points):

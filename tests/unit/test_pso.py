@@ -1,10 +1,9 @@
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
-from omegaconf import OmegaConf
 
+from mmocap import config as mmocap_config
 from mmocap.api import Optimizer, SearchSpace
 from mmocap.errors import ConfigError
 from mmocap.optimizers.pso import ParticleSwarm, inertia_schedule
@@ -12,7 +11,15 @@ from mmocap.registry import make_optimizer
 
 PAPER = dict(v_max=None, init_spread=1.0)  # Table 3 with the paper's random start
 from tests.unit import objectives
-from tests.unit.objectives import D, SHIFT, TRACKING_LIKE, box, ellipsoid_1e3, random_search, sphere
+from tests.unit.objectives import (
+    SHIFT,
+    TRACKING_LIKE,
+    D,
+    box,
+    ellipsoid_1e3,
+    random_search,
+    sphere,
+)
 
 
 def minimise(f, space, seed, opt=None, asked=None):
@@ -24,7 +31,7 @@ def test_defaults_follow_table_3_and_the_yaml():
     assert (opt.popsize, opt.phi1, opt.phi2, opt.w_max, opt.w_min) == (10, 2.0, 2.0, 2.0, 0.1)
     assert (opt.v_max, opt.init_spread, opt.include_x0) == (0.1, 0.1, True)
     assert isinstance(opt, Optimizer)
-    cfg = OmegaConf.load(Path(__file__).resolve().parents[2] / "conf/optimizer/pso.yaml")
+    cfg = mmocap_config.load("optimizer/pso.yaml")
     built = make_optimizer(**{k: v for k, v in cfg.items() if k != "_target_"})
     assert vars(built) == vars(opt)
 

@@ -7,23 +7,27 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
-from hydra import compose, initialize_config_dir
 from omegaconf import open_dict
 
-from mmocap.cli import CONFIG_PATH
+from mmocap import config as mmocap_config
+from mmocap import provenance
+from mmocap.analysis.results import (
+    ResultsStore,
+    export,
+    load_runs,
+    make_record,
+    run_key,
+)
 from mmocap.errors import ConfigError, DataError
-from mmocap.stages import results
-from mmocap.stages.results import ResultsStore, export, load_runs, make_record, run_key
 from mmocap.sweep import check_sweep, format_seconds, progress_line, sweep_overrides
+from tests.conftest import run_cli
 
 SINGLE_RUNS = ("demo", "fig5")   # experiments that are one run, not a sweep
-EXPERIMENTS = sorted(p.stem for p in (Path(CONFIG_PATH) / "experiment").glob("*.yaml")
-                     if p.stem not in SINGLE_RUNS)
+EXPERIMENTS = [name for name in mmocap_config.options("experiment") if name not in SINGLE_RUNS]
 
 
 def config(*overrides, hydra=False):
-    with initialize_config_dir(config_dir=CONFIG_PATH, version_base="1.3"):
-        return compose("config", list(overrides), return_hydra_config=hydra)
+    return mmocap_config.compose(list(overrides), return_hydra_config=hydra)
 
 
 def summary_of(cfg, errors):
@@ -38,7 +42,7 @@ def summary_of(cfg, errors):
 def record_of(cfg, errors, wall=2.0, evaluation=1.5):
     frames = [{"frame": k, "marker_error_mm": e, "fitness": 0.1, "evaluations": 10, "seconds": 0.5}
               for k, e in enumerate(errors)]
-    return make_record(cfg, summary_of(cfg, errors), frames, wall, evaluation, results.now(), Path("run"))
+    return make_record(cfg, summary_of(cfg, errors), frames, wall, evaluation, provenance.now(), Path("run"))
 
 
 def test_run_key_ignores_outputs_and_presentation_only():
@@ -116,13 +120,13 @@ def test_load_runs_gives_the_contract_tables(tmp_path):
 def test_export_writes_csv_and_an_empty_store_is_an_error(tmp_path, capsys):
     with pytest.raises(DataError, match=str(tmp_path / "records")):
         load_runs(tmp_path)
-    assert results.main([str(tmp_path)]) == 2
+    assert run_cli("collect", *[str(tmp_path)]) == 2
     assert "no run records" in capsys.readouterr().err
     ResultsStore(tmp_path).put(record_of(config(), [4.0]))
     runs_csv, frames_csv = export(tmp_path)
     assert pd.read_csv(runs_csv)["mean_marker_error_mm"].tolist() == [4.0]
     assert pd.read_csv(frames_csv).shape == (1, 3)
-    assert results.main([str(tmp_path)]) == 0
+    assert run_cli("collect", *[str(tmp_path)]) == 0
 
 
 # Jobs per experiment and scale: the product of the sweep's value counts.

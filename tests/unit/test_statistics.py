@@ -9,9 +9,15 @@ import pandas as pd
 import pytest
 from scipy import stats
 
+from mmocap.analysis.statistics import (
+    IncompleteBlocksWarning,
+    block_ranks,
+    friedman_holm,
+    friedman_statistic,
+    holm_versus_control,
+    read_table,
+)
 from mmocap.errors import DataError
-from mmocap.stages.statistics import (IncompleteBlocksWarning, block_ranks, friedman_holm,
-                                      friedman_statistic, holm_versus_control, read_table)
 
 # Demšar (2006), JMLR 7, Table 6: AUC of four C4.5 variants on fourteen UCI data sets.
 DEMSAR_NAMES = ["C4.5", "C4.5+m", "C4.5+cf", "C4.5+m+cf"]
@@ -198,7 +204,7 @@ def test_read_table_skips_provenance_lines_and_names_missing_files(tmp_path):
 
 
 def stats_cli(*args, cwd):
-    return subprocess.run([sys.executable, "-m", "mmocap.stats", *args], cwd=cwd,
+    return subprocess.run([sys.executable, "-m", "mmocap", "stats", *args], cwd=cwd,
                           capture_output=True, text=True, timeout=120)
 
 

@@ -18,7 +18,8 @@ import math
 import cma
 import numpy as np
 
-from mmocap.optimizers.base import PopulationOptimizer, check_number
+from mmocap.optimizers.base import PopulationOptimizer
+from mmocap.validate import check_number
 
 
 class PycmaOptimizer(PopulationOptimizer):
@@ -31,8 +32,8 @@ class PycmaOptimizer(PopulationOptimizer):
 
     def __init__(self, popsize: int | None = None, sigma0: float = 0.03):
         super().__init__()
-        self.popsize = None if popsize is None else check_number("popsize", popsize, 2, integer=True)
-        self.sigma0 = check_number("sigma0", sigma0, 0.0, low_open=True)
+        self.popsize = None if popsize is None else check_number("optimizer.popsize", popsize, 2, integer=True)
+        self.sigma0 = check_number("optimizer.sigma0", sigma0, 0.0, low_open=True)
 
     def population_size(self, dim: int) -> int:
         return self.popsize or 4 + math.floor(3 * math.log(dim))

@@ -4,11 +4,11 @@ import subprocess
 import sys
 
 import numpy as np
+from mmocap_pycma.optimizer import PycmaOptimizer
 
 from mmocap.api import SearchSpace
 from mmocap.data.synthetic import generate
 from mmocap.testing.optimizers import OptimizerConformance, run
-from mmocap_pycma.optimizer import PycmaOptimizer
 
 
 class TestPycma(OptimizerConformance):

@@ -1,23 +1,20 @@
 """Friedman test and Holm's comparisons against the best-ranked algorithm, on any long table.
 
-``python -m mmocap.stats results.csv --block sequence,seed --algorithm algorithm
+``python -m mmocap.report.stats results.csv --block sequence,seed --algorithm algorithm
 --value mean_marker_error_mm [--out outputs/tables/stem]`` prints the test and the table of
 comparisons (rank, z, p, Holm's alpha / (k - j), Holm-adjusted p, significant) and, with
 ``--out``, writes it as stem.csv, stem.md and stem.tex. The method and the handling of bad
-input are described in :mod:`mmocap.stages.statistics`. Errors print one line and exit 2.
+input are described in :mod:`mmocap.analysis.statistics`. Errors print one line and exit 2.
 """
 from __future__ import annotations
 
 import argparse
-import sys
-import warnings
 from pathlib import Path
 
 import pandas as pd
 
-from mmocap.errors import MmocapError
-from mmocap.report.tables import format_p, to_markdown, write_table
-from mmocap.stages.statistics import FriedmanHolm, friedman_holm, read_table
+from mmocap.analysis.statistics import FriedmanHolm, friedman_holm, read_table
+from mmocap.analysis.tables import format_p, to_markdown, write_table
 
 COLUMN_NAMES = {"algorithm": "Algorithm", "rank": "Rank", "z": "z", "p": "p-value",
                 "holm_alpha": "Holm alpha", "holm_p": "Holm p", "significant": "Significant"}
@@ -29,8 +26,8 @@ def comparisons_table(result: FriedmanHolm) -> pd.DataFrame:
     return result.comparisons.rename(columns=COLUMN_NAMES)
 
 
-def parse_args(argv):
-    parser = argparse.ArgumentParser(prog="python -m mmocap.stats",
+def parse_args(argv, prog: str = "mmocap stats"):
+    parser = argparse.ArgumentParser(prog=prog,
                                      description=__doc__.split("\n\n")[0])
     parser.add_argument("table", type=Path, help="CSV or Parquet file, one row per measurement")
     parser.add_argument("--block", default="sequence,seed",
@@ -48,13 +45,9 @@ def parse_args(argv):
 def run(args) -> FriedmanHolm:
     table = read_table(args.table)
     blocks = [c.strip() for c in args.block.split(",") if c.strip()]
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        result = friedman_holm(table, blocks, args.algorithm, args.value,
-                               higher_is_better=args.higher_is_better, control=args.control,
-                               alpha=args.alpha, source=str(args.table))
-    for warning in caught:
-        print(f"mmocap: warning: {warning.message}", file=sys.stderr)
+    result = friedman_holm(table, blocks, args.algorithm, args.value,
+                           higher_is_better=args.higher_is_better, control=args.control,
+                           alpha=args.alpha, source=str(args.table))
     title = f"Friedman ranks of {args.value} by {args.algorithm}, Holm vs {result.control}"
     shown = comparisons_table(result)
     print(to_markdown(shown, title, result.summary(), formats=P_FORMATS))
@@ -65,15 +58,5 @@ def run(args) -> FriedmanHolm:
     return result
 
 
-def main(argv=None) -> int:
-    args = parse_args(argv)
-    try:
-        run(args)
-    except MmocapError as err:
-        print(f"mmocap: error: {err}", file=sys.stderr)
-        return 2
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())
+def main(argv: list[str], prog: str) -> None:
+    run(parse_args(argv, prog))

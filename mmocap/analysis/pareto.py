@@ -10,8 +10,8 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+from mmocap.analysis.statistics import finite_numbers, require_columns
 from mmocap.errors import DataError
-from mmocap.stages.statistics import finite_numbers, require_columns
 
 CONFIGURATION = ["vertices", "evaluations", "backend"]
 OBJECTIVES = ["seconds_per_frame", "mean_marker_error_mm"]

@@ -7,7 +7,7 @@ frames: precision = TP / (TP + FP), recall = TP / (TP + FN), IoU = TP / (TP + FP
 
 Command line (``make foreground``)::
 
-    python -m mmocap.stages.foreground_quality [--methods horprasert,gaussian,mog2,knn]
+    mmocap foreground-quality [--methods horprasert,gaussian,mog2,knn]
         [--csv outputs/tables/foreground.csv] [--md outputs/tables/foreground.md] [overrides]
 
 ``overrides`` are Hydra overrides of ``conf/config.yaml`` (``dataset.action=boxing``,
@@ -20,13 +20,13 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from hydra import compose, initialize_config_dir
 from hydra.errors import ConfigCompositionException
 from hydra.utils import instantiate
 from tqdm.auto import tqdm
 
-from mmocap.cli import CONFIG_PATH, guarded
+from mmocap import config
 from mmocap.errors import ConfigError, DataError
+from mmocap.io import write_text_atomic
 
 METHODS = ("horprasert", "gaussian", "mog2", "knn")
 COLUMNS = ["method", "camera", "precision", "recall", "iou"]
@@ -84,8 +84,8 @@ def to_markdown(table: pd.DataFrame) -> str:
     return "\n".join([head, rule, *body]) + "\n"
 
 
-def main(argv=None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def main(argv: list[str], prog: str) -> None:
+    parser = argparse.ArgumentParser(prog=prog, description=__doc__.splitlines()[0])
     parser.add_argument("--methods", default=",".join(METHODS),
                         help="comma-separated background configs (conf/background/*.yaml)")
     parser.add_argument("--csv", type=Path, default=Path("outputs/tables/foreground.csv"))
@@ -93,32 +93,22 @@ def main(argv=None) -> None:
     parser.add_argument("overrides", nargs="*", help="Hydra overrides, e.g. dataset.action=boxing")
     args = parser.parse_intermixed_args(argv)
 
-    def job():
-        configs = {}
-        with initialize_config_dir(config_dir=CONFIG_PATH, version_base="1.3"):
-            for m in args.methods.split(","):
-                try:
-                    configs[m] = compose("config", overrides=[*args.overrides, f"background={m}"])
-                except ConfigCompositionException as exc:
-                    raise ConfigError(f"background={m}: {str(exc).splitlines()[0]} (the overrides "
-                                      "apply to every method of --methods)") from None
-        cfg = next(iter(configs.values()))
-        sequence = instantiate(cfg.dataset).open(progress=cfg.progress)
-        if not (sequence.root / "silhouettes").is_dir():
-            raise DataError(f"sequence {sequence.root} has no true silhouettes to compare with")
-        factories = {m: instantiate(c.background) for m, c in configs.items()}
-        return sequence, quality_table(sequence, factories, progress=cfg.progress)
-
-    sequence, table = guarded(job)
-    for path in (args.csv, args.md):
-        path.parent.mkdir(parents=True, exist_ok=True)
-    table.to_csv(args.csv, index=False, float_format="%.4f")
+    configs = {}
+    for m in args.methods.split(","):
+        try:
+            configs[m] = config.compose([*args.overrides, f"background={m}"])
+        except ConfigCompositionException as exc:
+            raise ConfigError(f"background={m}: {str(exc).splitlines()[0]} (the overrides "
+                              "apply to every method of --methods)") from None
+    cfg = next(iter(configs.values()))
+    sequence = instantiate(cfg.dataset).open(progress=cfg.progress)
+    if not (sequence.root / "silhouettes").is_dir():
+        raise DataError(f"sequence {sequence.root} has no true silhouettes to compare with")
+    factories = {m: instantiate(c.background) for m, c in configs.items()}
+    table = quality_table(sequence, factories, progress=cfg.progress)
+    write_text_atomic(args.csv, table.to_csv(index=False, float_format="%.4f"))
     text = (f"Foreground quality on {sequence.subject} {sequence.meta.get('action')} "
             f"({sequence.n_frames} frames): precision / recall / IoU against the true silhouettes\n\n"
             + to_markdown(table))
-    args.md.write_text(text)
+    write_text_atomic(args.md, text)
     print(text, end="")
-
-
-if __name__ == "__main__":
-    main()

@@ -1,4 +1,4 @@
-"""Stage "results": one record per finished run, kept in a store that makes sweeps resumable.
+"""Results store: one record per finished run, kept in a store that makes sweeps resumable.
 
 A store is a folder (a sweep's folder, or a single run's) holding ``records/<run_id>.json``.
 A record is written once, atomically (temporary file then ``os.replace``), when its run
@@ -15,28 +15,21 @@ without what does not change its result (output paths, progress bars, overlays, 
   evaluation_seconds_per_frame (time inside the evaluator), git_commit, host;
 - ``frames``: one row per tracked frame: run_id, frame, marker_error_mm.
 
-``python -m mmocap.stages.results FOLDER`` writes them as ``runs.csv`` and ``frames.csv``.
+``mmocap collect FOLDER`` writes them as ``runs.csv`` and ``frames.csv``.
 """
 from __future__ import annotations
 
-import argparse
-import datetime
 import hashlib
-import importlib.metadata
 import json
-import platform
-import socket
-import subprocess
-import sys
-from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 from omegaconf import DictConfig, OmegaConf
 
+from mmocap import provenance
 from mmocap.errors import DataError
-from mmocap.stages.evaluation import write_json_atomic
+from mmocap.io import write_json_atomic, write_text_atomic
 
 # Top-level config keys that do not change a run's result.
 NOT_IN_KEY = ("hydra", "progress", "overlays", "results", "scale", "foreground_cache")
@@ -68,37 +61,6 @@ def store_folder(cfg: DictConfig, fallback: Path) -> Path:
     """The results store of a run: ``results.store`` if set, else ``fallback`` (the
     sweep folder in a multirun, the run's own folder otherwise)."""
     return Path(cfg.results.store if cfg.results.store is not None else fallback)
-
-
-@lru_cache(maxsize=1)
-def provenance() -> dict:
-    """What produced a result: git commit of the source tree (and whether it had
-    uncommitted changes), package versions, Python, host."""
-    source = Path(__file__).resolve().parent.parent.parent
-
-    def git(*args):
-        try:
-            out = subprocess.run(["git", *args], cwd=source, capture_output=True, text=True, timeout=10)
-        except (OSError, subprocess.TimeoutExpired):
-            return None
-        return out.stdout.strip() if out.returncode == 0 else None
-
-    commit = git("rev-parse", "HEAD")
-    dirty = git("status", "--porcelain", "--untracked-files=no")
-    versions = {}
-    for package in ("mmocap", "numpy", "scipy", "opencv-python-headless", "hydra-core", "pandas"):
-        try:
-            versions[package] = importlib.metadata.version(package)
-        except importlib.metadata.PackageNotFoundError:
-            versions[package] = None
-    return {"git_commit": commit, "git_dirty": None if dirty is None else bool(dirty),
-            "versions": versions, "python": platform.python_version(),
-            "host": socket.gethostname(), "platform": platform.platform()}
-
-
-def now() -> str:
-    """The current UTC time, ISO 8601."""
-    return datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
 
 
 class ResultsStore:
@@ -165,9 +127,9 @@ def make_record(cfg: DictConfig, summary: dict, frames: list[dict], wall_seconds
         "seed": int(cfg.seed),
         "config": OmegaConf.to_container(cfg, resolve=True),
         "key_config": key_config(cfg),
-        "provenance": provenance(),
+        "provenance": provenance.facts(),
         "started": started,
-        "finished": now(),
+        "finished": provenance.now(),
         "output_dir": str(output_dir),
     }
 
@@ -205,26 +167,15 @@ def export(folder) -> tuple[Path, Path]:
     """Write ``runs.csv`` and ``frames.csv`` into the store ``folder``; returns their paths."""
     folder = Path(folder)
     runs, frames = load_runs(folder)
-    paths = folder / "runs.csv", folder / "frames.csv"
-    for table, path in zip((runs, frames), paths):
-        tmp = path.with_suffix(".csv.tmp")
-        table.to_csv(tmp, index=False)
-        tmp.replace(path)
-    return paths
+    return (write_text_atomic(folder / "runs.csv", runs.to_csv(index=False)),
+            write_text_atomic(folder / "frames.csv", frames.to_csv(index=False)))
 
 
-def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description="Write runs.csv and frames.csv of a results store.")
+def main(argv: list[str], prog: str) -> None:
+    """``mmocap collect FOLDER``: write runs.csv and frames.csv of a results store."""
+    import argparse
+
+    parser = argparse.ArgumentParser(prog=prog, description="Write runs.csv and frames.csv of a results store.")
     parser.add_argument("folder", type=Path, help="a sweep folder (holding records/)")
-    args = parser.parse_args(argv)
-    try:
-        runs_csv, frames_csv = export(args.folder)
-    except DataError as exc:
-        print(f"mmocap: error: {exc}", file=sys.stderr)
-        return 2
+    runs_csv, frames_csv = export(parser.parse_args(argv).folder)
     print(f"{runs_csv} ({len(pd.read_csv(runs_csv))} runs), {frames_csv}")
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

@@ -13,44 +13,19 @@ uncommitted changes), the date (UTC) and the source:
 """
 from __future__ import annotations
 
-import datetime
-import os
 from pathlib import Path
 from typing import Callable, Union
 
 import numpy as np
 import pandas as pd
 
-from mmocap.stages.results import provenance as run_provenance
+from mmocap.io import write_text_atomic
+from mmocap.provenance import line as provenance
+
 Format = Union[str, Callable[[float], str]]
 LATEX_SPECIALS = {"\\": r"\textbackslash{}", "&": r"\&", "%": r"\%", "$": r"\$", "#": r"\#",
                   "_": r"\_", "{": r"\{", "}": r"\}", "~": r"\textasciitilde{}",
                   "^": r"\textasciicircum{}"}
-
-
-def provenance(source: str | Path | None = None) -> str:
-    """'mmocap <version> (numpy .., scipy .., pandas ..), commit <hash>[+dirty], <UTC date>,
-    source <source>', from :func:`mmocap.stages.results.provenance` (unknown parts left out)."""
-    facts = run_provenance()
-    versions = facts["versions"]
-    parts = [f"mmocap {versions.get('mmocap') or 'unknown'} ("
-             + ", ".join(f"{p} {versions[p]}" for p in ("numpy", "scipy", "pandas") if versions.get(p))
-             + ")"]
-    if facts["git_commit"]:
-        parts.append(f"commit {facts['git_commit'][:10]}" + ("+dirty" if facts["git_dirty"] else ""))
-    parts.append(datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"))
-    if source is not None:
-        parts.append(f"source {source}")
-    return ", ".join(parts)
-
-
-def write_text_atomic(path: Path, text: str) -> None:
-    """Write ``text`` to a temporary file beside ``path`` and rename it into place."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    tmp.write_text(text)
-    os.replace(tmp, path)
 
 
 def format_cell(value, fmt: Format = ".3f") -> str:

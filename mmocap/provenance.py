@@ -1,0 +1,66 @@
+"""What produced a result: package versions, the source tree's git commit, Python, host.
+
+:func:`facts` is the dict stored in every run record and sweep file; :func:`line` is the
+one-line form written at the top of every table and figure.
+"""
+from __future__ import annotations
+
+import datetime
+import importlib.metadata
+import platform
+import socket
+import subprocess
+from functools import lru_cache
+from pathlib import Path
+
+PACKAGES = ("mmocap", "numpy", "scipy", "opencv-python-headless", "hydra-core", "pandas", "pyopencl")
+
+
+def _version(package: str) -> str | None:
+    try:
+        return importlib.metadata.version(package)
+    except importlib.metadata.PackageNotFoundError:
+        return None
+
+
+def _git(source: Path, *args) -> str | None:
+    try:
+        out = subprocess.run(["git", *args], cwd=source, capture_output=True, text=True, timeout=10)
+    except (OSError, subprocess.TimeoutExpired):
+        return None
+    return out.stdout.strip() if out.returncode == 0 else None
+
+
+@lru_cache(maxsize=1)
+def facts() -> dict:
+    """git_commit and git_dirty of the source checkout (None when mmocap runs from an
+    installed wheel), versions of mmocap and the numerical packages, python, host,
+    platform."""
+    source = Path(__file__).resolve().parent.parent
+    in_checkout = (source / "pyproject.toml").is_file() and (source / "mmocap").is_dir()
+    commit = _git(source, "rev-parse", "HEAD") if in_checkout else None
+    dirty = _git(source, "status", "--porcelain", "--untracked-files=no") if commit else None
+    return {"git_commit": commit, "git_dirty": None if dirty is None else bool(dirty),
+            "versions": {p: _version(p) for p in PACKAGES}, "python": platform.python_version(),
+            "host": socket.gethostname(), "platform": platform.platform()}
+
+
+def now() -> str:
+    """The current UTC time, ISO 8601."""
+    return datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
+
+
+def line(source: str | Path | None = None) -> str:
+    """'mmocap <version> (numpy .., scipy .., pandas ..), commit <hash>[+dirty], <UTC date>,
+    source <source>' (unknown parts left out)."""
+    known = facts()
+    versions = known["versions"]
+    parts = [f"mmocap {versions.get('mmocap') or 'unknown'} ("
+             + ", ".join(f"{p} {versions[p]}" for p in ("numpy", "scipy", "pandas") if versions.get(p))
+             + ")"]
+    if known["git_commit"]:
+        parts.append(f"commit {known['git_commit'][:10]}" + ("+dirty" if known["git_dirty"] else ""))
+    parts.append(datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"))
+    if source is not None:
+        parts.append(f"source {source}")
+    return ", ".join(parts)
