@@ -108,7 +108,8 @@ def run(cfg: DictConfig, output_dir: Path) -> dict:
         "sequence": str(sequence.root),
         "seed": int(cfg.seed),
         "run_id": run_id,
-        "provenance": provenance.facts(),
+        "provenance": {**provenance.facts(), "components": provenance.components(
+            {"optimizer": str(cfg.optimizer.name), "evaluator": str(cfg.evaluator.name)})},
         "config": OmegaConf.to_container(cfg, resolve=True),
     }
     write_json_atomic(output_dir / "summary.json", summary)

@@ -45,6 +45,23 @@ def facts() -> dict:
             "host": socket.gethostname(), "platform": platform.platform()}
 
 
+def components(used: dict[str, str]) -> dict:
+    """Where each component a run used comes from, e.g. ``components({"optimizer": "pycma"})``
+    -> ``{"optimizer": {"name": "pycma", "entry_point": "mmocap_pycma.optimizer:Pycma",
+    "distribution": "mmocap-pycma", "version": "0.1.0"}}``: the installed package that
+    registered it (mmocap itself for the built-ins), None where it is not registered."""
+    from mmocap import registry
+
+    found = {}
+    for kind, name in used.items():
+        ep = registry.available(kind).get(name)
+        dist = None if ep is None else ep.dist
+        found[kind] = {"name": name, "entry_point": None if ep is None else ep.value,
+                       "distribution": None if dist is None else dist.name,
+                       "version": None if dist is None else dist.version}
+    return found
+
+
 def now() -> str:
     """The current UTC time, ISO 8601."""
     return datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")

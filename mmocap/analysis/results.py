@@ -111,7 +111,9 @@ class ResultsStore:
 
 def make_record(cfg: DictConfig, summary: dict, frames: list[dict], wall_seconds: float,
                 evaluation_seconds: float, started: str, output_dir: Path) -> dict:
-    """The record of a finished run: identity, config, per-frame results, timings, provenance.
+    """The record of a finished run: identity, config, per-frame results, timings, and the
+    provenance the summary carries (:mod:`mmocap.provenance`: versions, commit, host, and
+    where the optimiser and evaluator come from).
 
     ``frames``: one dict per tracked frame with frame, marker_error_mm, fitness,
     evaluations, seconds. Times in seconds.
@@ -127,7 +129,7 @@ def make_record(cfg: DictConfig, summary: dict, frames: list[dict], wall_seconds
         "seed": int(cfg.seed),
         "config": OmegaConf.to_container(cfg, resolve=True),
         "key_config": key_config(cfg),
-        "provenance": provenance.facts(),
+        "provenance": summary["provenance"],
         "started": started,
         "finished": provenance.now(),
         "output_dir": str(output_dir),

@@ -36,7 +36,9 @@ def summary_of(cfg, errors):
             "evaluations_per_frame": int(cfg.tracking.evaluations), "optimizer": cfg.optimizer.name,
             "strategy": "hierarchical" if "Hierarchical" in cfg.strategy._target_ else "holistic",
             "dof": cfg.body.dof, "backend": cfg.evaluator.name, "vertices": cfg.body.vertices,
-            "subject": cfg.dataset.subject, "action": cfg.dataset.action, "seed": cfg.seed}
+            "subject": cfg.dataset.subject, "action": cfg.dataset.action, "seed": cfg.seed,
+            "provenance": {**provenance.facts(), "components": provenance.components(
+                {"optimizer": cfg.optimizer.name, "evaluator": cfg.evaluator.name})}}
 
 
 def record_of(cfg, errors, wall=2.0, evaluation=1.5):
@@ -74,6 +76,7 @@ def test_store_put_get_and_records(tmp_path):
     record = store.get(run_key(cfg))
     assert record["seed"] == 3 and record["summary"]["frames"] == 2
     assert record["provenance"]["python"] and "numpy" in record["provenance"]["versions"]
+    assert record["provenance"]["components"]["optimizer"]["distribution"] == "mmocap"
     assert record["timings"]["evaluation_seconds_per_frame"] == pytest.approx(0.75)
     assert record["config"]["seed"] == 3 and "hydra" not in record["key_config"]
     store.put(record_of(config("seed=4"), [1.0]))
