@@ -8,11 +8,11 @@ import pytest
 
 pytest.importorskip("pyopencl")
 from mmocap.errors import ConfigError  # noqa: E402
-from mmocap.evaluators import opencl  # noqa: E402
+from mmocap.evaluators import opencl, opencl_devices, opencl_layout  # noqa: E402
 from mmocap.testing.evaluators import RIGS, BlobBody, masks, test_poses  # noqa: E402
 
 try:
-    opencl.platforms()
+    opencl_devices.platforms()
 except ConfigError:
     pytest.skip("no OpenCL platform on this machine", allow_module_level=True)
 
@@ -45,13 +45,13 @@ def test_bad_device_selection_names_the_value(kwargs, message):
 
 
 def test_too_many_sub_devices_is_a_config_error():
-    units = opencl.select_device(None, 0).max_compute_units
+    units = opencl_devices.select_device(None, 0).max_compute_units
     with pytest.raises(ConfigError, match=f"into {units + 1} sub-devices"):
         opencl.MultiDeviceEvaluator(sub_devices=units + 1)
 
 
 def test_platform_by_name_and_program_built_once_per_process():
-    name = opencl.platforms()[0].name.split()[0].lower()
+    name = opencl_devices.platforms()[0].name.split()[0].lower()
     a, b = opencl.OpenCLEvaluator(platform=name), opencl.OpenCLEvaluator(platform=0)
     assert a.devices == b.devices
     assert a._lanes[0].kernel.program.int_ptr == b._lanes[0].kernel.program.int_ptr
@@ -60,7 +60,8 @@ def test_platform_by_name_and_program_built_once_per_process():
 def test_each_process_gets_its_own_pocl_cache_dir():
     parent = os.environ["POCL_CACHE_DIR"]
     assert os.path.isdir(parent)
-    done = run_python("import os\nfrom mmocap.evaluators import opencl\n"
+    done = run_python("import os\nfrom mmocap.evaluators import opencl_devices\n"
+                      "opencl_devices.platforms()\n"
                       "print(os.environ['POCL_CACHE_DIR'])")
     child = done.stdout.strip()
     assert done.returncode == 0 and child and child != parent
@@ -72,7 +73,7 @@ def test_multidevice_split_and_work_group_sizes_give_one_devices_counts(local_si
     rig = "front-side-near"
     single = opencl.OpenCLEvaluator(local_size=1)
     multi = opencl.MultiDeviceEvaluator(local_size=local_size)
-    assert len(multi.devices) >= 2 or opencl.select_device(None, 0).max_compute_units == 1
+    assert len(multi.devices) >= 2 or opencl_devices.select_device(None, 0).max_compute_units == 1
     for ev in (single, multi):
         ev.setup(BlobBody(), RIGS[rig], masks(rig, "true"))
     X = test_poses()
@@ -83,13 +84,13 @@ def test_multidevice_split_and_work_group_sizes_give_one_devices_counts(local_si
 
 def test_culling_cones_skip_only_back_faces_and_pass_only_front_faces():
     from mmocap.body.model import BodyModel
-    vertices, _ = opencl._vertex_arrays(BodyModel("S1", vertices=13695))
-    cones = opencl._culling_cones(vertices)
+    vertices, _ = opencl_layout.vertex_arrays(BodyModel("S1", vertices=13695))
+    cones = opencl_layout.culling_cones(vertices)
     rng = np.random.default_rng(0)
     # b = R^T t for cameras in every direction, 0.5 to 5 m from the joint's origin
     directions = rng.standard_normal((200, 3))
     bs = directions / np.linalg.norm(directions, axis=1, keepdims=True) * rng.uniform(500, 5000, (200, 1))
-    blocks = vertices.shape[1] // opencl._BLOCK
+    blocks = vertices.shape[1] // opencl_layout.BLOCK
     nx, ny, nz, nv = vertices[3:7]
     skipped_total = facing_total = 0
     for b in bs.astype(np.float32):
@@ -97,10 +98,10 @@ def test_culling_cones_skip_only_back_faces_and_pass_only_front_faces():
         ad = np.einsum("ka,ka->k", cones[:, :3], d)
         dlen = np.linalg.norm(d, axis=1)
         cross = np.sqrt(np.maximum(dlen ** 2 - ad * ad, 0.0))
-        r = cones[:, 8] + opencl._ROUNDING * dlen
+        r = cones[:, 8] + opencl_layout.ROUNDING * dlen
         skipped = ad * cones[:, 3] - cross * cones[:, 4] > r
         # the kernel's float32 test, as the rule writes it
-        facing = (nv + (nx * b[0] + ny * b[1] + nz * b[2]) < 0).reshape(blocks, opencl._BLOCK)
+        facing = (nv + (nx * b[0] + ny * b[1] + nz * b[2]) < 0).reshape(blocks, opencl_layout.BLOCK)
         assert not facing[skipped].any()
         skipped_total += skipped.sum()
         upper = np.where(ad <= dlen * cones[:, 3], ad * cones[:, 3] + cross * cones[:, 4], dlen)
@@ -116,8 +117,8 @@ def test_culling_cones_skip_only_back_faces_and_pass_only_front_faces():
 def test_body_arrays_are_uploaded_again_only_for_another_body(monkeypatch):
     from mmocap.testing.evaluators import FRONT, PlateBody, empty_masks
     calls = []
-    original = opencl._vertex_arrays
-    monkeypatch.setattr(opencl, "_vertex_arrays", lambda body: calls.append(body) or original(body))
+    original = opencl.vertex_arrays
+    monkeypatch.setattr(opencl, "vertex_arrays", lambda body: calls.append(body) or original(body))
     blob, plate = BlobBody(), PlateBody()
     ev, uploads = opencl.OpenCLEvaluator(), []
     for body in (blob, blob, plate, blob):
@@ -139,14 +140,14 @@ def test_body_arrays_are_uploaded_again_only_for_another_body(monkeypatch):
     ("endian_little", "big-endian"),
 ])
 def test_a_device_without_what_the_kernel_needs_is_a_config_error(missing, message):
-    real = opencl.select_device(None, 0)
+    real = opencl_devices.select_device(None, 0)
 
     class Device:  # the real device, less one capability
         def __getattr__(self, name):
             return 0 if name == missing else getattr(real, name)
 
     with pytest.raises(ConfigError, match=message):
-        opencl._Lane(Device(), opencl.context([real]), None, None)
+        opencl._Lane(Device(), opencl_devices.context([real]), None, None)
 
 
 @pytest.mark.parametrize("max_layers", [1, 2, 4])
@@ -155,7 +156,8 @@ def test_views_with_several_patch_sides_give_naive_counts_whatever_the_layer_lim
     """Views with more distinct patch sides than layers fall back to stamping patches."""
     from mmocap.evaluators.silhouette import view_geometry
     from mmocap.testing.evaluators import naive_counts
-    monkeypatch.setattr(opencl, "_MAX_LAYERS", max_layers)
+    # the limit the evaluator passes at run time; the kernel stays built for MAX_LAYERS
+    monkeypatch.setattr(opencl, "MAX_LAYERS", max_layers)
     distinct = []
     for rig in sorted(RIGS):
         for patch_scale in (1.0, 1.7):

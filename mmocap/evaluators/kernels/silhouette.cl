@@ -7,10 +7,22 @@
 // memory (1 bit per pixel, rows padded to 32-bit words) and count |M| and |M & F| with
 // popcounts against the camera's foreground bit mask, 8 words at a time.
 //
-// Compile-time constants: LOCAL_SIZE, NEAR_MM, BLOCK, LANES, COUNT_WORDS and ROUNDING, so
-// that a program is built once per context. With LOCAL_SIZE 1 (CPU devices) a work-group is
-// one work-item and plain read-modify-writes replace the local atomics. With write_masks != 0
-// the kernel also copies each view's mask to masks_out (nV, mask_words) for rendering.
+// Compile-time constants, every one passed with -D by the host (build_options in
+// mmocap/evaluators/opencl_layout.py, their one owner; none is defined here): LOCAL_SIZE,
+// LANES, COUNT_WORDS, BLOCK, PAD, MAX_LAYERS, MAX_JOINTS, PITCH_WORDS, NEAR_MM, ROUNDING and
+// MAX_SIDE; a program is built once per context. With LOCAL_SIZE 1 (CPU devices) a
+// work-group is one work-item and plain read-modify-writes replace the local atomics. With
+// write_masks != 0 the kernel also copies each view's mask to masks_out (nV, mask_words) for
+// rendering.
+#if !defined(LOCAL_SIZE) || !defined(LANES) || !defined(COUNT_WORDS) || !defined(BLOCK)
+#error "build with -DLOCAL_SIZE, -DLANES, -DCOUNT_WORDS and -DBLOCK (opencl_layout.build_options)"
+#endif
+#if !defined(PAD) || !defined(MAX_LAYERS) || !defined(MAX_JOINTS) || !defined(PITCH_WORDS)
+#error "build with -DPAD, -DMAX_LAYERS, -DMAX_JOINTS and -DPITCH_WORDS (opencl_layout.build_options)"
+#endif
+#if !defined(NEAR_MM) || !defined(ROUNDING) || !defined(MAX_SIDE)
+#error "build with -DNEAR_MM, -DROUNDING and -DMAX_SIDE (opencl_layout.build_options)"
+#endif
 #pragma OPENCL EXTENSION cl_khr_fp64 : enable
 #pragma OPENCL FP_CONTRACT OFF   // no fused multiply-adds: round as NumPy does
 
@@ -27,13 +39,13 @@
 #endif
 
 // Each joint's vertices come in blocks of BLOCK, each with a cone holding its normals and a
-// sphere holding its positions (see _culling_cones in opencl.py): a block that is certainly
+// sphere holding its positions (see culling_cones in opencl_layout.py): a block that is certainly
 // all back faces is skipped with one test, one certainly all facing the camera skips the
 // per-vertex culling test; the others are culled vertex by vertex.
 
 // Vertices are processed LANES (4, 8 or 16, dividing BLOCK) at a time in vectors of that
 // width (8 floats: one AVX2 register). The vertex array holds per vector its seven rows of
-// LANES floats side by side (_interleaved in opencl.py); each joint's run is padded to a
+// LANES floats side by side (interleaved in opencl_layout.py); each joint's run is padded to a
 // multiple of BLOCK with zero-normal vertices, which the culling test always rejects.
 #define CAT_(a, b) a##b
 #define CAT(a, b) CAT_(a, b)
@@ -68,13 +80,10 @@
 // image); counting then dilates each layer by its s x s patch with shifts and ORs on 64-bit
 // windows and ORs the layers, COUNT_WORDS (8 on CPUs, else 1) output words at a time.
 // Other views stamp every patch.
-#define PAD 16
-#define MAX_LAYERS 4
 
 // Rows of the masks and of the foreground are PITCH_WORDS-aligned: pitch = stride rounded up
 // to a multiple of 8 words; the padded layers' rows (pstride words) hold the image's stride
 // words and one more, rounded up to a multiple of COUNT_WORDS.
-#define PITCH_WORDS 8
 #if COUNT_WORDS == 8
 #define uintW uint8
 #define ulongW ulong8
@@ -242,7 +251,6 @@ inline int patch_side(__global const double *camera, __global const double *T,
 // the input of silhouette_counts. Joints come after their parents.
 // A fixed work-group size of 1: PoCL compiles a kernel again for each new work-group size
 // it is launched with (about 0.1 s each, measured).
-#define MAX_JOINTS 32
 __kernel __attribute__((reqd_work_group_size(1, 1, 1)))
 void joint_transforms(
     __global const double *poses,      // (n, 3 + 6 J) KinematicChain.pose_rows: T (mm), then
