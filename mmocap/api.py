@@ -75,14 +75,57 @@ class Optimizer(Protocol):
 
 @runtime_checkable
 class Evaluator(Protocol):
-    """Silhouette fitness of candidate poses (Yeguas Eq. 4-5).
+    """Silhouette fitness of candidate poses (Yeguas Eq. 4-5): everything callers use.
 
-    ``setup`` uploads one frame (body model, cameras, foreground masks); ``__call__`` maps
-    poses (n, D_full) in the body's full parameter vector to fitness (n,) in [0, 1].
+    :class:`mmocap.evaluators.silhouette.SilhouetteEvaluator` implements it and specifies
+    the rule that every backend computes; the conformance suite
+    (:mod:`mmocap.testing.evaluators`) holds a backend to it. Lifecycle: built from its
+    config parameters (``patch_scale`` and its own), then per frame :meth:`setup`, then any
+    number of :meth:`__call__`, :meth:`counts` and :meth:`render`; :meth:`close` releases
+    the frame's data and what the backend holds (worker processes, device buffers), after
+    which :meth:`setup` may be called again. As a context manager it closes on exit.
+
+    Shapes and units (n candidates, C cameras, P pose parameters, J joints, N vertices):
+
+    - ``body``: ``rest_vertices`` (N, 3) mm, ``rest_normals`` (N, 3) unit,
+      ``vertex_joint`` (N,) int, ``joint_rest_positions`` (J, 3) mm, ``patch_mm`` (J,) mm
+      and ``transforms(X)``: (n, P) -> (n, J, 4, 4) rigid rest-to-world transforms (mm).
+    - ``cameras``: C cameras (``K`` in px, ``R``, ``t`` in mm, ``width`` x ``height`` px).
+    - ``foreground``: C bool-like masks, (H_c, W_c) each, True on the person.
+    - ``X``: (n, P) float64 poses in the body's full parameter vector (root translation in
+      mm, angles in rad); NaN is an error naming the row; n may be 0.
+
+    Attributes:
+        name: entry-point name of the backend that computes (``evaluator=auto`` reports
+            its choice, e.g. ``"opencl"``); empty for a class that does not say.
+        owns_cores: True while its own threads or workers keep every CPU core busy during
+            a call (then BLAS in this process runs on one thread from setup to close).
+        starts_processes: True for a backend that starts worker processes of its own (it
+            cannot run inside a launcher's daemon workers; the sweep checks this).
     """
 
-    def setup(self, body, cameras, foreground) -> None: ...
+    name: str
+    owns_cores: bool
+    starts_processes: bool
 
-    def __call__(self, X: np.ndarray) -> np.ndarray: ...
+    def setup(self, body, cameras, foreground) -> None:
+        """Upload one frame: the body, C cameras and their C foreground masks."""
 
-    def close(self) -> None: ...
+    def __call__(self, X: np.ndarray) -> np.ndarray:
+        """(n, P) poses -> (n,) float64 fitness in [0, 1], 0 a perfect match (Cano Eq. 6-7:
+        the mean over the cameras of the per-view terms); never NaN."""
+
+    def counts(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(n, P) poses -> ``model_px`` ``|M_c|`` and ``overlap_px`` ``|M_c & F_c|``, each
+        (n, C) int64 pixels, equal for every backend."""
+
+    def render(self, x: np.ndarray, camera_index: int) -> np.ndarray:
+        """(P,) pose -> (H_c, W_c) bool model silhouette ``M_c`` in camera ``camera_index``."""
+
+    def close(self) -> None:
+        """Release the frame's data and the backend's workers or buffers; idempotent."""
+
+    def __enter__(self) -> Evaluator: ...
+
+    def __exit__(self, *exc) -> None:
+        """Close."""

@@ -40,9 +40,16 @@ from mmocap.data.synthetic import CAMERA_RING, camera_rig
 from mmocap.evaluators.timed import TimedEvaluator
 from mmocap.stages.tracking import Holistic
 
-BACKENDS = ("naive", "numpy", "multiprocessing", "opencl", "multidevice")
 PATCH_SCALE = 1.5
 MAX_FRAMES = 5  # frames per budget and backend that frame_ms adds to fill its seconds
+
+
+def backends() -> list[str]:
+    """The default ``--backends``: every installed evaluator that can run here but ``auto``
+    (which runs one of them), ``naive`` (the speed-ups' reference) first."""
+    names = sorted(registry.available("evaluator"), key=lambda name: (name != "naive", name))
+    return [name for name in names
+            if name != "auto" and registry.unavailable("evaluator", name) is None]
 
 
 class Scene:
@@ -176,7 +183,8 @@ def write(df: pd.DataFrame, out: Path, name: str, title: str) -> None:
 def main(argv: list[str], prog: str) -> None:
     parser = argparse.ArgumentParser(prog=prog, description=__doc__.split("\n\n")[0])
     parser.add_argument("table", choices=["table1", "table2", "all"])
-    parser.add_argument("--backends", default=",".join(BACKENDS))
+    parser.add_argument("--backends", default=None,
+                        help="comma-separated evaluators (default: every one that can run here)")
     parser.add_argument("--vertices", default="27393,20544,13695")
     parser.add_argument("--budgets", default="500,1500,3000,5000")
     parser.add_argument("--cameras", type=int, default=7)
@@ -188,7 +196,7 @@ def main(argv: list[str], prog: str) -> None:
     parser.add_argument("--out", type=Path, default=Path("outputs/tables"))
     parser.add_argument("--prefix", default="", help="prefix of the output file names")
     args = parser.parse_args(argv)
-    names = [b for b in args.backends.split(",") if b]
+    names = backends() if args.backends is None else [b for b in args.backends.split(",") if b]
     unknown = sorted(set(names) - set(registry.available("evaluator")))
     if unknown:
         parser.error(f"unknown backend(s) {', '.join(unknown)}; installed: "

@@ -100,7 +100,8 @@ def run(cfg: DictConfig, output_dir: Path) -> dict:
         "optimizer": str(cfg.optimizer.name),
         "strategy": strategy.name,
         "dof": body.dof,
-        "backend": str(cfg.evaluator.name),
+        "backend": getattr(evaluator, "name", "") or str(cfg.evaluator.name),  # auto's choice
+        "evaluator_choice": str(cfg.evaluator.name),
         "vertices": body.n_vertices,
         "subject": sequence.subject,
         "action": sequence.meta.get("action"),

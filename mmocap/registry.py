@@ -3,6 +3,11 @@
 Built-in components are registered in mmocap's own ``pyproject.toml`` under the groups
 ``mmocap.optimizers`` and ``mmocap.evaluators``, exactly as a third-party plugin registers
 its own; Hydra configs build them with ``_target_: mmocap.registry.make_optimizer``.
+
+A registered class may say that it cannot run here with a classmethod
+``unavailable() -> str | None`` (a missing library or device, and what to install; None
+when it can run): ``mmocap list`` shows the reason, and building it is a ConfigError that
+gives it. A class without that method is taken to be available.
 """
 from __future__ import annotations
 
@@ -31,8 +36,23 @@ def load(kind: str, name: str):
                           f"but cannot be loaded: {exc}") from exc
 
 
+def unavailable(kind: str, name: str) -> str | None:
+    """Why the component registered as ``name`` cannot be used here (it cannot be loaded,
+    or its class's ``unavailable()`` says why), or None when it can."""
+    try:
+        cls = load(kind, name)
+    except ConfigError as err:
+        return str(err)
+    check = getattr(cls, "unavailable", None)
+    return check() if check is not None else None
+
+
 def _build(kind: str, name: str, params: dict):
     cls = load(kind, name)
+    check = getattr(cls, "unavailable", None)
+    reason = check() if check is not None else None
+    if reason:
+        raise ConfigError(f"{kind} '{name}' is unavailable: {reason}")
     try:
         return cls(**params)
     except TypeError as exc:
@@ -50,11 +70,15 @@ def make_evaluator(name: str, **params):
 
 
 def describe() -> str:
-    """Text listing every installed optimiser and evaluator with where it comes from."""
+    """Text listing every installed optimiser and evaluator with where it comes from, and
+    for one that cannot be used here, why (see :func:`unavailable`)."""
     lines = []
     for kind in GROUPS:
         lines.append(f"{kind}s ({GROUPS[kind]}):")
         for name, ep in sorted(available(kind).items()):
             dist = ep.dist.name if ep.dist is not None else "?"
             lines.append(f"  {name:<16} {ep.value}  [{dist}]")
+            reason = unavailable(kind, name)
+            if reason:
+                lines.append(f"  {'':<16} unavailable: {reason}")
     return "\n".join(lines)

@@ -36,6 +36,7 @@ class MultiprocessingEvaluator(SilhouetteEvaluator):
         inner: entry-point name of the backend each worker runs (not ``multiprocessing``).
     """
 
+    name = "multiprocessing"
     owns_cores = True
     starts_processes = True
 

@@ -26,6 +26,8 @@ class NaiveEvaluator(SilhouetteEvaluator):
         patch_scale: factor on the body's per-joint patch size (Cano Eq. 4), > 0.
     """
 
+    name = "naive"
+
     def _prepare(self) -> None:
         self._table = vertex_table(self.body)
 

@@ -74,6 +74,8 @@ class NumpyEvaluator(SilhouetteEvaluator):
         patch_scale: factor on the body's per-joint patch size (Cano Eq. 4), > 0.
     """
 
+    name = "numpy"
+
     def _prepare(self) -> None:
         body = self.body
         joint = np.asarray(body.vertex_joint)

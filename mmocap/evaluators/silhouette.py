@@ -286,9 +286,13 @@ class SilhouetteEvaluator:
     optionally ``chain``, a :class:`~mmocap.body.kinematics.KinematicChain` whose
     ``transforms`` are ``body.transforms``, from which a backend may compute them itself.
 
-    Subclasses implement ``_counts(X)`` and ``_render(x, camera_index)`` and may extend
-    ``_prepare()``, called at the end of :meth:`setup`.
+    Subclasses implement ``_counts(X)`` and ``_render(x, camera_index)``, may extend
+    ``_prepare()``, called at the end of :meth:`setup`, set ``name`` to their entry-point
+    name, and override :meth:`unavailable` when they need what may not be installed.
     """
+
+    #: the entry-point name of the backend (see :class:`mmocap.api.Evaluator`)
+    name = ""
 
     #: True for a backend whose own workers keep every CPU core busy during a call: from
     #: :meth:`setup` to :meth:`close`, BLAS in this process then runs on one thread. Idle
@@ -298,6 +302,12 @@ class SilhouetteEvaluator:
     #: True for a backend that starts worker processes of its own: it cannot run inside
     #: a launcher's worker processes (joblib's are daemons), which the sweep checks.
     starts_processes = False
+
+    @classmethod
+    def unavailable(cls) -> str | None:
+        """Why this backend cannot run here, one line with what to install (``mmocap list``
+        shows it, and asking for the backend is a ConfigError saying it); None when it can."""
+        return None
 
     def __init__(self, patch_scale: float = 1.0):
         try:

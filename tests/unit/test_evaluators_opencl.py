@@ -27,7 +27,7 @@ def test_no_platform_is_a_config_error_that_says_what_to_install():
     done = run_python("from mmocap import registry\n"
                       "registry.make_evaluator('opencl')", OCL_ICD_VENDORS="/nonexistent")
     assert done.returncode != 0
-    assert "ConfigError: no OpenCL platform found" in done.stderr
+    assert "ConfigError: evaluator 'opencl' is unavailable: no OpenCL platform found" in done.stderr
     assert "pocl-binary-distribution" in done.stderr
 
 
