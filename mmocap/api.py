@@ -6,7 +6,7 @@ Optimisers and evaluators are found through the entry-point groups
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Protocol, runtime_checkable
+from typing import Protocol, Self, runtime_checkable
 
 import numpy as np
 
@@ -125,7 +125,7 @@ class Evaluator(Protocol):
     def close(self) -> None:
         """Release the frame's data and the backend's workers or buffers; idempotent."""
 
-    def __enter__(self) -> Evaluator: ...
+    def __enter__(self) -> Self: ...
 
     def __exit__(self, *exc) -> None:
         """Close."""

@@ -5,14 +5,21 @@ from mmocap import registry
 from mmocap.testing.evaluators import EvaluatorConformance
 
 
+def installed() -> list:
+    """Every installed evaluator; one that cannot run here is skipped, saying why."""
+    return [pytest.param(name, marks=pytest.mark.skip(reason=f"{name} unavailable: {reason}"))
+            if (reason := registry.unavailable("evaluator", name)) else name
+            for name in sorted(registry.available("evaluator"))]
+
+
 class TestInstalledEvaluators(EvaluatorConformance):
-    @pytest.fixture(params=sorted(registry.available("evaluator")))
+    @pytest.fixture(params=installed())
     def evaluator_name(self, request):
         return request.param
 
 
-needs_opencl = pytest.mark.skipif("opencl" not in registry.available("evaluator"),
-                                  reason="the opencl evaluator is not installed")
+needs_opencl = pytest.mark.skipif(registry.unavailable("evaluator", "opencl") is not None,
+                                  reason="the opencl evaluator is not installed or cannot run here")
 
 
 @needs_opencl

@@ -1,0 +1,58 @@
+"""The OpenCL kernel's constants have one owner, opencl_layout, and reach the kernel only
+through -D build options; the kernel is read as package data."""
+import re
+from importlib import resources
+
+import numpy as np
+import pytest
+
+from mmocap.evaluators import opencl_devices, opencl_layout
+from mmocap.evaluators.opencl import OpenCLEvaluator
+
+needs_opencl = pytest.mark.skipif(OpenCLEvaluator.unavailable() is not None,
+                                  reason="no usable OpenCL device here")
+
+
+def required_constants(source: str) -> set[str]:
+    """The constants the kernel's #error guards ask for."""
+    return set(re.findall(r"!defined\((\w+)\)", source))
+
+
+def test_build_options_pass_exactly_the_constants_the_kernel_requires():
+    source = opencl_devices.kernel_source()
+    for local_size, lanes in ((1, 8), (64, 4)):
+        options = opencl_layout.build_options(local_size, lanes)
+        passed = dict(o[2:].split("=", 1) for o in options if o.startswith("-D"))
+        assert set(passed) == required_constants(source)
+        assert passed["COUNT_WORDS"] == str(opencl_layout.count_words(local_size))
+        assert (passed["LOCAL_SIZE"], passed["LANES"]) == (str(local_size), str(lanes))
+    for name in required_constants(source):  # the kernel defines none of them itself
+        assert not re.search(rf"^\s*#define\s+{name}\b", source, re.MULTILINE), name
+    assert {"PAD", "MAX_LAYERS", "MAX_JOINTS", "PITCH_WORDS", "BLOCK"} <= required_constants(source)
+
+
+def test_the_kernel_is_package_data():
+    packaged = resources.files("mmocap.evaluators") / "kernels" / "silhouette.cl"
+    assert opencl_devices.kernel_source() == packaged.read_text()
+
+
+@needs_opencl
+@pytest.mark.parametrize("left_out", ["PAD", "MAX_LAYERS", "MAX_JOINTS", "PITCH_WORDS", "BLOCK",
+                                      "NEAR_MM"])
+def test_a_missing_constant_fails_the_build(left_out):
+    cl = opencl_devices.pyopencl()
+    ctx = opencl_devices.context([opencl_devices.select_device(None, 0)])
+    options = [o for o in opencl_layout.build_options(1, 8) if not o.startswith(f"-D{left_out}=")]
+    with pytest.raises(cl.RuntimeError, match=f"build with .*-D{left_out}"):
+        cl.Program(ctx, opencl_devices.kernel_source()).build(options=options)
+
+
+def test_rows_are_pitch_words_apart():
+    assert opencl_layout.pitch(1) == opencl_layout.PITCH_WORDS
+    assert opencl_layout.pitch(640) == 24  # 20 words rounded up to 8
+    mask = np.random.default_rng(0).random((5, 70)) < 0.5
+    packed = opencl_layout.pack_bits(mask, 5 * 8 + 3)
+    rows = packed[:40].reshape(5, 8)
+    bits = np.unpackbits(rows.view(np.uint8), axis=1, bitorder="little")
+    np.testing.assert_array_equal(bits[:, :70], mask)
+    assert not bits[:, 70:].any() and not packed[40:].any()
