@@ -89,5 +89,5 @@ def _test_scene():
     camera = Camera.look_at("auto-check", (0, 0, -1000), (0, 0, 0), 200.0, 64, 48)
     foreground = np.zeros((48, 64), bool)
     foreground[:, :32] = True
-    X = np.array([[0.0, 0.0, 0.0], [-60.0, 45.0, 20.0], [130.0, 0.0, -30.0]])
+    X = np.array([[0.0, 0.0, 0.0], [-60.0, 45.0, 20.0], [-130.0, 0.0, -30.0]])
     return _Ball(), camera, foreground, X
