@@ -40,7 +40,6 @@ from mmocap.data.synthetic import CAMERA_RING, camera_rig
 from mmocap.evaluators.timed import TimedEvaluator
 from mmocap.stages.tracking import Holistic
 
-PATCH_SCALE = 1.5
 MAX_FRAMES = 5  # frames per budget and backend that frame_ms adds to fill its seconds
 
 
@@ -61,7 +60,7 @@ class Scene:
         names = [name for name, _, _ in CAMERA_RING][:cameras]
         self.cameras = camera_rig(names, 640, 480, rng, distortion=0.0)
         self.pose = self.body.rest_pose() + self.noise(rng, 1, 0.15)[0]
-        with registry.make_evaluator("numpy", patch_scale=PATCH_SCALE) as ev:
+        with registry.make_evaluator("numpy") as ev:
             ev.setup(self.body, self.cameras, [np.zeros((480, 640), bool)] * cameras)
             self.foreground = [ev.render(self.pose, c) for c in range(cameras)]
 
@@ -203,7 +202,7 @@ def main(argv: list[str], prog: str) -> None:
                      f"{', '.join(sorted(registry.available('evaluator')))}")
     levels = [int(v) for v in args.vertices.split(",")]
     scenes = {v: Scene(v, args.cameras) for v in levels}
-    evaluators = {name: registry.make_evaluator(name, patch_scale=PATCH_SCALE) for name in names}
+    evaluators = {name: registry.make_evaluator(name) for name in names}
     try:
         naive_us, t2 = {}, None
         if args.table != "table1":

@@ -20,11 +20,12 @@ import numpy as np
 from mmocap.camera import Camera
 from mmocap.evaluators.numpy_backend import NumpyEvaluator
 from mmocap.evaluators.opencl import OpenCLEvaluator
+from mmocap.evaluators.silhouette import PATCH_SCALE
 
 log = logging.getLogger(__name__)
 
 
-def auto_evaluator(patch_scale: float = 1.0):
+def auto_evaluator(patch_scale: float = PATCH_SCALE):
     """The evaluator :func:`choose` picks, with this ``patch_scale`` (factor on the body's
     per-joint patch size, Cano Eq. 4, > 0)."""
     name, reason = choose()

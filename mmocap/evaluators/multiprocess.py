@@ -22,7 +22,7 @@ import numpy as np
 
 from mmocap import registry
 from mmocap.errors import ConfigError
-from mmocap.evaluators.silhouette import SilhouetteEvaluator
+from mmocap.evaluators.silhouette import PATCH_SCALE, SilhouetteEvaluator
 
 _ONE_THREAD = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
 
@@ -40,7 +40,7 @@ class MultiprocessingEvaluator(SilhouetteEvaluator):
     owns_cores = True
     starts_processes = True
 
-    def __init__(self, patch_scale: float = 1.0, workers: int | None = None, inner: str = "numpy"):
+    def __init__(self, patch_scale: float = PATCH_SCALE, workers: int | None = None, inner: str = "numpy"):
         super().__init__(patch_scale)
         if workers is None:
             workers = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()

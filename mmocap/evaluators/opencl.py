@@ -54,6 +54,7 @@ from mmocap.evaluators.opencl_layout import (
     vertex_arrays,
 )
 from mmocap.evaluators.silhouette import (
+    PATCH_SCALE,
     SilhouetteEvaluator,
     body_transforms,
     camera_rows,
@@ -64,7 +65,6 @@ log = logging.getLogger(__name__)
 # the kernels' arguments that change with every call: silhouette_counts' transforms and
 # joint_transforms' poses
 _TRANSFORMS_ARG, _POSES_ARG = 3, 0
-_pack_bits = pack_bits  # the name tests/unit/test_foreground.py knows
 
 
 class _Lane:
@@ -155,7 +155,7 @@ class OpenCLEvaluator(SilhouetteEvaluator):
         what to install; None when it can."""
         return opencl_devices.unavailable()
 
-    def __init__(self, patch_scale: float = 1.0, platform=None, device: int = 0,
+    def __init__(self, patch_scale: float = PATCH_SCALE, platform=None, device: int = 0,
                  local_size: int | None = None, lanes: int | None = None):
         super().__init__(patch_scale)
         self._lanes = self._make_lanes(platform, device, local_size, lanes)
@@ -310,7 +310,7 @@ class MultiDeviceEvaluator(OpenCLEvaluator):
 
     name = "multidevice"
 
-    def __init__(self, patch_scale: float = 1.0, platform=None, devices=None,
+    def __init__(self, patch_scale: float = PATCH_SCALE, platform=None, devices=None,
                  sub_devices: int | None = None, local_size: int | None = None,
                  lanes: int | None = None):
         self._sub_devices = sub_devices

@@ -85,7 +85,7 @@ def camera_rows(cameras) -> np.ndarray:
     return rows
 
 
-def joint_rows(body, patch_scale: float = 1.0) -> np.ndarray:
+def joint_rows(body, patch_scale: float) -> np.ndarray:
     """(J, 4) float64 per joint: its rest position ``p_j`` (3, mm) and its patch size
     ``body.patch_mm[j] * patch_scale`` (mm)."""
     pivots = np.asarray(body.joint_rest_positions, np.float64)
@@ -102,7 +102,7 @@ def body_transforms(body, X: np.ndarray) -> np.ndarray:
 
 
 def view_geometry(body, cameras, X: np.ndarray,
-                  patch_scale: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
+                  patch_scale: float) -> tuple[np.ndarray, np.ndarray]:
     """Steps 1-2 and the coefficients of steps 3-4 for a batch, in float64, each operation
     rounded, in the order written here (the OpenCL kernel computes the same).
 
@@ -274,6 +274,11 @@ class _OneBlasThread:
 _BLAS = _OneBlasThread()
 
 
+#: Default factor on the body's per-joint patch side (Cano Eq. 4) of every evaluator: at 1.0
+#: the vertex patches leave holes between samples.
+PATCH_SCALE = 1.5
+
+
 class SilhouetteEvaluator:
     """Base class of the silhouette backends: validation, fitness and lifecycle.
 
@@ -309,7 +314,7 @@ class SilhouetteEvaluator:
         shows it, and asking for the backend is a ConfigError saying it); None when it can."""
         return None
 
-    def __init__(self, patch_scale: float = 1.0):
+    def __init__(self, patch_scale: float = PATCH_SCALE):
         try:
             patch_scale = float(patch_scale)
         except (TypeError, ValueError):

@@ -29,7 +29,7 @@ def test_bad_configuration_is_a_config_error(kwargs, message):
 
 def test_workers_share_the_frame_and_stop_on_close():
     rig = "front-side-near"
-    ev = MultiprocessingEvaluator(workers=3)
+    ev = MultiprocessingEvaluator(patch_scale=1.0, workers=3)
     ev.setup(BlobBody(), RIGS[rig], masks(rig, "true"))
     shared = ev._shared
     assert os.path.exists(shared) and len(ev._pool) == 3

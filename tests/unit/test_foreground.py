@@ -76,12 +76,12 @@ def test_foreground_mask_carries_its_bits_and_area():
 
 def test_opencl_uploads_the_packed_rows_as_they_are():
     pytest.importorskip("pyopencl")
-    from mmocap.evaluators import opencl
+    from mmocap.evaluators import opencl_layout
 
     mask = ForegroundMask(np.random.default_rng(2).random((48, 70)) < 0.5)
     size = 48 * 8 + 5  # rows of 3 words widened to 8, then 5 spare words
-    packed = opencl._pack_bits(mask, size, mask.packed)
-    np.testing.assert_array_equal(packed, opencl._pack_bits(np.asarray(mask), size))
+    packed = opencl_layout.pack_bits(mask, size, mask.packed)
+    np.testing.assert_array_equal(packed, opencl_layout.pack_bits(np.asarray(mask), size))
     rows = packed[:48 * 8].reshape(48, 8)
     np.testing.assert_array_equal(rows[:, :3], reference_bits(mask))
     assert not rows[:, 3:].any() and not packed[48 * 8:].any()
