@@ -83,8 +83,8 @@ class BodyModel:
     Args:
         subject: subject id (``"S1"``, ``"S2"``, ``"S3"``).
         dof: 39 (Table 1), 28 (its reduction) or 51 (every axis).
-        vertices: skin sample count (e.g. 27393, 20544, 13695); None keeps the mesh's
-            13 380 vertices.
+        vertices: skin sample count, evenly spread (Cano's levels: 27393, 20544, 13695, the
+            default); None keeps the mesh's 13 380 unevenly spaced vertices.
         seed: seed of the resampling.
 
     Attributes used by the evaluators: ``rest_vertices`` (N, 3) mm, ``rest_normals``
@@ -93,7 +93,7 @@ class BodyModel:
     them (the OpenCL evaluator computes them on the device from it).
     """
 
-    def __init__(self, subject: str = "S1", dof: int = 39, vertices: int | None = None, seed: int = 0):
+    def __init__(self, subject: str = "S1", dof: int = 39, vertices: int | None = 13695, seed: int = 0):
         self.subject = subject_dimensions(subject)
         self.dof = int(dof)
         self.mask = skeleton.dof_mask(self.dof)

@@ -101,7 +101,7 @@ class CMAES(PopulationOptimizer):
 
     name = "cmaes"
 
-    def __init__(self, popsize: int | None = None, sigma0: float = 1.0, tolx: float = 1e-12,
+    def __init__(self, popsize: int | None = None, sigma0: float = 0.03, tolx: float = 1e-12,
                  tolfun: float = 1e-12):
         super().__init__()
         self.popsize = None if popsize is None else check_number("optimizer.popsize", popsize, 2, integer=True)

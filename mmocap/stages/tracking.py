@@ -23,6 +23,9 @@ from mmocap.api import SearchSpace
 from mmocap.body.skeleton import JOINTS
 from mmocap.errors import ConfigError
 
+#: Evaluations of a frame's budget spent on its start pose (the previous frame's estimate).
+START_EVALUATIONS = 1
+
 DEFAULT_STEPS = (
     ("Root",),
     ("BottomSpine", "UpperSpine", "Neck"),
@@ -104,7 +107,7 @@ class Strategy(ABC):
         (its ``min_budget(dim, partitions)``, one evaluation for optimisers without one)."""
         check_budget(budget)
         min_budget = getattr(optimizer, "min_budget", lambda dim, partitions=1: 1)
-        for k, (parts, share) in enumerate(self.plan(body, budget)):
+        for k, (parts, share) in enumerate(self.plan(body, budget - START_EVALUATIONS)):
             dim = sum(len(p) for p in parts)
             needed = min_budget(dim, len(parts))
             if share < needed:
@@ -115,12 +118,20 @@ class Strategy(ABC):
 
     def estimate(self, body, x_prev, evaluate, optimizer, budget, rng) -> tuple[np.ndarray, float, int]:
         """Run ``optimizer`` on one frame from ``x_prev`` (51,) following the plan; returns
-        (pose (51,), fitness, evaluations used)."""
+        (pose (51,), fitness, evaluations used, at most ``budget``).
+
+        The start is evaluated first (one evaluation of the budget), and a search that ends
+        worse than the best pose so far leaves it in place: the pose returned is never
+        worse than the start.
+        """
         self.check(body, optimizer, budget)
-        x, fitness, used = x_prev, float("nan"), 0
-        for parts, share in self.plan(body, budget):
-            x, fitness, n = self.search(body, x, parts, evaluate, optimizer, share, rng)
+        x = np.asarray(x_prev, dtype=np.float64)
+        fitness, used = float(evaluate(x[None])[0]), START_EVALUATIONS
+        for parts, share in self.plan(body, budget - START_EVALUATIONS):
+            found, found_fitness, n = self.search(body, x, parts, evaluate, optimizer, share, rng)
             used += n
+            if found_fitness < fitness:
+                x, fitness = found, found_fitness
         return x, fitness, used
 
     def search(self, body, x_base, parts, evaluate, optimizer, budget, rng) -> tuple[np.ndarray, float, int]:
@@ -185,9 +196,9 @@ class Hierarchical(Strategy):
 
 
 def check_budget(evaluations) -> None:
-    """Reject a per-frame evaluation budget below 1."""
-    if evaluations < 1:
-        raise ConfigError(f"tracking.evaluations must be >= 1, got {evaluations}")
+    """Reject a per-frame evaluation budget that leaves nothing after the start pose."""
+    if evaluations < START_EVALUATIONS + 1:
+        raise ConfigError(f"tracking.evaluations must be >= {START_EVALUATIONS + 1}, got {evaluations}")
 
 
 def track(sequence, body, foreground, evaluator, optimizer, strategy, evaluations: int,

@@ -157,6 +157,8 @@ class OptimizerConformance:
 
     @pytest.mark.parametrize("strategy", ["holistic", "hierarchical"])
     def test_tracks_one_frame_of_the_body_model(self, make, strategy, body39):
+        """On a quadratic around a pose 0.02 rad from the start, over four seeds: every
+        frame uses the budget exactly, is never worse than its start, and most improve."""
         from mmocap.stages.tracking import Hierarchical, Holistic
 
         x_prev = body39.rest_pose()
@@ -166,13 +168,18 @@ class OptimizerConformance:
         def fitness(X):
             return np.sum(weights * (X - target) ** 2, axis=1)
 
-        searched = {"holistic": Holistic, "hierarchical": Hierarchical}[strategy]()
-        x, f, used = searched.estimate(body39, x_prev, fitness, make(), 1500, np.random.default_rng(0))
-        assert used == 1500
-        assert x.shape == x_prev.shape
-        assert np.array_equal(x[~body39.mask], x_prev[~body39.mask])
-        assert f == pytest.approx(fitness(x[None])[0])
-        assert f < fitness(x_prev[None])[0]
+        start = fitness(x_prev[None])[0]
+        found = []
+        for seed in range(4):
+            searched = {"holistic": Holistic, "hierarchical": Hierarchical}[strategy]()
+            x, f, used = searched.estimate(body39, x_prev, fitness, make(), 1500, np.random.default_rng(seed))
+            assert used == 1500
+            assert x.shape == x_prev.shape
+            assert np.array_equal(x[~body39.mask], x_prev[~body39.mask])
+            assert f == pytest.approx(fitness(x[None])[0])
+            assert f <= start, f"seed {seed}: the frame ended worse ({f}) than its start ({start})"
+            found.append(f)
+        assert np.median(found) < start, f"no improvement on the start ({start}): {found}"
 
     @pytest.fixture(scope="class")
     @classmethod

@@ -6,7 +6,7 @@ from mmocap.body.model import BodyModel
 from mmocap.body.skeleton import JOINTS, N_FULL, parameter_index
 from mmocap.errors import ConfigError
 from mmocap.optimizers.cmaes import CMAES
-from mmocap.stages.tracking import DEFAULT_STEPS, Hierarchical, Holistic
+from mmocap.stages.tracking import DEFAULT_STEPS, START_EVALUATIONS, Hierarchical, Holistic
 
 
 @pytest.fixture(scope="module")
@@ -52,15 +52,19 @@ def test_hierarchical_follows_the_steps_in_order_with_the_documented_budget(bodi
     strategy = Hierarchical()
     x, _, used = strategy.estimate(body, x_prev, f, CMAES(sigma0=0.3), 1500, np.random.default_rng(0))
     groups = strategy.step_groups(body)
-    budgets = strategy.budgets(groups, 1500)
-    assert sum(budgets) == used == 1500
+    budgets = strategy.budgets(groups, 1500 - START_EVALUATIONS)
+    assert sum(budgets) + START_EVALUATIONS == used == 1500
+    np.testing.assert_array_equal(f.batches[0], x_prev[None])  # the start pose, evaluated first
     # each batch changes exactly the parameters of one step, the steps in order
     changed = [set(np.flatnonzero(np.any(B != B[0], axis=0))) for B in f.batches]
     step_of = {int(i): k for k, step in enumerate(groups) for g in step for i in g}
     order = [max(step_of[i] for i in c) for c in changed if c]
     assert order == sorted(order)
+    # 0.05 rad and 0 mm from the target at the start; over seeds 0-7 the RMS rotation error
+    # ends at 0.0054-0.0080 rad and the worst translation at 0.65-2.4 mm
     error = np.abs(x - target)
-    assert error[:3].max() < 5 and error[3:][body.mask[3:]].max() < 0.02
+    rotation_rms = np.sqrt(np.mean(error[3:][body.mask[3:]] ** 2))
+    assert error[:3].max() < 5 and rotation_rms < 0.015
 
 
 def test_budget_split_is_proportional_to_dof(bodies):
@@ -117,5 +121,5 @@ def test_budget_below_one_population_is_a_config_error(bodies):
         Hierarchical().estimate(body, body.rest_pose(), Recorder(body.rest_pose()), CMAES(), 5,
                                 np.random.default_rng(0))
     with pytest.raises(ConfigError, match="gives the frame 13 evaluations.*at least 14 for 39"):
-        Holistic().check(body, CMAES(), 13)
-    Holistic().check(body, CMAES(), 14)
+        Holistic().check(body, CMAES(), 14)  # one of the 14 goes to the start pose
+    Holistic().check(body, CMAES(), 15)
