@@ -10,7 +10,7 @@ PLUGINS       := plugins/mmocap-pycma
 PLUGIN_FILES  := $(shell find $(PLUGINS) -name '*.py' -o -name '*.toml' -o -name '*.yaml')
 
 .DEFAULT_GOAL := help
-.PHONY: help install demo foreground optimizers test test-all clean bench table1 table2
+.PHONY: help install demo foreground optimizers test test-all test-wheel lint golden clean bench table1 table2
 .PHONY: tables table4 table5 table6 table7 fig7 fig10 cano_table3 fig4 fig5
 
 help: ## Show this help
@@ -19,7 +19,7 @@ help: ## Show this help
 $(STAMP): pyproject.toml $(PLUGIN_FILES)
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
-	$(PY) -m pip install --quiet -e '.[test]'
+	$(PY) -m pip install --quiet -e '.[dev]'
 	$(PY) -m pip install --quiet $(addprefix ./,$(PLUGINS))
 	@touch $(STAMP)
 
@@ -105,6 +105,12 @@ test: $(STAMP) ## Run the fast test suite
 
 test-all: $(STAMP) ## Run every test, the slow ones included
 	$(PY) -m pytest -q -m ''
+
+test-wheel: $(STAMP) ## Build the wheels of mmocap and plugins/*, install them in a fresh venv, use them from outside the repo (2 min)
+	$(PY) -m pytest -q -m slow tests/packaging
+
+lint: $(STAMP) ## ruff, with the rules of pyproject.toml
+	$(VENV)/bin/ruff check mmocap tests plugins
 
 clean: ## Remove generated outputs (keeps .venv)
 	rm -rf outputs/*

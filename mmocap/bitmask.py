@@ -43,7 +43,7 @@ class ForegroundMask(np.ndarray):
     packed: np.ndarray | None
     area: int | None
 
-    def __new__(cls, mask: np.ndarray, packed: np.ndarray | None = None) -> "ForegroundMask":
+    def __new__(cls, mask: np.ndarray, packed: np.ndarray | None = None) -> ForegroundMask:
         mask = np.asarray(mask, dtype=bool)
         if mask.ndim != 2:
             raise ValueError(f"a foreground mask is (H, W), got shape {mask.shape}")

@@ -63,7 +63,7 @@ class Camera:
         """(3, 4) ideal pin-hole projection K [R | t]."""
         return self.K @ self.extrinsic[:3]
 
-    def ideal(self) -> "Camera":
+    def ideal(self) -> Camera:
         """The same camera without lens distortion (what the evaluators use)."""
         return replace(self, dist=np.zeros(5), _maps={})
 
@@ -115,7 +115,7 @@ class Camera:
 
     @staticmethod
     def look_at(name: str, eye_mm, target_mm, focal_px: float, width: int, height: int,
-                dist=(0, 0, 0, 0, 0), colour: bool = True, up=(0.0, 1.0, 0.0)) -> "Camera":
+                dist=(0, 0, 0, 0, 0), colour: bool = True, up=(0.0, 1.0, 0.0)) -> Camera:
         """A camera at ``eye_mm`` looking at ``target_mm`` with image rows going down."""
         eye = np.asarray(eye_mm, float)
         forward = np.asarray(target_mm, float) - eye
@@ -146,7 +146,7 @@ class Camera:
 
     @staticmethod
     def load_cal(path: Path, width: int, height: int, colour: bool = True,
-                 name: str | None = None) -> "Camera":
+                 name: str | None = None) -> Camera:
         """Read a HumanEva-I ``.cal`` file (Bouguet's calibration toolbox parameters).
 
         It holds 22 numbers separated by white space: fc (2, pixels), cc (2, pixels, the
@@ -177,7 +177,7 @@ class Camera:
         return Camera(name or path.stem, K, kc, R, T, int(width), int(height), colour)
 
     @staticmethod
-    def load(path: Path) -> "Camera":
+    def load(path: Path) -> Camera:
         """Read a calibration JSON written by :meth:`save`; errors name the file and field."""
         path = Path(path)
         if not path.is_file():

@@ -8,8 +8,8 @@ theirs with a Hydra search-path plugin.
 """
 from __future__ import annotations
 
+from collections.abc import Iterable
 from importlib import resources
-from typing import Iterable
 
 from omegaconf import DictConfig, OmegaConf
 

@@ -64,7 +64,7 @@ def components(used: dict[str, str]) -> dict:
 
 def now() -> str:
     """The current UTC time, ISO 8601."""
-    return datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
+    return datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds")
 
 
 def line(source: str | Path | None = None) -> str:
@@ -77,7 +77,7 @@ def line(source: str | Path | None = None) -> str:
              + ")"]
     if known["git_commit"]:
         parts.append(f"commit {known['git_commit'][:10]}" + ("+dirty" if known["git_dirty"] else ""))
-    parts.append(datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"))
+    parts.append(datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M UTC"))
     if source is not None:
         parts.append(f"source {source}")
     return ", ".join(parts)

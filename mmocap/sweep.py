@@ -53,9 +53,9 @@ def sweep_overrides(config: DictConfig) -> dict[str, list[str]]:
 def check_sweep(config: DictConfig, values: dict[str, list[str]]) -> None:
     """ConfigError, before any job starts, for a sweep that cannot run: an optimiser or
     evaluator name (``optimizer.name=...``, ``evaluator.name=...``) that is not installed, or
-    an evaluator that starts worker processes (``starts_processes``) under the joblib launcher, whose worker processes cannot
-    start a pool of their own. Config-group choices (``optimizer=nope``) Hydra checks itself
-    when it composes the jobs."""
+    an evaluator that starts worker processes (``starts_processes``) under the joblib
+    launcher, whose worker processes cannot start a pool of their own. Config-group choices
+    (``optimizer=nope``) Hydra checks itself when it composes the jobs."""
     for kind in ("optimizer", "evaluator"):
         for name in values.get(f"{kind}.name", []):
             registry.load(kind, name)

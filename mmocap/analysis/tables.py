@@ -13,8 +13,8 @@ uncommitted changes), the date (UTC) and the source:
 """
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
-from typing import Callable, Union
 
 import numpy as np
 import pandas as pd
@@ -22,7 +22,7 @@ import pandas as pd
 from mmocap.io import write_text_atomic
 from mmocap.provenance import line as provenance
 
-Format = Union[str, Callable[[float], str]]
+Format = str | Callable[[float], str]
 LATEX_SPECIALS = {"\\": r"\textbackslash{}", "&": r"\&", "%": r"\%", "$": r"\$", "#": r"\#",
                   "_": r"\_", "{": r"\{", "}": r"\}", "~": r"\textasciitilde{}",
                   "^": r"\textasciicircum{}"}

@@ -96,7 +96,7 @@ class SyncOffsets:
         return self.image_start + (np.asarray(mocap_index, float) - self.mocap_start) / self.mocap_scale
 
     @staticmethod
-    def load(path: Path) -> "SyncOffsets":
+    def load(path: Path) -> SyncOffsets:
         path = Path(path)
         if not path.is_file():
             raise DataError(f"sync file not found: {path}")

@@ -100,7 +100,7 @@ class Sequence(SequenceBase):
     """A sequence folder opened for reading, restricted to ``cameras`` (default: all)."""
 
     @staticmethod
-    def open(root, cameras: list[str] | None = None) -> "Sequence":
+    def open(root, cameras: list[str] | None = None) -> Sequence:
         root = Path(root)
         meta_path = root / "sequence.json"
         if not meta_path.is_file():

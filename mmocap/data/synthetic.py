@@ -5,7 +5,8 @@ about 4 m around the capture volume, 640x480 at 60 fps, a little lens distortion
 images are rendered from the full MakeHuman triangle mesh posed by linear blend skinning
 (:mod:`mmocap.data.render`), with clothing colours, shading, a cluttered background, the
 person's soft shadow on the floor, lighting flicker and sensor noise; the tracker instead
-uses rigidly attached surface samples, so the data is not made by the tracker's own model.  Layout on disk: :mod:`mmocap.data.sequence`.
+uses rigidly attached surface samples, so the data is not made by the tracker's own model.
+Layout on disk: :mod:`mmocap.data.sequence`.
 """
 from __future__ import annotations
 

@@ -110,7 +110,7 @@ class MultiprocessingEvaluator(SilhouetteEvaluator):
 
     def close(self) -> None:
         """Stop the workers and remove the shared frame data."""
-        for proc, conn in self._pool:
+        for _, conn in self._pool:
             try:
                 conn.send(None)
             except (BrokenPipeError, OSError):

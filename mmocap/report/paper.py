@@ -28,8 +28,8 @@ significant, and write every statistic in ``NAME_data.csv``. Errors in mm, times
 from __future__ import annotations
 
 import argparse
+from collections.abc import Callable
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 import pandas as pd

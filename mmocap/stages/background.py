@@ -95,7 +95,7 @@ class BackgroundModel(ABC):
         self.cleanup = Cleanup(open_px, close_px, min_area_px, largest_only)
         self._shape: tuple | None = None
 
-    def fit(self, frames, name: str | None = None) -> "BackgroundModel":
+    def fit(self, frames, name: str | None = None) -> BackgroundModel:
         """Estimate the model from background frames, all (H, W) or all (H, W, ch)."""
         frames = list(frames)
         if len(frames) < self.min_frames:
@@ -242,9 +242,11 @@ class HorprasertBackground(BackgroundModel):
                  shadow_min_alpha: float = 0.55, highlight_max_alpha: float = 1.5,
                  grey_window_px: int = 5, open_px: int = 0, close_px: int = 3,
                  min_area_px: int = 50, largest_only: bool = False):
-        self.detection_rate = check_number("background.detection_rate", detection_rate, 0, 1, low_open=True, high_open=True)
+        self.detection_rate = check_number("background.detection_rate", detection_rate, 0, 1,
+                                           low_open=True, high_open=True)
         self.min_sigma = check_number("background.min_sigma", min_sigma, 0, low_open=True)
-        self.shadow_min_alpha = check_number("background.shadow_min_alpha", shadow_min_alpha, 0, 1, low_open=True, high_open=True)
+        self.shadow_min_alpha = check_number("background.shadow_min_alpha", shadow_min_alpha, 0, 1,
+                                             low_open=True, high_open=True)
         self.highlight_max_alpha = check_number("background.highlight_max_alpha", highlight_max_alpha, 0, low_open=True)
         if self.highlight_max_alpha <= 1:
             raise ConfigError(f"background.highlight_max_alpha must be > 1, got {highlight_max_alpha!r}")

@@ -26,8 +26,8 @@ import hashlib
 import json
 import logging
 import zipfile
+from collections.abc import Callable
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 

@@ -20,7 +20,7 @@ patches at the image border, NaN poses, and the config file.
 """
 from __future__ import annotations
 
-from functools import lru_cache
+from functools import cache
 
 import numpy as np
 import pytest
@@ -149,7 +149,7 @@ def test_poses() -> np.ndarray:
 test_poses.__test__ = False  # a helper, not a test
 
 
-@lru_cache(maxsize=None)
+@cache
 def true_masks(rig: str) -> tuple[np.ndarray, ...]:
     """The naive silhouettes of TRUE_POSE in the cameras of ``RIGS[rig]``: a foreground."""
     from mmocap.evaluators.naive import NaiveEvaluator
@@ -160,7 +160,7 @@ def true_masks(rig: str) -> tuple[np.ndarray, ...]:
         return tuple(ev.render(TRUE_POSE, c) for c in range(len(cameras)))
 
 
-@lru_cache(maxsize=None)
+@cache
 def naive_counts(rig: str, patch_scale: float, foreground: str) -> tuple[np.ndarray, np.ndarray]:
     """Naive (model_px, overlap_px), (7, 3) each, of :func:`test_poses` in ``RIGS[rig]``."""
     from mmocap.evaluators.naive import NaiveEvaluator

@@ -89,7 +89,7 @@ class OptimizerConformance:
         smallest = min_budget(opt, dim)
         for budget in sorted({smallest, smallest + 1, 3 * smallest + 7, 157 + smallest}):
             space = box(dim, budget)
-            asked, result = run(opt, space, lambda X: sphere(X, space.upper), seed=budget)
+            asked, result = run(opt, space, lambda X, upper=space.upper: sphere(X, upper), seed=budget)
             X = np.concatenate(asked)
             assert len(X) == result.evaluations <= budget
             assert X.shape[1] == dim

@@ -83,7 +83,7 @@ def test_composition_child_follows_parent(body):
 def test_flexion_signs(body):
     """+Rx bends the knee backwards; +Ry brings the forearm forward on both sides."""
     j = {n: i for i, n in enumerate(skeleton.JOINTS)}
-    for param, joint, end, axis, sign in (("LKnee.rx", "LKnee", "LAnkle", 2, -1),
+    for param, _joint, end, axis, sign in (("LKnee.rx", "LKnee", "LAnkle", 2, -1),
                                           ("LElbow.ry", "LElbow", "LWrist", 2, +1),
                                           ("RElbow.ry", "RElbow", "RWrist", 2, +1),
                                           ("LHip.rx", "LHip", "LKnee", 2, +1)):

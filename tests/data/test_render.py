@@ -24,8 +24,9 @@ def signed_volume(vertices, faces) -> float:
     return float(np.einsum("ij,ij->i", a, np.cross(b, c)).sum() / 6)
 
 
-def cube(size=1000.0, rotation=np.eye(3), centre=(0, 0, 0)):
+def cube(size=1000.0, rotation=None, centre=(0, 0, 0)):
     """(8, 3) vertices and (12, 3) faces, counter-clockwise seen from outside."""
+    rotation = np.eye(3) if rotation is None else rotation
     v = (np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
          * size / 2) @ rotation.T + centre
     quads = [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)]
@@ -47,7 +48,7 @@ def icosphere(radius=500.0, subdivisions=3):
     for _ in range(subdivisions):
         mid, new = {}, []
 
-        def midpoint(i, j):
+        def midpoint(i, j, mid=mid):
             key = (min(i, j), max(i, j))
             if key not in mid:
                 m = verts[i] + verts[j]

@@ -30,7 +30,8 @@ def test_tracking_recovers_the_pose_from_a_perturbed_start(tiny_sequence, tmp_pa
         log = FrameLog(tmp_path / "frames.csv")
         results = track(seq, body, fg, NumpyEvaluator(patch_scale=1.5), CMAES(sigma0=0.1),
                         Holistic(), evaluations=1500, seed=seed, frames=3,
-                        on_frame=lambda r: log.write(r.frame, 0.0, r.fitness, r.evaluations, r.seconds, r.pose))
+                        on_frame=lambda r, log=log: log.write(r.frame, 0.0, r.fitness, r.evaluations,
+                                                              r.seconds, r.pose))
         log.close()
         errors = marker_error(body.markers(np.stack([r.pose for r in results])), truth[:3])
         assert all(r.evaluations == 1500 for r in results)

@@ -87,7 +87,7 @@ def test_budget_is_never_exceeded(budget, last):
 
 @pytest.mark.parametrize("budget", [1, 13])
 def test_budget_smaller_than_one_generation_is_a_config_error(budget):
-    with pytest.raises(ConfigError, match=r"at least 14 evaluations .*got %d" % budget):
+    with pytest.raises(ConfigError, match=rf"at least 14 evaluations .*got {budget}"):
         CMAES().setup(box(39, 0.0, 1.0, 0.5, budget), np.random.default_rng(0))
 
 
@@ -196,7 +196,7 @@ def test_ellipsoid_evaluations_within_a_small_factor_of_pycma():
         rng = np.random.default_rng(seed)
         es = cma.CMAEvolutionStrategy(np.full(dim, 3.0), 1.0, {
             "ftarget": target, "verbose": -9, "seed": np.nan,
-            "randn": lambda *shape: rng.standard_normal(shape)})
+            "randn": lambda *shape, rng=rng: rng.standard_normal(shape)})
 
         es.optimize(lambda x: float(ellipsoid(np.atleast_2d(x))[0]))
         reference.append(es.result.evaluations)

@@ -8,8 +8,6 @@ from mmocap.api import Optimizer, SearchSpace
 from mmocap.errors import ConfigError
 from mmocap.optimizers.pso import ParticleSwarm, inertia_schedule
 from mmocap.registry import make_optimizer
-
-PAPER = dict(v_max=None, init_spread=1.0)  # Table 3 with the paper's random start
 from tests.unit import objectives
 from tests.unit.objectives import (
     SHIFT,
@@ -20,6 +18,8 @@ from tests.unit.objectives import (
     random_search,
     sphere,
 )
+
+PAPER = dict(v_max=None, init_spread=1.0)  # Table 3 with the paper's random start
 
 
 def minimise(f, space, seed, opt=None, asked=None):
