@@ -4,9 +4,9 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 MMOCAP := $(VENV)/bin/mmocap
-# Example plugins, installed (not editable: Hydra finds their configs in site-packages) so
+# Example plugins and the templates, installed (not editable: Hydra finds their configs in site-packages) so
 # that the test suite runs them like a user's own plugin.
-PLUGINS       := plugins/mmocap-pycma
+PLUGINS       := plugins/mmocap-pycma plugins/template-optimizer plugins/template-evaluator
 PLUGIN_FILES  := $(shell find $(PLUGINS) -name '*.py' -o -name '*.toml' -o -name '*.yaml')
 
 .DEFAULT_GOAL := help
