@@ -109,6 +109,9 @@ test-all: $(STAMP) ## Run every test, the slow ones included
 test-wheel: $(STAMP) ## Build the wheels of mmocap and plugins/*, install them in a fresh venv, use them from outside the repo (2 min)
 	$(PY) -m pytest -q -m slow tests/packaging
 
+golden: $(STAMP) ## Rewrite the golden results of tests/golden/data/ (after a change that moves them on purpose; review the diff)
+	MMOCAP_REGEN_GOLDEN=1 $(PY) -m pytest -q tests/golden
+
 lint: $(STAMP) ## ruff, with the rules of pyproject.toml
 	$(VENV)/bin/ruff check mmocap tests plugins
 
