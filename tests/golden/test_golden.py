@@ -52,7 +52,8 @@ def test_pixel_counts_of_fixed_poses(scene, name):
         ev.setup(scene.body, scene.cameras, scene.foreground)
         model, overlap = ev.counts(X if name != "naive" else X[:2])
     counts = {"model_pixels": np.asarray(model).tolist(), "overlap_pixels": np.asarray(overlap).tolist()}
-    expected = golden("pixel_counts", counts) if name == "numpy" else json.loads((DATA / "pixel_counts.json").read_text())
+    stored = DATA / "pixel_counts.json"
+    expected = golden("pixel_counts", counts) if name == "numpy" else json.loads(stored.read_text())
     n = len(counts["model_pixels"])
     assert counts == {k: v[:n] for k, v in expected.items()}
 
