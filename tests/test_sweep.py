@@ -11,7 +11,7 @@ import pandas as pd
 import pytest
 
 from mmocap import config as mmocap_config
-from tests.e2e.test_cli import mmocap, overrides
+from tests.test_cli import mmocap, overrides
 
 
 def sweep_args(data_root, sweep_dir, **extra):

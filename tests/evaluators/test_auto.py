@@ -13,7 +13,7 @@ from mmocap.evaluators import auto
 from mmocap.evaluators.numpy_backend import NumpyEvaluator
 from mmocap.evaluators.opencl import OpenCLEvaluator
 from mmocap.testing.evaluators import RIGS, BlobBody, masks, naive_counts, test_poses
-from tests.e2e.test_cli import overrides
+from tests.test_cli import overrides
 
 OPENCL_HERE = OpenCLEvaluator.unavailable() is None
 needs_opencl = pytest.mark.skipif(not OPENCL_HERE, reason="no usable OpenCL device here")
