@@ -1,4 +1,5 @@
 """OpenCL evaluators: device selection, clear errors, the program cache, the multi-device split."""
+import functools
 import os
 import subprocess
 import sys
@@ -68,18 +69,28 @@ def test_each_process_gets_its_own_pocl_cache_dir():
     assert not os.path.exists(child)  # removed when the child exits
 
 
+def counting_bind(bind, lane, served, kernel, *args):
+    """``lane.bind`` that counts the calls in which ``lane`` is given work."""
+    served[id(lane)] += 1
+    return bind(kernel, *args)
+
+
 @pytest.mark.parametrize("local_size", [1, 3, 32])
 def test_multidevice_split_and_work_group_sizes_give_one_devices_counts(local_size):
     rig = "front-side-near"
     single = opencl.OpenCLEvaluator(local_size=1)
-    multi = opencl.MultiDeviceEvaluator(local_size=local_size)
-    assert len(multi.devices) >= 2 or opencl_devices.select_device(None, 0).max_compute_units == 1
+    multi = opencl.MultiDeviceEvaluator(local_size=local_size, sub_devices=2)  # a CPU: 2 sub-devices
+    assert len(multi.devices) >= 2
     for ev in (single, multi):
         ev.setup(BlobBody(), RIGS[rig], masks(rig, "true"))
     X = test_poses()
+    served = {id(lane): 0 for lane in multi._lanes}
+    for lane in multi._lanes:  # count the candidates each device is given
+        lane.bind = functools.partial(counting_bind, lane.bind, lane, served)
     for n in (1, 2, 3, len(X)):
         for got, expected in zip(multi.counts(X[:n]), single.counts(X[:n])):
             np.testing.assert_array_equal(got, expected)
+    assert all(served.values()), f"a device was given no candidates: {served}"
 
 
 def test_culling_cones_skip_only_back_faces_and_pass_only_front_faces():
