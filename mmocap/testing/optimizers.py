@@ -22,22 +22,7 @@ import pytest
 from mmocap import config, registry
 from mmocap.api import Optimizer, SearchSpace
 from mmocap.errors import ConfigError
-
-
-def sphere(X: np.ndarray, centre: np.ndarray) -> np.ndarray:
-    """Squared distance (n,) of the rows of X (n, D) to ``centre`` (D,)."""
-    return np.sum((X - centre) ** 2, axis=1)
-
-
-def run(optimizer, space: SearchSpace, f, seed: int) -> tuple[list[np.ndarray], object]:
-    """Run ``optimizer`` on ``f`` until it stops; returns (asked batches, result)."""
-    optimizer.setup(space, np.random.default_rng(seed))
-    asked = []
-    while not optimizer.stop():
-        X = optimizer.ask()
-        asked.append(X.copy())
-        optimizer.tell(X, f(X))
-    return asked, optimizer.result
+from mmocap.testing.objectives import minimise, sphere
 
 
 def min_budget(optimizer, dim: int, partitions: int = 1) -> int:
@@ -45,7 +30,7 @@ def min_budget(optimizer, dim: int, partitions: int = 1) -> int:
     return int(getattr(optimizer, "min_budget", lambda d, p=1: 1)(dim, partitions))
 
 
-def box(dim: int, budget: int, partitions=None) -> SearchSpace:
+def asymmetric_box(dim: int, budget: int, partitions=None) -> SearchSpace:
     """An asymmetric box around a start point near its upper bounds, radius 0.5."""
     x0 = np.linspace(-0.3, 0.3, dim)
     return SearchSpace(x0=x0, lower=x0 - 0.5, upper=np.minimum(x0 + 0.5, 0.35),
@@ -88,8 +73,9 @@ class OptimizerConformance:
         opt = make()
         smallest = min_budget(opt, dim)
         for budget in sorted({smallest, smallest + 1, 3 * smallest + 7, 157 + smallest}):
-            space = box(dim, budget)
-            asked, result = run(opt, space, lambda X, upper=space.upper: sphere(X, upper), seed=budget)
+            space = asymmetric_box(dim, budget)
+            done = minimise(opt, lambda X, upper=space.upper: sphere(X, upper), space, seed=budget)
+            asked, result = done.asked, done.result
             X = np.concatenate(asked)
             assert len(X) == result.evaluations <= budget
             assert X.shape[1] == dim
@@ -108,11 +94,11 @@ class OptimizerConformance:
         if smallest <= 1:
             pytest.skip("any budget >= 1 is accepted")
         with pytest.raises(ConfigError):
-            opt.setup(box(10, smallest - 1), np.random.default_rng(0))
+            opt.setup(asymmetric_box(10, smallest - 1), np.random.default_rng(0))
 
     def test_ask_tell_pairing_is_enforced(self, make):
         opt = make()
-        space = box(5, 10 * min_budget(opt, 5))
+        space = asymmetric_box(5, 10 * min_budget(opt, 5))
         opt.setup(space, np.random.default_rng(0))
         X = opt.ask()
         with pytest.raises(RuntimeError):
@@ -128,10 +114,10 @@ class OptimizerConformance:
             opt.tell(X, sphere(X, space.x0))
 
     def test_same_seed_same_search_other_seed_other_search(self, make):
-        space = box(12, 20 * min_budget(make(), 12))
+        space = asymmetric_box(12, 20 * min_budget(make(), 12))
 
         def batches(seed):
-            return np.concatenate(run(make(), space, lambda X: sphere(X, 0.0), seed)[0])
+            return np.concatenate(minimise(make(), sphere, space, seed).asked)
 
         assert np.array_equal(batches(1), batches(1))
         assert not np.array_equal(batches(1), batches(2))
@@ -141,17 +127,18 @@ class OptimizerConformance:
         # uniform samples in the box is 1.3 times worse than the start; evolutionary
         # algorithms reach 0.3 to 1e-9 of it, the particle filters 0.2 to 0.45.
         dim = 10
-        space = box(dim, 1000)
+        space = asymmetric_box(dim, 1000)
         centre = space.x0 - 0.1
-        _, result = run(make(), space, lambda X: sphere(X, centre), seed=0)
+        result = minimise(make(), lambda X: sphere(X, centre), space, seed=0).result
         assert result.fbest < 0.5 * sphere(space.x0[None], centre)[0]
 
     def test_accepts_partitions(self, make):
         dim = 9
         parts = (np.arange(0, 3), np.arange(3, 4), np.arange(4, 9))
         opt = make()
-        space = box(dim, 500, partitions=parts)
-        asked, result = run(opt, space, lambda X: sphere(X, space.x0 - 0.1), seed=0)
+        space = asymmetric_box(dim, 500, partitions=parts)
+        done = minimise(opt, lambda X: sphere(X, space.x0 - 0.1), space, seed=0)
+        asked, result = done.asked, done.result
         assert sum(len(X) for X in asked) == result.evaluations <= space.budget
         assert result.fbest < sphere(space.x0[None], space.x0 - 0.1)[0]
 

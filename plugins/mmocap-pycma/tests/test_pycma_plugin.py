@@ -8,7 +8,8 @@ from mmocap_pycma.optimizer import PycmaOptimizer
 
 from mmocap.api import SearchSpace
 from mmocap.data.synthetic import generate
-from mmocap.testing.optimizers import OptimizerConformance, run
+from mmocap.testing.objectives import minimise
+from mmocap.testing.optimizers import OptimizerConformance
 
 
 class TestPycma(OptimizerConformance):
@@ -26,7 +27,7 @@ def test_solves_a_rotated_ellipsoid():
 
     space = SearchSpace(x0=np.zeros(dim), lower=-np.ones(dim), upper=np.ones(dim),
                         sigma0=np.ones(dim), budget=8000)
-    _, result = run(PycmaOptimizer(sigma0=0.3), space, ellipsoid, seed=0)
+    result = minimise(PycmaOptimizer(sigma0=0.3), ellipsoid, space, seed=0).result
     assert result.fbest < 1e-8
 
 

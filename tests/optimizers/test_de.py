@@ -8,20 +8,16 @@ from mmocap.api import Optimizer, SearchSpace
 from mmocap.errors import ConfigError
 from mmocap.optimizers.de import DifferentialEvolution, assortative_mating
 from mmocap.registry import make_optimizer
-from tests.unit import objectives
-from tests.unit.objectives import (
+from mmocap.testing.objectives import (
     SHIFT,
     TRACKING_LIKE,
     D,
     box,
     ellipsoid_1e3,
+    minimise,
     random_search,
     sphere,
 )
-
-
-def minimise(f, space, seed, opt=None, asked=None):
-    return objectives.minimise(f, space, seed, opt or DifferentialEvolution(), asked)
 
 
 def test_defaults_follow_table_3_but_cr_and_init_spread_and_the_yaml():
@@ -43,9 +39,9 @@ def test_default_setting_beats_random_search_and_f0(name):
     # (0.87 / 73 / 428).
     f = TRACKING_LIKE[name]
     space = box(D, 0.0, 1.0, 1.0, 1500)
-    de = np.mean([minimise(f, space, s).fbest for s in range(3)])
+    de = np.mean([minimise(DifferentialEvolution(), f, space, s).result.fbest for s in range(3)])
     rand = np.mean([random_search(f, space, s) for s in range(3)])
-    no_f = np.mean([minimise(f, space, s, DifferentialEvolution(f=1e-9)).fbest for s in range(3)])
+    no_f = np.mean([minimise(DifferentialEvolution(f=1e-9), f, space, s).result.fbest for s in range(3)])
     assert de < rand / 5
     assert de < no_f / 3
     assert de < 0.8 * f(np.zeros((1, D)))[0]
@@ -57,9 +53,9 @@ def test_larger_population_converges_far_from_the_start(f, random_factor, f0_fac
     # search 169, F ~ 0 56), ellipsoid 222 (random 1.2e4, F ~ 0 4.0e3).
     kw = dict(popsize=40, n_placing=20, n_leading=20, n_correcting=20)
     space = box(D, 3.0, 5.0, 5.0, 8000)
-    r = minimise(f, space, 0, DifferentialEvolution(**kw))
+    r = minimise(DifferentialEvolution(**kw), f, space, 0).result
     assert r.fbest < random_search(f, space, 0) / random_factor
-    assert r.fbest < minimise(f, space, 0, DifferentialEvolution(f=1e-9, **kw)).fbest / f0_factor
+    assert r.fbest < minimise(DifferentialEvolution(f=1e-9, **kw), f, space, 0).result.fbest / f0_factor
 
 
 def test_assortative_mating():
@@ -156,9 +152,10 @@ def test_selection_keeps_the_better_of_receiver_and_trial_in_a_truncated_generat
 
 @pytest.mark.parametrize("budget, last", [(10, 10), (11, 1), (95, 5), (100, 10), (1500, 10)])
 def test_budget_is_hit_exactly(budget, last):
-    asked = []
     opt = DifferentialEvolution()
-    r = minimise(lambda X: sphere(X - SHIFT), box(D, 0.0, 1.0, 1.0, budget), 1, opt, asked)
+    run = minimise(opt, lambda X: sphere(X, SHIFT), box(D, 0.0, 1.0, 1.0, budget), 1)
+    asked = run.asked
+    r = run.result
     assert sum(len(X) for X in asked) == r.evaluations == budget
     assert [len(X) for X in asked[:-1]] == [10] * (len(asked) - 1)
     assert len(asked[-1]) == last
@@ -175,8 +172,9 @@ def test_budget_smaller_than_the_population_is_a_config_error():
 def test_asked_points_stay_in_bounds_and_optimum_on_bound_is_found():
     space = SearchSpace(x0=np.full(5, 0.9), lower=-np.ones(5), upper=np.ones(5),
                         sigma0=np.full(5, 2.0), budget=2000)
-    asked = []
-    r = minimise(lambda X: np.sum((X - 2.0) ** 2, axis=1), space, 3, asked=asked)
+    run = minimise(DifferentialEvolution(), lambda X: np.sum((X - 2.0) ** 2, axis=1), space, 3)
+    asked = run.asked
+    r = run.result
     X = np.concatenate(asked)
     assert np.all(X >= space.lower) and np.all(X <= space.upper)
     assert r.fbest == pytest.approx(5.0, abs=1e-6)

@@ -6,12 +6,7 @@ import pytest
 from mmocap.api import Optimizer, SearchSpace
 from mmocap.errors import ConfigError
 from mmocap.optimizers.cmaes import CMAES, strategy_parameters
-from tests.unit import objectives
-from tests.unit.objectives import box, ellipsoid, rosenbrock, sphere
-
-
-def minimise(f, space, seed, opt=None, asked=None):
-    return objectives.minimise(f, space, seed, opt or CMAES(), asked)
+from mmocap.testing.objectives import box, ellipsoid, minimise, rosenbrock, sphere
 
 
 def test_strategy_parameters_follow_table_2_for_39_dof():
@@ -46,7 +41,7 @@ def test_satisfies_optimizer_protocol():
 
 
 def test_sphere_39d():
-    r = minimise(sphere, box(39, 3.0, 10.0, 1.0, 20000), seed=0)
+    r = minimise(CMAES(), sphere, box(39, 3.0, 10.0, 1.0, 20000), 0).result
     assert r.fbest < 1e-8
     assert r.evaluations <= 20000
 
@@ -54,7 +49,7 @@ def test_sphere_39d():
 def test_ellipsoid_10d_needs_covariance_adaptation():
     # Without covariance adaptation (isotropic ES with step-size control) f stays above 100
     # after 10 000 evaluations, and the best of 10 000 uniform samples in the box is ~1e5.
-    r = minimise(ellipsoid, box(10, 3.0, 10.0, 1.0, 10000), seed=0)
+    r = minimise(CMAES(), ellipsoid, box(10, 3.0, 10.0, 1.0, 10000), 0).result
     assert r.fbest < 1e-6
 
 
@@ -62,7 +57,7 @@ def test_rosenbrock_10d_reaches_the_global_optimum_in_most_runs():
     # Random search in the box gets f ~ 1e3, an isotropic ES with a fixed step size f ~ 20.
     # With the default population CMA-ES ends in the local optimum near (-1, 1, ..., 1)
     # (f ~ 3.99) in roughly one run in five (Hansen's reported rate), so 10 seeds are run.
-    results = [minimise(rosenbrock, box(10, 0.0, 5.0, 0.5, 30000), seed=s) for s in range(10)]
+    results = [minimise(CMAES(), rosenbrock, box(10, 0.0, 5.0, 0.5, 30000), s).result for s in range(10)]
     solved = [r for r in results if r.fbest < 1e-10]
     assert len(solved) >= 7
     assert all(r.fbest < 4.0 for r in results)
@@ -73,8 +68,9 @@ def test_rosenbrock_10d_reaches_the_global_optimum_in_most_runs():
 @pytest.mark.parametrize("budget, last", [(100, 2), (95, 11), (98, 14), (14, 14), (15, 1)])
 def test_budget_is_never_exceeded(budget, last):
     opt = CMAES()
-    asked = []
-    r = minimise(sphere, box(39, 3.0, 10.0, 1.0, budget), seed=1, opt=opt, asked=asked)
+    run = minimise(opt, sphere, box(39, 3.0, 10.0, 1.0, budget), 1)
+    asked = run.asked
+    r = run.result
     assert sum(len(X) for X in asked) == r.evaluations == budget
     assert [len(X) for X in asked[:-1]] == [14] * (len(asked) - 1)
     assert len(asked[-1]) == last
@@ -95,8 +91,9 @@ def test_asked_points_stay_in_bounds_and_optimum_on_bound_is_found():
     # The unconstrained optimum (2, ..., 2) lies outside the box, so many samples are clipped.
     space = SearchSpace(x0=np.full(5, 0.9), lower=-np.ones(5), upper=np.ones(5),
                         sigma0=np.full(5, 2.0), budget=3000)
-    asked = []
-    r = minimise(lambda X: np.sum((X - 2.0) ** 2, axis=1), space, seed=3, asked=asked)
+    run = minimise(CMAES(), lambda X: np.sum((X - 2.0) ** 2, axis=1), space, 3)
+    asked = run.asked
+    r = run.result
     X = np.concatenate(asked)
     assert np.all(X >= space.lower) and np.all(X <= space.upper)
     assert np.mean(X == space.upper) > 0.1
@@ -105,21 +102,21 @@ def test_asked_points_stay_in_bounds_and_optimum_on_bound_is_found():
 
 
 def test_stops_on_tolx_before_the_budget():
-    r = minimise(sphere, box(10, 3.0, 10.0, 1.0, 20000), seed=2, opt=CMAES(tolx=1e-6))
+    r = minimise(CMAES(tolx=1e-6), sphere, box(10, 3.0, 10.0, 1.0, 20000), 2).result
     assert set(r.stop_reasons) == {"tolx"}
     assert r.stop_reasons["tolx"] < 1e-6
     assert r.evaluations < 20000
 
 
 def test_stops_on_tolfun_on_a_flat_function():
-    r = minimise(lambda X: np.ones(len(X)), box(10, 0.0, 1.0, 0.5, 20000), seed=2)
+    r = minimise(CMAES(), lambda X: np.ones(len(X)), box(10, 0.0, 1.0, 0.5, 20000), 2).result
     assert r.stop_reasons == {"tolfun": 0.0}
     assert r.evaluations < 20000
 
 
 def test_same_seed_same_result_different_seed_different():
     space = box(10, 3.0, 10.0, 1.0, 500)
-    a, b, c = (minimise(sphere, space, seed) for seed in (7, 7, 8))
+    a, b, c = (minimise(CMAES(), sphere, space, seed).result for seed in (7, 7, 8))
     np.testing.assert_array_equal(a.xbest, b.xbest)
     assert a.fbest == b.fbest
     assert not np.array_equal(a.xbest, c.xbest)
@@ -128,8 +125,8 @@ def test_same_seed_same_result_different_seed_different():
 def test_setup_resets_state():
     opt = CMAES()
     space = box(10, 3.0, 10.0, 1.0, 300)
-    first = minimise(sphere, space, 4, opt=opt)
-    second = minimise(sphere, space, 4, opt=opt)
+    first = minimise(opt, sphere, space, 4).result
+    second = minimise(opt, sphere, space, 4).result
     np.testing.assert_array_equal(first.xbest, second.xbest)
     assert second.evaluations == 300
 

@@ -8,22 +8,19 @@ from mmocap.api import Optimizer, SearchSpace
 from mmocap.errors import ConfigError
 from mmocap.optimizers.pso import ParticleSwarm, inertia_schedule
 from mmocap.registry import make_optimizer
-from tests.unit import objectives
-from tests.unit.objectives import (
+from mmocap.testing.objectives import (
     SHIFT,
     TRACKING_LIKE,
     D,
     box,
     ellipsoid_1e3,
+    minimise,
     random_search,
     sphere,
 )
 
 PAPER = dict(v_max=None, init_spread=1.0)  # Table 3 with the paper's random start
 
-
-def minimise(f, space, seed, opt=None, asked=None):
-    return objectives.minimise(f, space, seed, opt or ParticleSwarm(), asked)
 
 
 def test_defaults_follow_table_3_and_the_yaml():
@@ -43,9 +40,9 @@ def test_default_setting_beats_random_search_and_no_attraction(name):
     # without attraction (phi1 = phi2 = 0) 1.4 / 186 / 751.
     f = TRACKING_LIKE[name]
     space = box(D, 0.0, 1.0, 1.0, 1500)
-    pso = np.mean([minimise(f, space, s).fbest for s in range(3)])
+    pso = np.mean([minimise(ParticleSwarm(), f, space, s).result.fbest for s in range(3)])
     rand = np.mean([random_search(f, space, s) for s in range(3)])
-    drift = np.mean([minimise(f, space, s, ParticleSwarm(phi1=0.0, phi2=0.0)).fbest
+    drift = np.mean([minimise(ParticleSwarm(phi1=0.0, phi2=0.0), f, space, s).result.fbest
                      for s in range(3)])
     assert pso < rand / 100
     assert pso < drift / 20
@@ -57,8 +54,8 @@ def test_paper_setting_converges_far_from_the_start(f, popsize, factor):
     # of +-5, seed 0: sphere 3.7 (random search 169, phi = 0: 212), ellipsoid with N = 40:
     # 668 (random 1.2e4, phi = 0: 9.5e3).
     space = box(D, 3.0, 5.0, 5.0, 10000)
-    r = minimise(f, space, 0, ParticleSwarm(popsize=popsize, **PAPER))
-    drift = minimise(f, space, 0, ParticleSwarm(popsize=popsize, phi1=0.0, phi2=0.0, **PAPER))
+    r = minimise(ParticleSwarm(popsize=popsize, **PAPER), f, space, 0).result
+    drift = minimise(ParticleSwarm(popsize=popsize, phi1=0.0, phi2=0.0, **PAPER), f, space, 0).result
     assert r.fbest < random_search(f, space, 0) / factor
     assert r.fbest < drift.fbest / factor
 
@@ -116,8 +113,8 @@ def test_velocity_update_is_eq_18():
 def test_v_max_clamps_every_velocity_component():
     opt = ParticleSwarm(v_max=0.05, init_spread=1.0)
     space = box(D, 0.0, 100.0, 2.0, 300)
-    asked = []
-    minimise(sphere, space, 0, opt, asked)
+    run = minimise(opt, sphere, space, 0)
+    asked = run.asked
     steps = np.diff(np.stack(asked[:-1]), axis=0)  # full generations: same particles
     assert np.abs(steps).max() <= 0.05 * 2.0 + 1e-12
     assert np.abs(steps).max() > 0.09
@@ -160,9 +157,10 @@ def test_truncated_generation_moves_only_its_particles():
 
 @pytest.mark.parametrize("budget, last", [(10, 10), (11, 1), (95, 5), (100, 10), (1500, 10)])
 def test_budget_is_hit_exactly(budget, last):
-    asked = []
     opt = ParticleSwarm()
-    r = minimise(lambda X: sphere(X - SHIFT), box(D, 0.0, 1.0, 1.0, budget), 1, opt, asked)
+    run = minimise(opt, lambda X: sphere(X, SHIFT), box(D, 0.0, 1.0, 1.0, budget), 1)
+    asked = run.asked
+    r = run.result
     assert sum(len(X) for X in asked) == r.evaluations == budget
     assert [len(X) for X in asked[:-1]] == [10] * (len(asked) - 1)
     assert len(asked[-1]) == last

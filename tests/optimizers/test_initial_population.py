@@ -5,7 +5,7 @@ import pytest
 from mmocap.api import SearchSpace
 from mmocap.optimizers.de import DifferentialEvolution
 from mmocap.optimizers.pso import ParticleSwarm
-from tests.unit.objectives import D
+from mmocap.testing.objectives import D
 
 
 @pytest.mark.parametrize("cls", [DifferentialEvolution, ParticleSwarm])

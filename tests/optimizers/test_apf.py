@@ -8,8 +8,8 @@ from mmocap.optimizers.apf import (
     PartitionedAnnealedParticleFilter,
     anneal,
 )
+from mmocap.testing.objectives import D, box, minimise
 
-D = 39
 #: six partitions of 39 coordinates, like the paper's root / torso / four limbs
 PARTS = tuple(np.split(np.arange(D), np.cumsum([6, 7, 6, 6, 7])))
 SCALES = 10 ** (np.arange(D) / (D - 1))  # ellipsoid, condition number 100
@@ -28,24 +28,6 @@ def ellipsoid01_head(X):
     return ellipsoid01(np.hstack([X, rest]))
 
 
-def box(dim=D, budget=1500, bound=1.0, partitions=None):
-    ones = np.ones(dim)
-    return SearchSpace(x0=0 * ones, lower=-bound * ones, upper=bound * ones, sigma0=ones,
-                       budget=budget, partitions=partitions)
-
-
-def minimise(opt, space, f, seed):
-    """Run to the end; returns (asked batches, fitness batches, result)."""
-    opt.setup(space, np.random.default_rng(seed))
-    asked, fs = [], []
-    while not opt.stop():
-        X = opt.ask()
-        asked.append(X)
-        fs.append(f(X))
-        opt.tell(X, fs[-1])
-    return asked, fs, opt.result
-
-
 def test_satisfy_the_optimizer_protocol():
     assert isinstance(AnnealedParticleFilter(), Optimizer)
     assert isinstance(PartitionedAnnealedParticleFilter(), Optimizer)
@@ -54,7 +36,7 @@ def test_satisfy_the_optimizer_protocol():
 
 def test_beta_gives_the_target_survival_rate_in_every_layer():
     opt = AnnealedParticleFilter()
-    asked, fs, _ = minimise(opt, box(), ellipsoid01, seed=0)
+    asked, fs, _ = minimise(opt, ellipsoid01, box(), seed=0)
     assert len(asked) == len(opt.betas) == len(opt.survival_rates) == 10
     for X, f, beta, delta in zip(asked, fs, opt.betas, opt.survival_rates):
         pi = (1 - f) ** beta  # Sec. 4.1: pi ∝ 1 - f, annealed by the exponent beta
@@ -81,8 +63,8 @@ def test_diffusion_is_linear_in_the_particles_spread():
     # Flat fitness: beta = 0, so resampling and noise are the same draws in both runs and
     # everything scales with the first layer's spread.
     space = box(dim=5, budget=300, bound=1e3)
-    runs = [minimise(AnnealedParticleFilter(init_spread=s), space,
-                     lambda X: np.full(len(X), 0.5), seed=3) for s in (0.01, 0.1)]
+    flat = lambda X: np.full(len(X), 0.5)  # noqa: E731
+    runs = [minimise(AnnealedParticleFilter(init_spread=s), flat, space, seed=3) for s in (0.01, 0.1)]
     small, large = (np.concatenate(asked) for asked, _, _ in runs)
     np.testing.assert_allclose(large, 10 * small, rtol=1e-9, atol=1e-12)
 
@@ -90,8 +72,7 @@ def test_diffusion_is_linear_in_the_particles_spread():
 def test_diffusion_covariance_follows_eq_6_and_shrinks_by_alpha_per_layer():
     # Flat fitness: the particle variance grows only by the noise, (1 + c alpha^(l-2)) per layer.
     opt = AnnealedParticleFilter(diffusion=2.0)
-    asked, _, _ = minimise(opt, box(dim=3, budget=40000, bound=1e3),
-                           lambda X: np.full(len(X), 0.5), seed=1)
+    asked, _, _ = minimise(opt, lambda X: np.full(len(X), 0.5), box(dim=3, budget=40000, bound=1e3), seed=1)
     var = np.array([np.mean(np.var(X, axis=0)) for X in asked])
     expected = 1 + 2.0 * 0.5 ** np.arange(9)
     np.testing.assert_allclose(var[1:] / var[:-1], expected, rtol=0.1)
@@ -110,8 +91,7 @@ def test_diffusion_keeps_the_particles_correlation():
             return np.full(len(X), 0.5)
         return np.minimum(1.0, 30 * (X[:, 0] - X[:, 1]) ** 2)
 
-    asked, _, _ = minimise(AnnealedParticleFilter(layers=2, init_spread=0.3),
-                           box(dim=2, budget=8000), f, seed=0)
+    asked, _, _ = minimise(AnnealedParticleFilter(layers=2, init_spread=0.3), f, box(dim=2, budget=8000), seed=0)
     assert abs(np.corrcoef(asked[0].T)[0, 1]) < 0.05
     assert np.corrcoef(asked[1].T)[0, 1] > 0.8
 
@@ -121,7 +101,7 @@ def test_beats_random_search_on_a_39d_ellipsoid():
     rng = np.random.default_rng(0)
     random_best = ellipsoid01(rng.uniform(-1, 1, (1500, D))).min()
     for seed in range(3):
-        _, _, r = minimise(AnnealedParticleFilter(), box(), ellipsoid01, seed)
+        _, _, r = minimise(AnnealedParticleFilter(), ellipsoid01, box(), seed)
         assert r.fbest < random_best / 5
         assert r.fbest < 0.75 * ellipsoid01(np.zeros((1, D)))[0]
 
@@ -129,8 +109,7 @@ def test_beats_random_search_on_a_39d_ellipsoid():
 def test_psapf_diffuses_only_the_current_partition():
     parts = (np.arange(0, 3), np.arange(3, 4), np.arange(4, 12))
     opt = PartitionedAnnealedParticleFilter(layers=4)
-    asked, _, _ = minimise(opt, box(dim=12, budget=250, partitions=parts),
-                           ellipsoid01_head, seed=0)
+    asked, _, _ = minimise(opt, ellipsoid01_head, box(dim=12, budget=250, partitions=parts), seed=0)
     assert [k for k, _, _ in opt.schedule] == [0] * 4 + [1] * 4 + [2] * 4
     for r, X in enumerate(asked):
         k = opt.schedule[r][0]
@@ -145,7 +124,7 @@ def test_psapf_diffuses_only_the_current_partition():
 
 def test_psapf_beats_apf_on_a_separable_problem_with_partitions():
     space = box(partitions=PARTS)
-    apf, psapf = ([minimise(cls(init_spread=0.2), space, ellipsoid01, seed)[2].fbest
+    apf, psapf = ([minimise(cls(init_spread=0.2), ellipsoid01, space, seed)[2].fbest
                    for seed in range(3)]
                   for cls in (AnnealedParticleFilter, PartitionedAnnealedParticleFilter))
     assert np.median(psapf) < 0.6 * np.median(apf)
@@ -158,7 +137,7 @@ def test_psapf_beats_apf_on_a_separable_problem_with_partitions():
 @pytest.mark.parametrize("budget, sizes", [(20, [2] * 10), (257, [26] * 7 + [25] * 3),
                                            (1500, [150] * 10)])
 def test_apf_budget_is_exact(budget, sizes):
-    asked, _, r = minimise(AnnealedParticleFilter(), box(budget=budget), ellipsoid01, seed=1)
+    asked, _, r = minimise(AnnealedParticleFilter(), ellipsoid01, box(budget=budget), seed=1)
     assert [len(X) for X in asked] == sizes
     assert r.evaluations == budget and r.stop_reasons == {"budget": budget}
     assert r.fbest == min(f.min() for f in map(ellipsoid01, asked))
@@ -168,7 +147,7 @@ def test_psapf_budget_split_over_partitions_and_layers():
     # min 2 L = 20 each, then the spare 37 by dimension (3, 1, 5): 12, 4, 20, remainder 1
     parts = (np.arange(0, 3), np.arange(3, 4), np.arange(4, 9))
     opt = PartitionedAnnealedParticleFilter()
-    asked, _, r = minimise(opt, box(dim=9, budget=97, partitions=parts), ellipsoid01_head, seed=0)
+    asked, _, r = minimise(opt, ellipsoid01_head, box(dim=9, budget=97, partitions=parts), seed=0)
     per_part = [sum(n for k, _, n in opt.schedule if k == p) for p in range(3)]
     assert per_part == [33, 24, 40]
     assert [len(X) for X in asked] == [n for _, _, n in opt.schedule]
@@ -180,7 +159,7 @@ def test_points_stay_in_an_asymmetric_box():
     space = SearchSpace(x0=np.full(D, 0.9), lower=-np.ones(D), upper=np.ones(D),
                         sigma0=np.full(D, 2.0), budget=600, partitions=PARTS)
     for cls in (AnnealedParticleFilter, PartitionedAnnealedParticleFilter):
-        asked, _, r = minimise(cls(init_spread=0.5), space, ellipsoid01, seed=2)
+        asked, _, r = minimise(cls(init_spread=0.5), ellipsoid01, space, seed=2)
         X = np.concatenate(asked)
         assert np.all((X >= -1) & (X <= 1)) and np.any(X == 1)
         assert len(X) == r.evaluations == 600
@@ -189,7 +168,7 @@ def test_points_stay_in_an_asymmetric_box():
 @pytest.mark.parametrize("cls", [AnnealedParticleFilter, PartitionedAnnealedParticleFilter])
 def test_same_seed_same_search_other_seed_other_search(cls):
     space = box(budget=300, partitions=PARTS)
-    a, b, c = (np.concatenate(minimise(cls(), space, ellipsoid01, s)[0]) for s in (4, 4, 5))
+    a, b, c = (np.concatenate(minimise(cls(), ellipsoid01, space, s)[0]) for s in (4, 4, 5))
     np.testing.assert_array_equal(a, b)
     assert not np.array_equal(a, c)
 
