@@ -11,3 +11,8 @@ class ConfigError(MmocapError):
 
 class DataError(MmocapError):
     """A data file (calibration, image, sequence metadata) is missing or malformed."""
+
+
+class MmocapWarning(UserWarning):
+    """Input that is usable but questionable: the command line prints it as one line, and
+    a tracking run records it in ``summary.json`` under ``warnings``."""

@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import logging
 import time
+import warnings
+from contextlib import contextmanager
 from pathlib import Path
 
 import cv2
@@ -22,7 +24,7 @@ from tqdm.auto import tqdm
 from mmocap import provenance
 from mmocap.analysis.figures import overlay, plot_error_per_frame
 from mmocap.analysis.results import ResultsStore, make_record, run_key, store_folder
-from mmocap.errors import ConfigError, DataError
+from mmocap.errors import ConfigError, DataError, MmocapWarning
 from mmocap.evaluators.timed import TimedEvaluator
 from mmocap.io import exclusive, write_json_atomic
 from mmocap.stages.evaluation import FrameLog, marker_error
@@ -32,10 +34,34 @@ from mmocap.stages.tracking import check_budget, track
 log = logging.getLogger(__name__)
 
 
+@contextmanager
+def recorded_warnings():
+    """Yields the list that collects the messages of every :class:`MmocapWarning` shown in
+    the block; each is still shown as usual."""
+    messages: list[str] = []
+    shown = warnings.showwarning
+
+    def show(message, category, *args, **kwargs):
+        if issubclass(category, MmocapWarning):
+            messages.append(str(message))
+        shown(message, category, *args, **kwargs)
+
+    warnings.showwarning = show
+    try:
+        yield messages
+    finally:
+        warnings.showwarning = shown
+
+
 def run(cfg: DictConfig, output_dir: Path) -> dict:
     """Run the configured tracking job; returns the summary written to summary.json (or,
-    for a run already in the results store, the summary of its record)."""
-    output_dir = Path(output_dir)
+    for a run already in the results store, the summary of its record). The summary's
+    ``warnings`` lists every :class:`MmocapWarning` the run gave."""
+    with recorded_warnings() as messages:
+        return _run(cfg, Path(output_dir), messages)
+
+
+def _run(cfg: DictConfig, output_dir: Path, warning_messages: list[str]) -> dict:
     output_dir.mkdir(parents=True, exist_ok=True)
     if cfg.overlays < 0:
         raise ConfigError(f"overlays must be >= 0, got {cfg.overlays}")
@@ -54,6 +80,7 @@ def run(cfg: DictConfig, output_dir: Path) -> dict:
     strategy = instantiate(cfg.strategy)
     evaluator = TimedEvaluator(instantiate(cfg.evaluator))
     body = instantiate(cfg.body)
+    coverage = instantiate(cfg.coverage)
     strategy.check(body, optimizer, int(cfg.tracking.evaluations))
     dataset = instantiate(cfg.dataset)
     with exclusive(getattr(dataset, "path", None)):  # parallel jobs render a sequence once
@@ -82,7 +109,7 @@ def run(cfg: DictConfig, output_dir: Path) -> dict:
     try:
         results = track(sequence, body, foreground, evaluator, optimizer, strategy,
                         evaluations=int(cfg.tracking.evaluations), seed=int(cfg.seed),
-                        frames=cfg.tracking.frames, on_frame=on_frame)
+                        frames=cfg.tracking.frames, on_frame=on_frame, coverage=coverage)
     finally:
         bar.close()
         frame_log.close()
@@ -112,6 +139,7 @@ def run(cfg: DictConfig, output_dir: Path) -> dict:
         "provenance": {**provenance.facts(), "components": provenance.components(
             {"optimizer": str(cfg.optimizer.name), "evaluator": str(cfg.evaluator.name)})},
         "config": OmegaConf.to_container(cfg, resolve=True),
+        "warnings": warning_messages,
     }
     write_json_atomic(output_dir / "summary.json", summary)
     plot_error_per_frame(errors, output_dir / "error_per_frame.png",

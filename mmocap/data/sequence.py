@@ -168,3 +168,17 @@ def write_markers(path: Path, markers: np.ndarray, names) -> None:
         "x_mm": markers[..., 0].ravel(), "y_mm": markers[..., 1].ravel(), "z_mm": markers[..., 2].ravel(),
     })
     table.to_csv(path, index=False, float_format="%.3f")
+
+
+class SequenceFolder:
+    """Hydra component (``dataset=folder``): an existing sequence folder, read as it is and
+    never rendered or changed. ``subject`` names the body preset the tracker uses; it must
+    be the sequence's own (``sequence.json``)."""
+
+    def __init__(self, root: str, subject: str = "S1", cameras: list[str] | None = None):
+        self.path = Path(root)
+        self.subject = subject
+        self.cameras = None if cameras is None else list(cameras)
+
+    def open(self, progress: bool = True) -> Sequence:
+        return Sequence.open(self.path, self.cameras)

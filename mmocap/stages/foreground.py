@@ -25,6 +25,7 @@ import functools
 import hashlib
 import json
 import logging
+import warnings
 import zipfile
 from collections.abc import Callable
 from pathlib import Path
@@ -32,7 +33,9 @@ from pathlib import Path
 import numpy as np
 
 from mmocap.bitmask import ForegroundMask, unpack_rows
+from mmocap.errors import ConfigError, DataError, MmocapWarning
 from mmocap.io import atomic_writer
+from mmocap.validate import check_number
 
 log = logging.getLogger(__name__)
 CACHE_FORMAT = 1   # bump when the masks of a given configuration change meaning
@@ -160,3 +163,71 @@ class Foreground:
         if use_cache:
             self.cache.save(frame, masks)
         return masks
+
+
+class ForegroundCoverage:
+    """Finds cameras that cannot see the person: their foreground is empty, or covers
+    nearly the whole image, frame after frame (``coverage`` in ``conf/config.yaml``).
+
+    Coverage is the fraction of a mask's pixels that are foreground. A camera whose coverage
+    stays below ``min_fraction`` (black, covered or unplugged; the person out of view) or
+    above ``max_fraction`` (camera moved, light changed, wrong background frames) for
+    ``frames`` frames in a row (or for every frame of a shorter run) is faulty. Then
+    ``action`` decides: ``stop`` the run with an error naming the camera, or ``drop`` the
+    camera from the following frames with a :class:`~mmocap.errors.MmocapWarning`.
+
+    Args:
+        action: ``stop`` or ``drop``.
+        min_fraction, max_fraction: the usable coverage, fractions of the image in [0, 1].
+        frames: consecutive faulty frames that make a camera faulty (>= 1).
+    """
+
+    ACTIONS = ("stop", "drop")
+
+    def __init__(self, action: str = "stop", min_fraction: float = 0.001, max_fraction: float = 0.5,
+                 frames: int = 5):
+        if action not in self.ACTIONS:
+            raise ConfigError(f"coverage.action must be one of {', '.join(self.ACTIONS)}, got {action!r}")
+        self.action = action
+        self.min_fraction = check_number("coverage.min_fraction", min_fraction, 0.0, 1.0)
+        self.max_fraction = check_number("coverage.max_fraction", max_fraction, self.min_fraction, 1.0,
+                                         low_open=True)
+        self.frames = check_number("coverage.frames", frames, 1, integer=True)
+        self._streak: dict[str, int] = {}
+        self.dropped: list[str] = []
+
+    def select(self, frame: int, cameras: list, masks: list[ForegroundMask], last_frame: int
+               ) -> tuple[list, list[ForegroundMask]]:
+        """The cameras (and their masks) to track ``frame`` with: those not dropped.
+
+        ``last_frame`` is the run's last frame: a camera faulty on every frame of a run
+        shorter than ``frames`` is faulty too. Raises DataError for a faulty camera under
+        ``stop``, or when no camera is left."""
+        kept_cameras, kept_masks = [], []
+        for cam, mask in zip(cameras, masks):
+            if cam.name in self.dropped:
+                continue
+            fraction = float(np.count_nonzero(mask)) / mask.size
+            low, high = fraction < self.min_fraction, fraction > self.max_fraction
+            self._streak[cam.name] = self._streak.get(cam.name, 0) + 1 if low or high else 0
+            streak = self._streak[cam.name]
+            if streak >= self.frames or (frame == last_frame and streak == frame + 1):
+                what = (f"below coverage.min_fraction={self.min_fraction:g}: the camera sees no person "
+                        "(black, covered or out-of-view images?)" if low else
+                        f"above coverage.max_fraction={self.max_fraction:g}: its background model does "
+                        "not fit the scene (camera moved, light changed, wrong background frames?)")
+                message = (f"camera {cam.name}: foreground covers {fraction:.2%} of the image, {what}, "
+                           f"in frames {frame - streak + 1}-{frame}")
+                if self.action == "stop":
+                    raise DataError(f"{message}; check that camera's images, or set coverage.action=drop "
+                                    "to track without it")
+                warnings.warn(f"{message}; dropped from the tracking from frame {frame} on "
+                              "(coverage.action=drop)", MmocapWarning, stacklevel=2)
+                self.dropped.append(cam.name)
+                continue
+            kept_cameras.append(cam)
+            kept_masks.append(mask)
+        if not kept_cameras:
+            raise DataError(f"frame {frame}: no camera left to track with (dropped: "
+                            f"{', '.join(self.dropped)}); check the cameras' images and background frames")
+        return kept_cameras, kept_masks

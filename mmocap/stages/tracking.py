@@ -202,10 +202,12 @@ def check_budget(evaluations) -> None:
 
 
 def track(sequence, body, foreground, evaluator, optimizer, strategy, evaluations: int,
-          seed: int, frames: int | None = None, on_frame=None) -> list[FrameResult]:
+          seed: int, frames: int | None = None, on_frame=None, coverage=None) -> list[FrameResult]:
     """Track ``frames`` frames (default: all) of ``sequence``.
 
     ``on_frame(result)`` is called after every frame (progress, incremental writing).
+    ``coverage`` (a :class:`mmocap.stages.foreground.ForegroundCoverage`) stops the run
+    at, or drops, a camera whose foreground is empty or nearly the whole image.
     """
     check_budget(evaluations)
     n = sequence.n_frames if frames is None else int(frames)
@@ -217,7 +219,11 @@ def track(sequence, body, foreground, evaluator, optimizer, strategy, evaluation
     results = []
     for frame in range(n):
         start = time.perf_counter()
-        evaluator.setup(body, cameras, foreground.masks(frame))
+        masks = foreground.masks(frame)
+        if coverage is None:
+            evaluator.setup(body, cameras, masks)
+        else:
+            evaluator.setup(body, *coverage.select(frame, cameras, masks, last_frame=n - 1))
         x, f, used = strategy.estimate(body, x_prev, evaluator, optimizer, evaluations, rng)
         result = FrameResult(frame, x, f, used, time.perf_counter() - start)
         results.append(result)

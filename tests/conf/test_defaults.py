@@ -44,6 +44,10 @@ def option_values():
             node = OmegaConf.to_container(config.load(f"{group}/{option}.yaml"), resolve=False)
             if "_target_" in node:
                 yield group, option, node
+    main = OmegaConf.to_container(config.load("config.yaml"), resolve=False)
+    for key, node in main.items():  # components configured in the main config itself
+        if isinstance(node, dict) and "_target_" in node:
+            yield "config", key, node
 
 
 @pytest.mark.parametrize("group, option, node", list(option_values()),
@@ -55,8 +59,8 @@ def test_yaml_values_are_the_codes_defaults(group, option, node):
         if key.startswith("_") or (key == "name" and node["_target_"].startswith("mmocap.registry")):
             continue
         assert key in parameters, f"{group}/{option}.yaml: {key} is not a parameter of {node['_target_']}"
-        if isinstance(value, str) and value.startswith("${") or key in presets:
-            continue  # wiring to another config value, or a documented preset
+        if isinstance(value, str) and (value.startswith("${") or value == "???") or key in presets:
+            continue  # wiring to another config value, a value the user must give, or a documented preset
         default = parameters[key].default
         assert default is not inspect.Parameter.empty, f"{group}/{option}.yaml: {key} has no default in code"
         default = plain(default)

@@ -14,8 +14,9 @@ from mmocap import config as mmocap_config
 from mmocap.bitmask import ForegroundMask, pack_rows, unpack_rows
 from mmocap.data.sequence import Sequence
 from mmocap.data.synthetic import generate
+from mmocap.errors import ConfigError, DataError, MmocapWarning
 from mmocap.stages.background import HorprasertBackground
-from mmocap.stages.foreground import Foreground
+from mmocap.stages.foreground import Foreground, ForegroundCoverage
 
 
 class CountingHorprasert(HorprasertBackground):
@@ -89,7 +90,6 @@ def test_opencl_uploads_the_packed_rows_as_they_are():
 
 def test_opencl_counts_the_same_from_foreground_masks():
     pytest.importorskip("pyopencl")
-    from mmocap.errors import ConfigError
     from mmocap.evaluators import opencl
     from mmocap.testing.evaluators import RIGS, BlobBody, masks, test_poses
 
@@ -289,3 +289,54 @@ def test_quality_command_writes_the_tables(tiny_sequence, tmp_path, capsys):
         assert run_cli("foreground-quality", *overrides, "--csv", csv, "--md", md, *args) == 2
         err = capsys.readouterr().err
         assert err.startswith("mmocap: error:") and "background.detection_rate" in err
+
+
+class _Cam:
+    def __init__(self, name):
+        self.name = name
+
+
+def _mask(fraction: float, shape=(100, 100)) -> np.ndarray:
+    """A (H, W) bool mask with ``fraction`` of its pixels set."""
+    mask = np.zeros(shape, bool)
+    mask.flat[: round(fraction * mask.size)] = True
+    return mask
+
+
+def test_coverage_flags_a_camera_only_after_frames_in_a_row():
+    check = ForegroundCoverage(action="stop", frames=3)
+    cams = [_Cam("A"), _Cam("B")]
+    person, empty = _mask(0.05), _mask(0.0)
+    for frame, b in enumerate([empty, empty, person, empty, empty]):  # streaks of 2 only
+        kept, masks = check.select(frame, cams, [person, b], last_frame=9)
+        assert [c.name for c in kept] == ["A", "B"] and len(masks) == 2
+    with pytest.raises(DataError, match=r"camera B: foreground covers 0.00% .* frames 3-5"):
+        check.select(5, cams, [person, empty], last_frame=9)
+
+
+def test_coverage_drop_keeps_tracking_with_the_other_cameras_until_none_is_left():
+    check = ForegroundCoverage(action="drop", frames=1)
+    cams = [_Cam("A"), _Cam("B")]
+    with pytest.warns(MmocapWarning, match="camera B: foreground covers 90.00%.*dropped"):
+        kept, masks = check.select(0, cams, [_mask(0.05), _mask(0.9)], last_frame=5)
+    assert [c.name for c in kept] == ["A"] and masks[0].mean() == pytest.approx(0.05)
+    kept, _ = check.select(1, cams, [_mask(0.05), _mask(0.05)], last_frame=5)
+    assert [c.name for c in kept] == ["A"]  # a dropped camera stays dropped
+    with pytest.warns(MmocapWarning), pytest.raises(DataError, match="no camera left"):
+        check.select(2, cams, [_mask(0.0), _mask(0.05)], last_frame=5)
+
+
+def test_coverage_flags_a_camera_faulty_over_the_whole_of_a_short_run():
+    check = ForegroundCoverage(frames=5)
+    check.select(0, [_Cam("A")], [_mask(0.0)], last_frame=1)
+    with pytest.raises(DataError, match="frames 0-1"):
+        check.select(1, [_Cam("A")], [_mask(0.0)], last_frame=1)
+
+
+@pytest.mark.parametrize("kwargs, key", [({"action": "warn"}, "coverage.action"),
+                                         ({"min_fraction": -0.1}, "coverage.min_fraction"),
+                                         ({"min_fraction": 0.6, "max_fraction": 0.5}, "coverage.max_fraction"),
+                                         ({"frames": 0}, "coverage.frames")])
+def test_coverage_settings_are_checked(kwargs, key):
+    with pytest.raises(ConfigError, match=key):
+        ForegroundCoverage(**kwargs)
