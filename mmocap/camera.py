@@ -3,6 +3,13 @@
 Conventions: world points in millimetres; ``X_cam = R @ X_world + t`` (t in mm); pixel
 coordinates follow OpenCV, the centre of pixel (col, row) being at (col, row).
 Distortion coefficients are ``(k1, k2, p1, p2, k3)`` as in ``cv2.projectPoints``.
+``K[0, 1]`` is the skew (Bouguet's ``alpha_c * fc[0]``): the distorted pixel of normalised
+lens coordinates ``(xd, yd)`` is ``K @ (xd, yd, 1)``. OpenCV's distortion functions read only
+``fx, fy, cx, cy`` of a camera matrix and drop the skew; :meth:`Camera.project` and
+:meth:`Camera.undistort_maps` keep it.
+
+Every calibration reader builds its cameras with :func:`checked_camera`, the one validation
+of a camera's values whatever file they come from.
 """
 from __future__ import annotations
 
@@ -14,6 +21,22 @@ import cv2
 import numpy as np
 
 from mmocap.errors import DataError
+from mmocap.validate import is_integer
+
+#: Largest image side, in pixels, that a calibration may give: a bigger size is taken for a
+#: mistake (60000x40000 would allocate gigabytes of maps and masks) and refused.
+MAX_IMAGE_SIDE_PX = 16384
+#: How far outside the image the principal point may lie, as a fraction of its width
+#: (height): beyond that the calibration belongs to another image size or is wrong.
+PRINCIPAL_POINT_MARGIN = 0.5
+#: Largest deviation of ``R @ R.T`` from the identity and of ``det(R)`` from 1.
+ROTATION_TOLERANCE = 1e-3
+#: The keys a calibration JSON must hold (``name`` and ``colour`` are optional).
+JSON_KEYS = ("K", "dist", "R", "t_mm", "width", "height")
+#: Shapes of the array keys.
+SHAPES = {"K": (3, 3), "dist": (5,), "R": (3, 3), "t_mm": (3,)}
+#: :func:`checked_camera`'s keys under the names of a HumanEva-I ``.cal`` file.
+CAL_KEYS = {"K": "fc, cc, alpha_c", "dist": "kc", "t_mm": "T"}
 
 
 @dataclass(frozen=True)
@@ -94,12 +117,19 @@ class Camera:
         """Maps for ``cv2.remap`` from a distorted image to the ideal pin-hole image.
 
         Computed once per camera with ``cv2.initUndistortRectifyMap`` (new camera matrix
-        = K, so the ideal image keeps the same intrinsics) and cached.
+        = K, so the ideal image keeps the same intrinsics) and cached. OpenCV distorts
+        without the skew; the map's columns are then sheared by it, so that each ideal
+        pixel maps to where :meth:`project` puts its ray.
         """
         if "undistort" not in self._maps:
-            self._maps["undistort"] = cv2.initUndistortRectifyMap(
-                self.K, self.dist, None, self.K, (self.width, self.height), cv2.CV_32FC1
-            )
+            unskewed = self.K.copy()
+            unskewed[0, 1] = 0.0
+            map_x, map_y = cv2.initUndistortRectifyMap(unskewed, self.dist, None, self.K,
+                                                       (self.width, self.height), cv2.CV_32FC1)
+            if self.K[0, 1]:
+                # (map_x, map_y) = (fx xd + cx, fy yd + cy); the skewed column adds skew * yd
+                map_x = (map_x + (self.K[0, 1] / self.K[1, 1]) * (map_y - self.K[1, 2])).astype(np.float32)
+            self._maps["undistort"] = (map_x, map_y)
         return self._maps["undistort"]
 
     def undistort_mask(self, mask: np.ndarray) -> np.ndarray:
@@ -153,59 +183,114 @@ class Camera:
         centre of the top-left pixel being (0, 0) as in OpenCV), alpha_c (1, skew as a
         fraction of fc[0]), kc (5, ``k1 k2 p1 p2 k3``), R (9, row-major) and T (3, mm), with
         ``X_cam = R X + T``.  The file holds no image size: ``width`` and ``height`` come
-        from the images.  ``name`` defaults to the file's stem.
+        from the images.  ``name`` defaults to the file's stem.  The values are checked by
+        :func:`checked_camera`; errors name the file, the camera and the ``.cal`` field.
         """
         path = Path(path)
+        name = name or path.stem
         if not path.is_file():
-            raise DataError(f"calibration file not found: {path}")
+            raise DataError(f"camera {name}: calibration file not found: {path}")
         tokens = path.read_text(errors="replace").split()
         try:
             v = np.array([float(t) for t in tokens])
         except ValueError as exc:
-            raise DataError(f"calibration file {path}: non-numeric value ({exc})") from None
+            raise DataError(f"camera {name}: calibration file {path}: non-numeric value ({exc})") from None
         if v.size != 22:
-            raise DataError(f"calibration file {path} holds {v.size} numbers, a .cal file has 22 "
+            raise DataError(f"camera {name}: calibration file {path} holds {v.size} numbers, a .cal file has 22 "
                             "(fc 2, cc 2, alpha_c 1, kc 5, R 9, T 3)")
-        if not np.all(np.isfinite(v)):
-            raise DataError(f"calibration file {path}: values must be finite")
         fc, cc, alpha, kc, R, T = v[0:2], v[2:4], v[4], v[5:10], v[10:19].reshape(3, 3), v[19:22]
-        if np.any(fc <= 0):
-            raise DataError(f"calibration file {path}: focal lengths {fc.tolist()} must be > 0")
-        if abs(np.linalg.det(R) - 1) > 1e-3 or not np.allclose(R @ R.T, np.eye(3), atol=1e-3):
-            raise DataError(f"calibration file {path}: R is not a rotation matrix")
         K = np.array([[fc[0], alpha * fc[0], cc[0]], [0.0, fc[1], cc[1]], [0.0, 0.0, 1.0]])
-        return Camera(name or path.stem, K, kc, R, T, int(width), int(height), colour)
+        return checked_camera(f"calibration file {path}", name, K, kc, R, T, width, height, colour, keys=CAL_KEYS)
 
     @staticmethod
     def load(path: Path) -> Camera:
-        """Read a calibration JSON written by :meth:`save`; errors name the file and field."""
+        """Read a calibration JSON written by :meth:`save` (the keys of :meth:`to_dict`;
+        ``name`` defaults to the file's stem and ``colour`` to true). The values are
+        checked by :func:`checked_camera`; errors name the file, the camera and the key."""
         path = Path(path)
         if not path.is_file():
-            raise DataError(f"calibration file not found: {path}")
+            raise DataError(f"camera {path.stem}: calibration file not found: {path}")
+        where = f"camera {path.stem}: calibration file {path}"
         try:
             d = json.loads(path.read_text())
         except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-            raise DataError(f"calibration file {path} is not valid JSON: {exc}") from None
-        shapes = {"K": (3, 3), "dist": (5,), "R": (3, 3), "t_mm": (3,)}
-        arrays = {}
-        for key, shape in shapes.items():
-            try:
-                a = np.asarray(d[key], dtype=np.float64)
-            except KeyError:
-                raise DataError(f"calibration file {path} lacks the field '{key}'") from None
-            except (TypeError, ValueError):
-                raise DataError(f"calibration file {path}: field '{key}' is not numeric") from None
-            if a.shape != shape or not np.all(np.isfinite(a)):
-                raise DataError(f"calibration file {path}: field '{key}' must be {shape} "
-                                f"finite numbers, got shape {a.shape}")
-            arrays[key] = a
+            raise DataError(f"{where} is not valid JSON: {exc}") from None
+        if not isinstance(d, dict):
+            raise DataError(f"{where} must hold a JSON object with the keys {', '.join(JSON_KEYS)}, "
+                            f"got {type(d).__name__}")
+        missing = [key for key in JSON_KEYS if key not in d]
+        if missing:
+            raise DataError(f"{where} lacks the field '{missing[0]}' (it needs {', '.join(JSON_KEYS)})")
+        name = d.get("name", path.stem)
+        if not isinstance(name, str) or not name:
+            raise DataError(f"{where}: field 'name' must be a non-empty string, got {name!r}")
+        return checked_camera(f"calibration file {path}", name, d["K"], d["dist"], d["R"], d["t_mm"],
+                              d["width"], d["height"], d.get("colour", True))
+
+
+def checked_camera(source: str, name: str, K, dist, R, t, width, height, colour=True,
+                   keys: dict[str, str] | None = None) -> Camera:
+    """A :class:`Camera` from the values a calibration reader parsed, after checking every
+    one: the validation that every reader (JSON, HumanEva-I ``.cal``, any future one) uses.
+
+    Args:
+        source: where the values come from, for messages (``"calibration file <path>"``).
+        name: the camera's name.
+        K: (3, 3) intrinsics in pixels: ``fx, fy > 0``, any finite skew ``K[0, 1]``,
+            ``K[1, 0] = K[2, 0] = K[2, 1] = 0`` and ``K[2, 2] = 1``, the principal point
+            at most :data:`PRINCIPAL_POINT_MARGIN` of the image size outside the image.
+        dist: (5,) finite ``k1, k2, p1, p2, k3``.
+        R: (3, 3) world-to-camera rotation: orthonormal with determinant +1, within
+            :data:`ROTATION_TOLERANCE`.
+        t: (3,) finite translation in mm.
+        width, height: integers in 1..:data:`MAX_IMAGE_SIDE_PX` pixels, checked first, so
+            that an absurd size is refused before anything allocates.
+        colour: a bool.
+        keys: the reader's names for the keys ``K``, ``dist``, ``R``, ``t_mm``, ``width``,
+            ``height`` and ``colour`` where they differ (e.g. HumanEva's ``kc`` for ``dist``).
+
+    Raises:
+        DataError: one line naming ``source``, the camera and the key.
+    """
+    label = {key: key for key in ("K", "dist", "R", "t_mm", "width", "height", "colour")} | (keys or {})
+
+    def fail(key: str, problem: str) -> DataError:
+        return DataError(f"camera {name}: {source}: '{label[key]}' {problem}")
+
+    for key, value in (("width", width), ("height", height)):
+        if not is_integer(value) or not 1 <= value <= MAX_IMAGE_SIDE_PX:
+            raise fail(key, f"must be an integer number of pixels in [1, {MAX_IMAGE_SIDE_PX}] "
+                            f"(the largest image side mmocap accepts), got {value!r}")
+    if not isinstance(colour, (bool, np.bool_)):
+        raise fail("colour", f"must be true or false, got {colour!r}")
+    arrays = {}
+    for key, value in (("K", K), ("dist", dist), ("R", R), ("t_mm", t)):
         try:
-            width, height = int(d["width"]), int(d["height"])
-        except (KeyError, TypeError, ValueError):
-            raise DataError(f"calibration file {path} needs integer 'width' and 'height'") from None
-        if width <= 0 or height <= 0:
-            raise DataError(f"calibration file {path}: image size {width}x{height} is not positive")
-        if abs(np.linalg.det(arrays["R"]) - 1) > 1e-3:
-            raise DataError(f"calibration file {path}: 'R' is not a rotation matrix")
-        return Camera(str(d.get("name", path.stem)), arrays["K"], arrays["dist"], arrays["R"],
-                      arrays["t_mm"], width, height, bool(d.get("colour", True)))
+            array = np.asarray(value, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise fail(key, f"must be {_shape_words(SHAPES[key])} numbers, got {value!r:.80}") from None
+        if array.shape != SHAPES[key]:
+            raise fail(key, f"must be {_shape_words(SHAPES[key])} numbers, got shape {array.shape}")
+        if not np.all(np.isfinite(array)):
+            raise fail(key, f"must hold finite numbers, got {array.tolist()}")
+        arrays[key] = array
+    K = arrays["K"]
+    if K[1, 0] != 0 or K[2, 0] != 0 or K[2, 1] != 0 or K[2, 2] != 1:
+        raise fail("K", f"must be [[fx, skew, cx], [0, fy, cy], [0, 0, 1]], got {K.tolist()}")
+    if K[0, 0] <= 0 or K[1, 1] <= 0:
+        raise fail("K", f"focal lengths fx = {K[0, 0]:g}, fy = {K[1, 1]:g} pixels must be > 0")
+    for axis, centre, size in (("cx", K[0, 2], width), ("cy", K[1, 2], height)):
+        low, high = -PRINCIPAL_POINT_MARGIN * size, (1 + PRINCIPAL_POINT_MARGIN) * size
+        if not low <= centre <= high:
+            raise fail("K", f"principal point {axis} = {centre:g} lies far outside the {width}x{height} "
+                            f"image (allowed: [{low:g}, {high:g}]): a calibration of another image size?")
+    R = arrays["R"]
+    if (not np.allclose(R @ R.T, np.eye(3), rtol=0, atol=ROTATION_TOLERANCE)
+            or abs(np.linalg.det(R) - 1) > ROTATION_TOLERANCE):
+        raise fail("R", f"is not a rotation matrix (R R^T = I and det R = +1 within {ROTATION_TOLERANCE:g}; "
+                        f"det R = {np.linalg.det(R):.6g})")
+    return Camera(name, K, arrays["dist"], R, arrays["t_mm"], int(width), int(height), bool(colour))
+
+
+def _shape_words(shape: tuple[int, ...]) -> str:
+    return " x ".join(map(str, shape)) if len(shape) > 1 else str(shape[0])

@@ -62,9 +62,11 @@ def track_app(cfg: DictConfig) -> None:
 
     output_dir = Path(HydraConfig.get().runtime.output_dir)
     summary = guarded(lambda: run(cfg, output_dir))
+    mean = summary["mean_marker_error_mm"]  # over the frames with ground truth; None without any
+    error = "no ground truth" if mean is None else f"mean marker error {mean:.1f} mm"
     print(f"{summary['subject']} {summary['action']}: {summary['optimizer']} {summary['strategy']} "
           f"{summary['dof']} DOF, {summary['evaluations_per_frame']} evaluations/frame, "
-          f"{summary['frames']} frames: mean marker error {summary['mean_marker_error_mm']:.1f} mm, "
+          f"{summary['frames']} frames ({summary.get('frames_scored', '?')} scored): {error}, "
           f"{summary['seconds_per_frame']:.2f} s/frame ({summary['backend']} backend) -> {output_dir}")
 
 

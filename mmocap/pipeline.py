@@ -24,6 +24,7 @@ from tqdm.auto import tqdm
 from mmocap import provenance
 from mmocap.analysis.figures import overlay, plot_error_per_frame
 from mmocap.analysis.results import ResultsStore, make_record, run_key, store_folder
+from mmocap.data.sequence import check_missing_markers
 from mmocap.errors import ConfigError, DataError, MmocapWarning
 from mmocap.evaluators.timed import TimedEvaluator
 from mmocap.io import exclusive, write_json_atomic
@@ -81,15 +82,16 @@ def _run(cfg: DictConfig, output_dir: Path, warning_messages: list[str]) -> dict
     evaluator = TimedEvaluator(instantiate(cfg.evaluator))
     body = instantiate(cfg.body)
     coverage = instantiate(cfg.coverage)
+    missing_markers = check_missing_markers(cfg.evaluation.missing_markers)
     strategy.check(body, optimizer, int(cfg.tracking.evaluations))
     dataset = instantiate(cfg.dataset)
     with exclusive(getattr(dataset, "path", None)):  # parallel jobs render a sequence once
         sequence = dataset.open(progress=cfg.progress)
     if body.subject.name != sequence.subject:
         raise ConfigError(f"body.subject is {body.subject.name} but the sequence shows {sequence.subject}")
-    foreground = Foreground(sequence, instantiate(cfg.background), cache_dir=cfg.foreground_cache)
-    truth = sequence.markers()
     n_frames = sequence.n_frames if cfg.tracking.frames is None else int(cfg.tracking.frames)
+    truth = sequence.ground_truth(n_frames, missing_markers)  # NaN where a frame has none
+    foreground = Foreground(sequence, instantiate(cfg.background), cache_dir=cfg.foreground_cache)
 
     frame_log = FrameLog(output_dir / "frames.csv")
     errors, frame_rows = [], []
@@ -101,7 +103,8 @@ def _run(cfg: DictConfig, output_dir: Path, warning_messages: list[str]) -> dict
         frame_rows.append({"frame": int(result.frame), "marker_error_mm": err, "fitness": float(result.fitness),
                            "evaluations": int(result.evaluations), "seconds": float(result.seconds)})
         frame_log.write(result.frame, err, result.fitness, result.evaluations, result.seconds, result.pose)
-        bar.set_postfix(error_mm=f"{err:.1f}", mean_mm=f"{np.nanmean(errors):.1f}")
+        scored_so_far = [e for e in errors if not np.isnan(e)]
+        bar.set_postfix(error_mm=f"{err:.1f}", mean_mm=f"{np.mean(scored_so_far):.1f}" if scored_so_far else "-")
         bar.update()
 
     evaluator.warm_up(body, foreground, sequence.x0)
@@ -116,11 +119,13 @@ def _run(cfg: DictConfig, output_dir: Path, warning_messages: list[str]) -> dict
     wall = time.perf_counter() - start
 
     errors = np.asarray(errors)
+    scored = errors[~np.isnan(errors)]  # frames with ground truth; the statistics are over them, null if none
     summary = {
-        "mean_marker_error_mm": float(np.nanmean(errors)),
-        "median_marker_error_mm": float(np.nanmedian(errors)),
-        "max_marker_error_mm": float(np.nanmax(errors)),
+        "mean_marker_error_mm": float(np.mean(scored)) if scored.size else None,
+        "median_marker_error_mm": float(np.median(scored)) if scored.size else None,
+        "max_marker_error_mm": float(np.max(scored)) if scored.size else None,
         "frames": len(results),
+        "frames_scored": int(scored.size),
         "evaluations_per_frame": int(cfg.tracking.evaluations),
         "evaluations_used": int(sum(r.evaluations for r in results)),
         "seconds_per_frame": wall / len(results),
@@ -142,9 +147,10 @@ def _run(cfg: DictConfig, output_dir: Path, warning_messages: list[str]) -> dict
         "warnings": warning_messages,
     }
     write_json_atomic(output_dir / "summary.json", summary)
-    plot_error_per_frame(errors, output_dir / "error_per_frame.png",
-                         f"{sequence.subject} {sequence.meta.get('action')}: {cfg.optimizer.name} "
-                         f"{strategy.name}, {body.dof} DOF, {cfg.tracking.evaluations} evaluations/frame")
+    if scored.size:
+        plot_error_per_frame(errors, output_dir / "error_per_frame.png",
+                             f"{sequence.subject} {sequence.meta.get('action')}: {cfg.optimizer.name} "
+                             f"{strategy.name}, {body.dof} DOF, {cfg.tracking.evaluations} evaluations/frame")
     write_overlays(output_dir / "overlays", sequence, foreground, evaluator, body, results, truth,
                    int(cfg.overlays))
     evaluator.close()

@@ -14,12 +14,21 @@ A sequence folder holds::
 ``x0`` in ``sequence.json`` is the first frame's pose (51 numbers, mm and rad): the
 initialisation the tracker is given, as the papers initialise by hand.
 
+Everything is checked when it is read, and a bad file is a :class:`DataError` of one line
+naming the file and what is wrong with it: ``sequence.json`` (a JSON object with the keys
+of :data:`META_KEYS`, each of its type), every selected camera's calibration (see
+:func:`mmocap.camera.checked_camera`), its image folder (every frame present when the
+sequence is opened), each image (:func:`read_image`) and ``markers_mm.csv``
+(:meth:`Sequence.markers`).
+
 :class:`SequenceBase` is what the pipeline reads from any dataset; :class:`Sequence` reads
 this folder layout and :class:`mmocap.data.humaneva.HumanEvaSequence` the HumanEva-I one.
 """
 from __future__ import annotations
 
 import json
+import math
+import warnings
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
 from pathlib import Path
@@ -28,23 +37,112 @@ import cv2
 import numpy as np
 import pandas as pd
 
+from mmocap.body.model import MARKER_NAMES
+from mmocap.body.skeleton import N_FULL
 from mmocap.camera import Camera
-from mmocap.errors import DataError
+from mmocap.errors import ConfigError, DataError, MmocapWarning
+from mmocap.validate import is_integer, is_real
 
 FORMAT = "mmocap-sequence/1"
+#: The keys ``sequence.json`` must hold.
+META_KEYS = ("format", "subject", "action", "fps", "frames", "cameras", "marker_names", "x0")
+#: The columns of ``markers_mm.csv``.
+MARKER_COLUMNS = ("frame", "marker", "x_mm", "y_mm", "z_mm")
+#: What ``evaluation.missing_markers`` may say about tracked frames without ground truth.
+MISSING_MARKERS_ACTIONS = ("warn", "stop")
+#: Items listed at most in a message (frames, files).
+LISTED = 5
 
 
 def read_image(path: Path, camera: Camera) -> np.ndarray:
-    """One image of ``camera``; a missing, unreadable or wrongly sized file is a DataError."""
+    """One image of ``camera``: (H, W, 3) uint8 BGR for a colour camera, (H, W) uint8 for a
+    greyscale one.
+
+    The file is read as it is (``cv2.IMREAD_UNCHANGED``) and must be what the calibration
+    describes: 8 bits, 3 channels for a colour camera and 1 for a greyscale one, and the
+    calibration's size. Nothing is converted: a greyscale file in a colour camera (or the
+    reverse) means files of another camera or a wrong ``colour`` in the calibration, and a
+    converted image would not be the sensor the background model was fit to. A missing,
+    unreadable or mismatched file is a DataError naming the camera and the file.
+    """
     if not path.is_file():
         raise DataError(f"camera {camera.name}: image not found: {path}")
-    image = cv2.imread(str(path), cv2.IMREAD_COLOR if camera.colour else cv2.IMREAD_GRAYSCALE)
+    image = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
     if image is None:
-        raise DataError(f"camera {camera.name}: cannot read image {path}")
+        raise DataError(f"camera {camera.name}: cannot read image {path} (damaged, or not an image file)")
+    if image.dtype != np.uint8:
+        raise DataError(f"camera {camera.name}: image {path} has {image.dtype} pixels; mmocap reads 8-bit "
+                        "images (convert it to 8 bits per channel)")
+    channels = 1 if image.ndim == 2 else image.shape[2]
+    if channels != (3 if camera.colour else 1):
+        kind, fix = (("colour", "3-channel BGR images, or set \"colour\": false in its calibration")
+                     if camera.colour else
+                     ("greyscale", "1-channel greyscale images, or set \"colour\": true in its calibration"))
+        raise DataError(f"camera {camera.name}: image {path} has {channels} channel{'s' * (channels > 1)}, "
+                        f"but the calibration says camera {camera.name} is {kind}: give it {fix}")
     if image.shape[:2] != (camera.height, camera.width):
         raise DataError(f"camera {camera.name}: image {path} is {image.shape[1]}x{image.shape[0]}, "
                         f"calibration says {camera.width}x{camera.height}")
     return image
+
+
+def read_meta(path: Path) -> dict:
+    """``sequence.json`` checked: a JSON object with every key of :data:`META_KEYS` of the
+    right type (``frames`` a positive integer, ``fps`` a positive number, ``cameras`` and
+    ``marker_names`` lists of distinct names, ``marker_names`` those of the body model in its
+    order, ``x0`` 51 finite numbers in mm and rad). Errors name the file and the key."""
+    if not path.is_file():
+        raise DataError(f"not a sequence folder (no sequence.json): {path.parent}")
+    try:
+        meta = json.loads(path.read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise DataError(f"{path} is not valid JSON (truncated or damaged?): {exc}") from None
+    if not isinstance(meta, dict):
+        raise DataError(f"{path} must hold a JSON object with the keys {', '.join(META_KEYS)}, "
+                        f"got {type(meta).__name__}")
+    missing = [key for key in META_KEYS if key not in meta]
+    if missing:
+        raise DataError(f"{path} lacks the key{'s' * (len(missing) > 1)} {', '.join(missing)}")
+
+    def fail(key: str, wanted: str) -> DataError:
+        return DataError(f"{path}: '{key}' must be {wanted}, got {meta[key]!r:.120}")
+
+    if meta["format"] != FORMAT:
+        raise fail("format", f"'{FORMAT}'")
+    for key in ("subject", "action"):
+        if not isinstance(meta[key], str) or not meta[key]:
+            raise fail(key, "a non-empty string")
+    if not is_integer(meta["frames"]) or meta["frames"] < 1:
+        raise fail("frames", "a positive integer")
+    if not is_real(meta["fps"]) or not math.isfinite(meta["fps"]) or meta["fps"] <= 0:
+        raise fail("fps", "a positive number")
+    cameras = meta["cameras"]
+    if (not isinstance(cameras, list) or not cameras or not all(isinstance(c, str) and c for c in cameras)
+            or len(set(cameras)) != len(cameras)):
+        raise fail("cameras", "a non-empty list of distinct camera names")
+    if meta["marker_names"] != list(MARKER_NAMES):
+        raise fail("marker_names", f"the body model's markers in its order ({', '.join(MARKER_NAMES)})")
+    x0 = meta["x0"]
+    if (not isinstance(x0, list) or len(x0) != N_FULL or not all(is_real(v) for v in x0)
+            or not np.all(np.isfinite(x0))):
+        raise fail("x0", f"the first frame's pose: a list of {N_FULL} finite numbers (mm, rad)")
+    return meta
+
+
+def check_missing_markers(action: str) -> str:
+    """``action`` if it is one of :data:`MISSING_MARKERS_ACTIONS`, else a ConfigError naming
+    ``evaluation.missing_markers``."""
+    if action not in MISSING_MARKERS_ACTIONS:
+        raise ConfigError(f"evaluation.missing_markers must be one of {', '.join(MISSING_MARKERS_ACTIONS)}, "
+                          f"got {action!r}")
+    return action
+
+
+def listed(items) -> str:
+    """The first :data:`LISTED` of ``items``, comma separated, with how many more."""
+    items = [str(i) for i in items]
+    more = f" and {len(items) - LISTED} more" if len(items) > LISTED else ""
+    return ", ".join(items[:LISTED]) + more
 
 
 @dataclass
@@ -94,6 +192,36 @@ class SequenceBase(ABC):
         """(frames, M, 3) ground-truth marker positions in mm, M = len(meta['marker_names']),
         NaN where missing."""
 
+    @property
+    @abstractmethod
+    def markers_source(self) -> str:
+        """The file the ground-truth markers come from, for messages."""
+
+    def ground_truth(self, frames: int, missing_markers: str = "warn") -> np.ndarray:
+        """:meth:`markers` of the first ``frames`` frames, (frames, M, 3) mm, after checking
+        that each has ground truth (at least one marker present): the error of a frame
+        without any is not measured, and the run's mean is over the frames that have it.
+
+        Frames without ground truth are a DataError naming the file and the frames with
+        ``missing_markers="stop"``; with ``"warn"`` (the default, as in ``conf/config.yaml``)
+        a :class:`MmocapWarning` that says how many frames are scored.
+        """
+        check_missing_markers(missing_markers)
+        truth = self.markers()[:frames]
+        unscored = np.flatnonzero(np.isnan(truth).any(axis=2).all(axis=1))
+        if unscored.size == 0:
+            return truth
+        which = (f"none of the {len(truth)} tracked frames has ground-truth markers" if unscored.size == len(truth)
+                 else f"{unscored.size} of the {len(truth)} tracked frames (frame{'s' * (unscored.size > 1)} "
+                      f"{listed(unscored)}) have no ground-truth markers")
+        if missing_markers == "stop":
+            raise DataError(f"{self.markers_source}: {which}; add them, track other frames, or set "
+                            "evaluation.missing_markers=warn to score only the frames that have them")
+        scored = ("no marker error is measured (null in summary.json)" if unscored.size == len(truth) else
+                  f"the marker error is over the {len(truth) - unscored.size} frames scored")
+        warnings.warn(f"{self.markers_source}: {which}: {scored}", MmocapWarning, stacklevel=2)
+        return truth
+
 
 @dataclass
 class Sequence(SequenceBase):
@@ -101,16 +229,10 @@ class Sequence(SequenceBase):
 
     @staticmethod
     def open(root, cameras: list[str] | None = None) -> Sequence:
+        """The sequence folder ``root``: its ``sequence.json`` (:func:`read_meta`), and for each
+        selected camera its calibration and an image folder with every frame."""
         root = Path(root)
-        meta_path = root / "sequence.json"
-        if not meta_path.is_file():
-            raise DataError(f"not a sequence folder (no sequence.json): {root}")
-        try:
-            meta = json.loads(meta_path.read_text())
-        except json.JSONDecodeError as exc:
-            raise DataError(f"{meta_path} is not valid JSON: {exc}") from None
-        if meta.get("format") != FORMAT:
-            raise DataError(f"{meta_path}: format '{meta.get('format')}' is not '{FORMAT}'")
+        meta = read_meta(root / "sequence.json")
         available = meta["cameras"]
         names = list(available) if cameras is None else list(cameras)
         missing = [c for c in names if c not in available]
@@ -121,9 +243,20 @@ class Sequence(SequenceBase):
             raise DataError("no cameras selected")
         cams = []
         for name in names:
-            if not (root / "images" / name).is_dir():
-                raise DataError(f"camera {name}: image folder missing: {root / 'images' / name}")
-            cams.append(Camera.load(root / "calibration" / f"{name}.json"))
+            folder = root / "images" / name
+            if not folder.is_dir():
+                raise DataError(f"camera {name}: image folder missing: {folder}")
+            present = {p.name for p in folder.iterdir()}
+            absent = [f"{f:06d}.png" for f in range(meta["frames"]) if f"{f:06d}.png" not in present]
+            if absent:
+                raise DataError(f"camera {name}: {folder} lacks {len(absent)} of the {meta['frames']} frames "
+                                f"that {root / 'sequence.json'} gives: {listed(absent)}")
+            path = root / "calibration" / f"{name}.json"
+            camera = Camera.load(path)
+            if camera.name != name:
+                raise DataError(f"camera {name}: calibration file {path}: 'name' is {camera.name!r}; "
+                                "is it the calibration of another camera?")
+            cams.append(camera)
         return Sequence(root, meta, cams)
 
     def images(self, frame: int) -> list[np.ndarray]:
@@ -145,17 +278,70 @@ class Sequence(SequenceBase):
             raise DataError(f"camera {camera.name}: cannot read silhouette {path}")
         return mask > 127
 
+    @property
+    def markers_source(self) -> str:
+        return str(self.root / "markers_mm.csv")
+
     def markers(self) -> np.ndarray:
-        path = self.root / "markers_mm.csv"
+        """``markers_mm.csv`` checked: the columns of :data:`MARKER_COLUMNS`, at least one
+        row, integer frames of the sequence, known marker names, each (frame, marker) once,
+        coordinates that are numbers (an empty cell is a missing coordinate, NaN). Frames
+        and markers without a row are NaN. Errors name the file, the column and the line."""
+        path = Path(self.markers_source)
         if not path.is_file():
             raise DataError(f"ground-truth markers not found: {path}")
-        table = pd.read_csv(path)
+        try:
+            table = pd.read_csv(path, skip_blank_lines=False, dtype={"marker": str})
+        except pd.errors.EmptyDataError:
+            raise DataError(f"{path} is empty; it needs the header {','.join(MARKER_COLUMNS)} and one row "
+                            "per frame and marker") from None
+        except (pd.errors.ParserError, UnicodeDecodeError) as exc:
+            raise DataError(f"{path} is not a readable CSV table: {' '.join(str(exc).split())}") from None
+        absent = [c for c in MARKER_COLUMNS if c not in table.columns]
+        if absent:
+            raise DataError(f"{path} lacks the column{'s' * (len(absent) > 1)} {', '.join(absent)} "
+                            f"(it needs {', '.join(MARKER_COLUMNS)})")
+        table = table.dropna(how="all")  # blank lines; the index + 2 stays the line number
+        if table.empty:
+            raise DataError(f"{path} holds no rows, only its header")
+
+        text = path.read_text(errors="replace").splitlines()
+
+        def line(mask: pd.Series) -> str:
+            """The first line where ``mask`` holds, with its text."""
+            number = mask.idxmax() + 2
+            return f"line {number}: {text[number - 1]:.120}" if number <= len(text) else f"line {number}"
+
+        frames = pd.to_numeric(table["frame"], errors="coerce")
+        bad = ~np.isfinite(frames) | (frames != np.round(frames))
+        if bad.any():
+            raise DataError(f"{path}: column 'frame' must hold integer frame numbers; {line(bad)}")
+        frames = frames.astype(int)
+        outside = (frames < 0) | (frames >= self.n_frames)
+        if outside.any():
+            raise DataError(f"{path}: frame {frames[outside.idxmax()]} is outside the sequence's "
+                            f"{self.n_frames} frames (0-{self.n_frames - 1}); {line(outside)}")
         names = list(self.meta["marker_names"])
-        out = np.full((self.n_frames, len(names), 3), np.nan)
         idx = table["marker"].map({n: i for i, n in enumerate(names)})
         if idx.isna().any():
-            raise DataError(f"{path}: unknown marker names {sorted(set(table['marker'][idx.isna()]))}")
-        out[table["frame"].to_numpy(), idx.to_numpy(int)] = table[["x_mm", "y_mm", "z_mm"]].to_numpy()
+            raise DataError(f"{path}: unknown marker names {sorted(set(table['marker'][idx.isna()].astype(str)))} "
+                            f"(known: {', '.join(names)}); {line(idx.isna())}")
+        coordinates = {}
+        for column in MARKER_COLUMNS[2:]:
+            values = pd.to_numeric(table[column], errors="coerce")
+            bad = (values.isna() & table[column].notna()) | np.isinf(values)
+            if bad.any():
+                raise DataError(f"{path}: column '{column}' must hold numbers in mm (empty = missing); {line(bad)}")
+            coordinates[column] = values.to_numpy(np.float64)
+        repeated = pd.DataFrame({"frame": frames, "marker": table["marker"]}).duplicated(keep=False)
+        if repeated.any():
+            first = repeated.idxmax()
+            lines = [i + 2 for i in repeated.index[repeated & (frames == frames[first])
+                                                   & (table["marker"] == table["marker"][first])]]
+            raise DataError(f"{path}: frame {frames[first]} marker {table['marker'][first]} appears "
+                            f"{len(lines)} times (lines {listed(lines)}); give each frame and marker one row")
+        out = np.full((self.n_frames, len(names), 3), np.nan)
+        out[frames.to_numpy(), idx.to_numpy(int)] = np.stack(list(coordinates.values()), axis=1)
         return out
 
 

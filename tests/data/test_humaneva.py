@@ -5,6 +5,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import cv2
 import numpy as np
 import pytest
 import scipy.io
@@ -250,3 +251,80 @@ def test_export_command(synthetic, tmp_path):
     assert len(list((tmp_path / "he/S1/Image_Data/Walking_3_(BW1)").glob("*.png"))) == FRAMES
     bad = mmocap(tmp_path / "nothing", tmp_path / "he2")
     assert bad.returncode == 2 and "not a sequence folder" in bad.stderr and "Traceback" not in bad.stderr
+
+
+def image_folder(tmp_path, images, names=None):
+    folder = tmp_path / "Walking_1_(C1)"
+    folder.mkdir()
+    for k, image in enumerate(images):
+        cv2.imwrite(str(folder / (names[k] if names else f"{k + 1:06d}.png")), image)
+    return folder
+
+
+def test_image_folders_of_a_greyscale_camera_may_hold_colour_frames(tmp_path):
+    """As HumanEva-I's greyscale videos are stored in colour, a greyscale camera's
+    3-channel frames are converted; 1-channel frames are taken as they are."""
+    grey = np.arange(12 * 16, dtype=np.uint8).reshape(12, 16)
+    source = he.FrameSource(image_folder(tmp_path, [cv2.cvtColor(grey, cv2.COLOR_GRAY2BGR), grey]), "BW1", False)
+    np.testing.assert_array_equal(source.read(1), grey)
+    np.testing.assert_array_equal(source.read(2), grey)
+
+
+def test_a_greyscale_frame_in_a_colour_camera_is_refused(tmp_path):
+    colour = np.zeros((12, 16, 3), np.uint8)
+    source = he.FrameSource(image_folder(tmp_path, [colour, colour[..., 0]]), "C1", True)
+    with pytest.raises(DataError, match=r"camera C1: .*000002.png is greyscale, but C1 is a colour camera"):
+        source.read(2)
+
+
+@pytest.mark.parametrize("images, message", [
+    ([np.zeros((12, 16, 3), np.uint8), np.zeros((10, 16, 3), np.uint8)], r"000002.png is 16x10, its first image 16x12"),
+    ([np.zeros((12, 16, 4), np.uint8)], "has 4 channels of uint8"),
+    ([np.zeros((12, 16, 3), np.uint16)], "has 3 channels of uint16"),
+])
+def test_bad_frames_in_an_image_folder_name_camera_and_file(tmp_path, images, message):
+    folder = image_folder(tmp_path, images)
+    with pytest.raises(DataError, match=f"camera C1: .*{message}"):
+        he.FrameSource(folder, "C1", True).read(len(images))
+
+
+@pytest.mark.parametrize("names, message", [
+    (["000001.png", "000002.png", "000004.png"], r"not numbered consecutively \(missing: 3, repeated: none\)"),
+    (["000001.png", "000001.jpg", "000002.png"], r"not numbered consecutively \(missing: none, repeated: 1\)"),
+    (["000001.png", "first.png"], "without a frame number: first.png"),
+])
+def test_a_gap_in_the_image_numbers_is_refused(tmp_path, names, message):
+    folder = image_folder(tmp_path, [np.zeros((12, 16, 3), np.uint8)] * len(names), names)
+    with pytest.raises(DataError, match=f"camera C1: .*{message}"):
+        he.FrameSource(folder, "C1", True)
+
+
+def test_a_damaged_frame_names_camera_and_file(tmp_path):
+    folder = image_folder(tmp_path, [np.zeros((12, 16, 3), np.uint8)] * 2)
+    (folder / "000002.png").write_bytes(b"\x89PNG\r\n\x1a\n damaged")
+    with pytest.raises(DataError, match=r"camera C1: cannot read .*000002.png"):
+        he.FrameSource(folder, "C1", True).read(2)
+
+
+@pytest.mark.parametrize("index, value, message", [
+    (0, -600.0, "'fc, cc, alpha_c' focal lengths fx = -600"),
+    (2, 5000.0, "'fc, cc, alpha_c' principal point cx = 5000"),
+    (11, 0.5, "'R' is not a rotation"),  # R[0, 1]: a shear with det 1
+])
+def test_cal_values_are_checked_like_every_calibration(damaged, index, value, message):
+    path = damaged / "S1/Calibration_Data/BW1.cal"
+    numbers = path.read_text().split()
+    numbers[index] = repr(value)
+    if index == 11:
+        numbers[10:19] = ["1", "0.5", "0", "0", "1", "0", "0", "0", "1"]
+    path.write_text("\n".join(numbers))
+    with pytest.raises(DataError, match=rf"camera BW1: .*BW1.cal: {message}"):
+        open_he(damaged)
+
+
+def test_a_trial_without_mocap_has_no_ground_truth_to_score(damaged, synthetic, tmp_path):
+    (damaged / "S1/Mocap_Data/Walking_1.mat").unlink()
+    np.savetxt(tmp_path / "x0.txt", Sequence.open(synthetic).x0)
+    seq = open_he(damaged, x0=str(tmp_path / "x0.txt"))
+    with pytest.raises(DataError, match=r"Walking_1.mat: none of the 3 tracked frames has ground-truth markers"):
+        seq.ground_truth(3, "stop")
