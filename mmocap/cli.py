@@ -2,9 +2,9 @@
 
 ``mmocap [hydra overrides]`` (or ``mmocap track ...``) tracks a sequence; ``mmocap --help``
 lists the subcommands. This is the one place that turns errors into exit codes: an error the
-user can fix (:class:`mmocap.errors.MmocapError`, also when Hydra wraps it) prints one line
-naming the culprit and exits with status 2, without a traceback; warnings print as one
-``mmocap: warning: ...`` line each.
+user can fix (:class:`mmocap.errors.MmocapError`, also when Hydra wraps it, or a file-system
+fault: an ``OSError`` naming its path) prints one line naming the culprit and exits with
+status 2, without a traceback; warnings print as one ``mmocap: warning: ...`` line each.
 """
 from __future__ import annotations
 
@@ -26,15 +26,19 @@ from hydra.utils import instantiate  # noqa: E402
 from omegaconf import DictConfig  # noqa: E402
 
 from mmocap.config import CONFIG_NAME, CONFIG_PATH, HYDRA_VERSION_BASE  # noqa: E402
-from mmocap.errors import MmocapError  # noqa: E402
+from mmocap.errors import DataError, MmocapError  # noqa: E402
+from mmocap.io import check_writable_folder, describe_os_error  # noqa: E402
 from mmocap.sweep import SweepProgress  # noqa: E402
 
 
 def _user_error(exc: BaseException) -> MmocapError | None:
-    """The MmocapError behind ``exc`` (Hydra wraps errors raised while instantiating)."""
+    """The MmocapError behind ``exc`` (Hydra wraps errors raised while instantiating); a
+    file-system fault (an OSError naming its path) becomes a DataError saying what is wrong."""
     while exc is not None:
         if isinstance(exc, MmocapError):
             return exc
+        if isinstance(exc, OSError) and exc.filename is not None:
+            return DataError(describe_os_error(exc))
         exc = exc.__cause__ if isinstance(exc, InstantiationException) else None
     return None
 
@@ -48,7 +52,7 @@ def guarded(job):
     warnings.showwarning = _show_warning
     try:
         return job()
-    except (MmocapError, InstantiationException) as exc:
+    except (MmocapError, InstantiationException, OSError) as exc:
         err = _user_error(exc)
         if err is None:
             raise
@@ -78,11 +82,20 @@ def generate_app(cfg: DictConfig) -> None:
 
 
 class SweepCallback(SweepProgress):
-    """:class:`mmocap.sweep.SweepProgress` whose checks before a sweep end the command with
-    one line and exit 2 (``hydra.callbacks`` in ``conf/config.yaml``)."""
+    """:class:`mmocap.sweep.SweepProgress` whose checks before a sweep or a single run, and
+    the sweep's export at its end, end the command with one line and exit 2 on an error
+    (``hydra.callbacks`` in ``conf/config.yaml``)."""
 
     def on_multirun_start(self, config: DictConfig, **kwargs) -> None:
         guarded(lambda: SweepProgress.on_multirun_start(self, config, **kwargs))
+
+    def on_multirun_end(self, config: DictConfig, **kwargs) -> None:
+        guarded(lambda: SweepProgress.on_multirun_end(self, config, **kwargs))
+
+    def on_run_start(self, config: DictConfig, **kwargs) -> None:
+        """A run folder (``hydra.run.dir``) that cannot be written ends the command with one
+        line, before Hydra writes its own files there."""
+        guarded(lambda: check_writable_folder(config.hydra.run.dir))
 
 
 def export_humaneva(args: list[str], prog: str) -> None:

@@ -1,16 +1,27 @@
 """The main job: build every stage from the config, track a sequence, write the results.
 
 Outputs in ``output_dir``: ``frames.csv`` (one row per frame, written as it goes),
-``summary.json``, ``error_per_frame.png`` and ``overlays/*.png``; and the run's record in
+``error_per_frame.png``, ``overlays/*.png`` and ``summary.json``; and the run's record in
 the results store (:mod:`mmocap.analysis.results`). A run whose record is already in the
 store, or in one of ``results.reuse``, is not run again.
+
+What a stopped run leaves (the rule of :mod:`mmocap.io`: a file appears under its final
+name only when complete): every file is written atomically, except the per-frame rows,
+which go to ``frames.csv.partial`` until the last frame is tracked and it is renamed
+``frames.csv``. ``summary.json`` is written after every other output, and the record after
+it: a run folder without ``summary.json`` holds an incomplete run, which has no record and
+runs again. A run first removes what an earlier unrecorded run left in its folder.
+
+One run at a time writes into a run folder: a run holds the lock ``<output_dir>/.run.lock``
+while it runs. Another run into the same folder stops with an error, or waits for the lock
+with ``run_dir_busy=wait``.
 """
 from __future__ import annotations
 
 import logging
 import time
 import warnings
-from contextlib import contextmanager
+from contextlib import ExitStack, contextmanager
 from pathlib import Path
 
 import cv2
@@ -27,12 +38,19 @@ from mmocap.analysis.results import ResultsStore, make_record, run_key, store_fo
 from mmocap.data.sequence import check_missing_markers
 from mmocap.errors import ConfigError, DataError, MmocapWarning
 from mmocap.evaluators.timed import TimedEvaluator
-from mmocap.io import exclusive, write_json_atomic
+from mmocap.io import LockBusy, exclusive, locked, write_image, write_json_atomic, writing
 from mmocap.stages.evaluation import FrameLog, marker_error
 from mmocap.stages.foreground import Foreground
 from mmocap.stages.tracking import check_budget, track
 
 log = logging.getLogger(__name__)
+
+#: what ``run_dir_busy`` may say about a run folder another run is writing into
+RUN_DIR_BUSY = ("refuse", "wait")
+#: the lock file a run holds in its folder
+RUN_LOCK = ".run.lock"
+#: the files a run writes into its folder (besides ``overlays/*.png``)
+RUN_OUTPUTS = ("frames.csv", "frames.csv.partial", "error_per_frame.png", "summary.json")
 
 
 @contextmanager
@@ -58,8 +76,42 @@ def run(cfg: DictConfig, output_dir: Path) -> dict:
     """Run the configured tracking job; returns the summary written to summary.json (or,
     for a run already in the results store, the summary of its record). The summary's
     ``warnings`` lists every :class:`MmocapWarning` the run gave."""
-    with recorded_warnings() as messages:
-        return _run(cfg, Path(output_dir), messages)
+    output_dir = Path(output_dir)
+    wait = check_run_dir_busy(cfg.run_dir_busy) == "wait"
+    with recorded_warnings() as messages, run_folder_lock(output_dir, wait):
+        return _run(cfg, output_dir, messages)
+
+
+def check_run_dir_busy(value) -> str:
+    """``value`` if it is one of :data:`RUN_DIR_BUSY`, else a ConfigError naming ``run_dir_busy``."""
+    if value not in RUN_DIR_BUSY:
+        raise ConfigError(f"run_dir_busy must be one of {', '.join(RUN_DIR_BUSY)}, got {value!r}")
+    return value
+
+
+@contextmanager
+def run_folder_lock(output_dir: Path, wait: bool):
+    """Hold the lock of the run folder ``output_dir`` (created if need be) for the block; if
+    another run holds it, wait for it to finish (``wait``) or raise a DataError naming the
+    folder and that run."""
+    with ExitStack() as stack:
+        try:
+            stack.enter_context(locked(output_dir / RUN_LOCK, wait=wait))
+        except LockBusy as busy:
+            raise DataError(f"run folder {output_dir} is in use by another run ({busy.holder}): wait for it "
+                            "to finish, use another hydra.run.dir, or set run_dir_busy=wait to wait for it") from None
+        yield
+
+
+def clear_outputs(output_dir: Path) -> None:
+    """Remove what an earlier run that left no record wrote into ``output_dir`` (its
+    :data:`RUN_OUTPUTS`, overlays and temporary files), so that no file of another run lies
+    beside this run's."""
+    overlays = output_dir / "overlays"
+    with writing(output_dir):
+        for path in [*(output_dir / name for name in RUN_OUTPUTS), *output_dir.glob(".*.tmp"),
+                     *overlays.glob("frame_*.png"), *overlays.glob(".*.tmp")]:
+            path.unlink(missing_ok=True)
 
 
 def _run(cfg: DictConfig, output_dir: Path, warning_messages: list[str]) -> dict:
@@ -73,6 +125,7 @@ def _run(cfg: DictConfig, output_dir: Path, warning_messages: list[str]) -> dict
         log.info("run %s already finished (record %s): skipped; delete the record to run it again",
                  run_id, store.path(run_id))
         return done["summary"]
+    clear_outputs(output_dir)
     started = provenance.now()
 
     check_budget(cfg.tracking.evaluations)
@@ -113,9 +166,12 @@ def _run(cfg: DictConfig, output_dir: Path, warning_messages: list[str]) -> dict
         results = track(sequence, body, foreground, evaluator, optimizer, strategy,
                         evaluations=int(cfg.tracking.evaluations), seed=int(cfg.seed),
                         frames=cfg.tracking.frames, on_frame=on_frame, coverage=coverage)
+    except BaseException:
+        frame_log.close(complete=False)  # the frames tracked stay in frames.csv.partial
+        raise
     finally:
         bar.close()
-        frame_log.close()
+    frame_log.close()
     wall = time.perf_counter() - start
 
     errors = np.asarray(errors)
@@ -146,13 +202,13 @@ def _run(cfg: DictConfig, output_dir: Path, warning_messages: list[str]) -> dict
         "config": OmegaConf.to_container(cfg, resolve=True),
         "warnings": warning_messages,
     }
-    write_json_atomic(output_dir / "summary.json", summary)
     if scored.size:
         plot_error_per_frame(errors, output_dir / "error_per_frame.png",
                              f"{sequence.subject} {sequence.meta.get('action')}: {cfg.optimizer.name} "
                              f"{strategy.name}, {body.dof} DOF, {cfg.tracking.evaluations} evaluations/frame")
     write_overlays(output_dir / "overlays", sequence, foreground, evaluator, body, results, truth,
                    int(cfg.overlays))
+    write_json_atomic(output_dir / "summary.json", summary)  # the last output: the run is complete
     evaluator.close()
     path = store.put(make_record(cfg, summary, frame_rows, wall, evaluator.seconds, started, output_dir))
     log.info("run %s recorded in %s", run_id, path)
@@ -167,10 +223,10 @@ def sweep_folder() -> Path | None:
 
 
 def write_overlays(folder: Path, sequence, foreground, evaluator, body, results, truth, count: int) -> None:
-    """The tracked model over undistorted camera images for ``count`` evenly spaced frames."""
+    """The tracked model over undistorted camera images for ``count`` evenly spaced frames,
+    one PNG each, written atomically (a WriteError naming it if it cannot be)."""
     if count == 0:
         return
-    folder.mkdir(exist_ok=True)
     cameras = foreground.cameras
     for k in np.unique(np.linspace(0, len(results) - 1, count).round().astype(int)):
         result = results[k]
@@ -186,7 +242,7 @@ def write_overlays(folder: Path, sequence, foreground, evaluator, body, results,
             tiles.append(tile)
         if not tiles:
             raise DataError("no camera images to draw overlays on")
-        cv2.imwrite(str(folder / f"frame_{result.frame:06d}.png"), _grid(tiles))
+        write_image(folder / f"frame_{result.frame:06d}.png", _grid(tiles))
 
 
 def _grid(tiles: list[np.ndarray]) -> np.ndarray:

@@ -8,7 +8,8 @@ Configured in ``conf/config.yaml`` under ``hydra.callbacks``. For a multirun it
 - writes ``sweep.json`` into the sweep folder: the number of jobs, the command-line
   overrides, the sweeper's parameters, the launcher, git commit, package versions, host;
 - logs after each job how many runs of the sweep are done and about how long is left
-  (jobs append a line to ``progress.jsonl``, so this works across processes and machines);
+  (jobs append a line to ``progress.jsonl``, so this works across processes and machines;
+  a line torn by a crash or a full disk is skipped);
 - writes ``runs.csv`` and ``frames.csv`` (:func:`mmocap.analysis.results.export`) at the end.
 """
 from __future__ import annotations
@@ -30,7 +31,7 @@ from omegaconf import DictConfig
 from mmocap import provenance, registry
 from mmocap.analysis.results import ResultsStore, export, run_key, store_folder
 from mmocap.errors import ConfigError
-from mmocap.io import write_json_atomic
+from mmocap.io import WriteError, append_line, read_json_lines, write_json_atomic
 
 log = logging.getLogger(__name__)
 
@@ -113,8 +114,11 @@ class SweepProgress(Callback):
         ran = not self.found and job_return.status == JobStatus.COMPLETED
         line = {"session": info["session"], "job": HydraConfig.get().job.num,
                 "status": job_return.status.name, "ran": ran}
-        with open(sweep_dir / "progress.jsonl", "a") as handle:
-            handle.write(json.dumps(line) + "\n")
+        try:
+            append_line(sweep_dir / "progress.jsonl", json.dumps(line))
+        except WriteError as exc:  # the job's record, not this line, makes it count: the sweep goes on
+            log.warning("sweep progress not shown: %s", exc)
+            return
         log.info(progress_line(sweep_dir / "progress.jsonl", info))
 
     def on_multirun_end(self, config: DictConfig, **kwargs) -> None:
@@ -125,11 +129,12 @@ class SweepProgress(Callback):
 
 
 def progress_line(progress_file: Path, info: dict) -> str:
-    """"k/N runs done, about T left" for the sweep session ``info``."""
-    lines = [json.loads(line) for line in progress_file.read_text().splitlines() if line.strip()]
-    mine = [line for line in lines if line["session"] == info["session"]]
+    """"k/N runs done, about T left" for the sweep session ``info``, from the lines of
+    ``progress_file`` (a line torn by a crash or a full disk is skipped)."""
+    mine = [line for line in read_json_lines(progress_file)
+            if line.get("session") == info["session"] and "job" in line]
     done = len({line["job"] for line in mine})
-    ran = sum(line["ran"] for line in mine)
+    ran = sum(line.get("ran") is True for line in mine)
     total = info["jobs"]
     elapsed = time.time() - info["started"]
     text = f"sweep: {done}/{total} runs done ({done - ran} found in the store)"

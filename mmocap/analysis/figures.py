@@ -14,6 +14,7 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
 from mmocap.body.skeleton import PARENT_INDEX  # noqa: E402
+from mmocap.io import atomic_writer  # noqa: E402
 
 
 def plot_error_per_frame(errors_mm: np.ndarray, path: Path, title: str) -> None:
@@ -29,8 +30,7 @@ def plot_error_per_frame(errors_mm: np.ndarray, path: Path, title: str) -> None:
     ax.grid(alpha=0.3)
     ax.legend(loc="upper right")
     fig.tight_layout()
-    fig.savefig(path)
-    plt.close(fig)
+    _save(fig, path, None)
 
 
 def overlay(image: np.ndarray, camera, silhouette: np.ndarray, joints_mm: np.ndarray,
@@ -210,5 +210,12 @@ def _levels(column: pd.Series) -> list:
 
 
 def _save(fig, path: Path, note: str | None) -> None:
-    fig.savefig(path, metadata={"Description": note} if note else None)
-    plt.close(fig)
+    """Write ``fig`` atomically in the format of ``path``'s suffix (:func:`mmocap.io.atomic_writer`:
+    a WriteError naming it if it cannot be written), ``note`` as its Description; close it."""
+    path = Path(path)
+    try:
+        with atomic_writer(path, "wb") as f:
+            fig.savefig(f, format=path.suffix.lstrip(".") or None,
+                        metadata={"Description": note} if note else None)
+    finally:
+        plt.close(fig)

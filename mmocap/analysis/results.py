@@ -5,7 +5,7 @@ A record is written once, atomically (temporary file then ``os.replace``), when 
 finishes: a run killed midway leaves no record and is run again by the next sweep, a
 finished run is never run twice. ``run_id`` is a digest of the run's resolved config
 without what does not change its result (output paths, progress bars, overlays, the
-``scale`` presets, Hydra's own settings).
+``scale`` presets, ``run_dir_busy``, Hydra's own settings).
 
 ``load_runs(folder)`` gives the two tables the statistics and reports read:
 
@@ -32,7 +32,8 @@ from mmocap.errors import DataError
 from mmocap.io import write_json_atomic, write_text_atomic
 
 # Top-level config keys that do not change a run's result.
-NOT_IN_KEY = ("hydra", "progress", "overlays", "results", "scale", "foreground_cache")
+NOT_IN_KEY = ("hydra", "progress", "overlays", "results", "scale", "foreground_cache", "run_dir_busy",
+              "evaluation")
 
 RUN_COLUMNS = ["run_id", "subject", "action", "sequence", "seed", "optimizer", "strategy",
                "algorithm", "dof", "evaluations", "vertices", "backend", "frames",

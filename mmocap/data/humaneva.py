@@ -35,7 +35,12 @@ bounded least squares over the joint angles with a small pull towards the rest p
 """
 from __future__ import annotations
 
+import contextlib
+import os
 import re
+import shutil
+import uuid
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -52,6 +57,7 @@ from mmocap.body.skeleton import dof_mask
 from mmocap.camera import Camera
 from mmocap.data.sequence import Sequence, SequenceBase, listed, read_image
 from mmocap.errors import ConfigError, DataError
+from mmocap.io import incomplete_write, write_image, writing
 
 SUBJECTS = ("S1", "S2", "S3", "S4")
 ACTIONS = ("Walking", "Jog", "ThrowCatch", "Gestures", "Box", "Combo")
@@ -214,8 +220,10 @@ def open_frames(folder: Path, stem: str, camera: str) -> FrameSource:
 
 
 def write_video(path: Path, images, fps: float) -> None:
-    """Write 8-bit images ((H, W) or (H, W, 3) BGR) losslessly (FFV1) into an .avi file."""
-    writer = None
+    """Write 8-bit images ((H, W) or (H, W, 3) BGR) losslessly (FFV1) into an .avi file, and
+    read it back: OpenCV's writer does not report a failed write, so a video that holds
+    fewer frames is a :class:`~mmocap.io.WriteError` naming it (the disk is full, if it is)."""
+    writer, count = None, 0
     for image in images:
         if image.ndim == 2:
             image = cv2.cvtColor(image, cv2.COLOR_GRAY2BGR)
@@ -225,8 +233,15 @@ def write_video(path: Path, images, fps: float) -> None:
             if not writer.isOpened():
                 raise DataError(f"cannot write video {path}")
         writer.write(image)
+        count += 1
     if writer is not None:
         writer.release()
+    capture, readable = cv2.VideoCapture(str(path)), 0
+    while readable < count and capture.read()[0]:
+        readable += 1
+    capture.release()
+    if readable < count:
+        raise incomplete_write(path, f"only {readable} of its {count} frames could be read back")
 
 
 # --- motion capture ------------------------------------------------------------------------
@@ -612,7 +627,9 @@ def export(sequence_root, out, marker_map: dict | None = None, trial: int = 1, i
     MC_SC = 2), ``Mocap_Data/<Action>_<trial>.mat`` (markers at 120 Hz, interpolated from the
     video rate, after ``mocap_lead`` frames with every marker missing; each label of
     ``marker_map`` at its marker's position) and ``Background/Background_1_(<cam>).avi``.
-    Returns ``out``.
+    Returns ``out``. The export completes or leaves ``out`` as it was: a failure to write (a
+    :class:`~mmocap.io.WriteError` naming ``out``: a full disk, a read-only folder, a file
+    where ``out`` should be) leaves no part of it.
     """
     if images not in ("avi", "png"):
         raise ConfigError(f"images must be 'avi' or 'png', got {images!r}")
@@ -630,27 +647,82 @@ def export(sequence_root, out, marker_map: dict | None = None, trial: int = 1, i
         raise ConfigError(f"cameras {', '.join(unknown)} of {seq.root} are not HumanEva-I cameras")
     marker_map = check_marker_map(default_marker_map() if marker_map is None else marker_map)
     out = Path(out)
-    folder = out / seq.subject
-    for sub in ("Calibration_Data", "Image_Data", "Sync_Data", "Mocap_Data"):
-        (folder / sub).mkdir(parents=True, exist_ok=True)
-    (out / "Background").mkdir(parents=True, exist_ok=True)
     stem = f"{action}_{trial}"
     sync = SyncOffsets(1.0, 1.0 + mocap_lead, 2.0)
-    for cam in tqdm(seq.cameras, desc=f"export {seq.subject} {stem}", unit="camera", disable=not progress):
-        cam.save_cal(folder / "Calibration_Data" / f"{cam.name}.cal")
-        sync.save(folder / "Sync_Data" / f"{stem}_({cam.name}).ofs")
-        frames = (read_image(seq.root / "images" / cam.name / f"{f:06d}.png", cam) for f in range(seq.n_frames))
-        target = folder / "Image_Data" / f"{stem}_({cam.name})"
-        if images == "avi":
-            write_video(target.with_name(target.name + ".avi"), frames, seq.fps)
-        else:
-            target.mkdir(exist_ok=True)
-            for f, image in enumerate(frames):
-                cv2.imwrite(str(target / f"{f + 1:06d}.png"), image)
-        write_video(out / "Background" / f"Background_1_({cam.name}).avi", seq.background(cam), seq.fps)
-    truth = upsample(seq.markers(), int(sync.mocap_scale))
-    truth = np.concatenate([np.full((mocap_lead,) + truth.shape[1:], np.nan), truth])
-    labels = [label for name in MARKER_NAMES for label in marker_map[name]]
-    columns = [m for m, name in enumerate(MARKER_NAMES) for _ in marker_map[name]]
-    write_mocap(folder / "Mocap_Data" / f"{stem}.mat", labels, truth[:, columns])
+    subject = Path(seq.subject)
+    with _staged_export(out) as staging:
+        for cam in tqdm(seq.cameras, desc=f"export {seq.subject} {stem}", unit="camera", disable=not progress):
+            cam.save_cal(staging.place(subject / "Calibration_Data" / f"{cam.name}.cal"))
+            sync.save(staging.place(subject / "Sync_Data" / f"{stem}_({cam.name}).ofs"))
+            frames = (read_image(seq.root / "images" / cam.name / f"{f:06d}.png", cam) for f in range(seq.n_frames))
+            video = subject / "Image_Data" / f"{stem}_({cam.name}).avi"
+            folder = video.with_suffix("")  # the same images as PNG files; a reader takes the video first
+            if images == "avi":
+                write_video(staging.place(video, replaces=folder), frames, seq.fps)
+            else:
+                target = staging.place(folder, replaces=video)
+                for f, image in enumerate(frames):
+                    write_image(target / f"{f + 1:06d}.png", image)
+            write_video(staging.place(Path("Background") / f"Background_1_({cam.name}).avi"),
+                        seq.background(cam), seq.fps)
+        truth = upsample(seq.markers(), int(sync.mocap_scale))
+        truth = np.concatenate([np.full((mocap_lead,) + truth.shape[1:], np.nan), truth])
+        labels = [label for name in MARKER_NAMES for label in marker_map[name]]
+        columns = [m for m, name in enumerate(MARKER_NAMES) for _ in marker_map[name]]
+        write_mocap(staging.place(subject / "Mocap_Data" / f"{stem}.mat"), labels, truth[:, columns])
     return out
+
+
+class _Staging:
+    """The files of one export, written under a temporary folder inside ``out`` and moved
+    into place once every one is written."""
+
+    def __init__(self, out: Path):
+        self.out = out
+        self.folder = out / f".export-{uuid.uuid4().hex[:12]}.tmp"
+        self.entries: list[tuple[Path, Path | None]] = []
+
+    def place(self, relative: Path, replaces: Path | None = None) -> Path:
+        """Where to write ``out/relative`` (a file, or a folder of files) for now; its folder
+        is made. ``replaces``: another entry under ``out`` that this one makes stale (an
+        image folder and a video of the same images), removed when this one moves in."""
+        self.entries.append((relative, replaces))
+        path = self.folder / relative
+        path.parent.mkdir(parents=True, exist_ok=True)
+        return path
+
+    def move_into_place(self) -> None:
+        """Every entry to its place under ``out``, over a file of an earlier export there; a
+        folder there, and the entry it replaces, are removed first."""
+        for relative, replaces in self.entries:
+            target = self.out / relative
+            target.parent.mkdir(parents=True, exist_ok=True)
+            stale = [] if replaces is None else [self.out / replaces]
+            for path in [target, *stale]:
+                if path.is_dir():
+                    shutil.rmtree(path)
+                elif path in stale:
+                    path.unlink(missing_ok=True)
+            os.replace(self.folder / relative, target)
+
+
+@contextlib.contextmanager
+def _staged_export(out: Path) -> Iterator[_Staging]:
+    """An export that completes or leaves ``out`` as it was: its files are written into a
+    temporary folder inside ``out`` and moved into place at the end; on an error the folder
+    is removed (and ``out`` too, if the export made it). A file-system fault is a
+    :class:`~mmocap.io.WriteError` naming ``out``, as the temporary paths mean nothing to
+    the user."""
+    made_out = not out.exists()
+    staging = _Staging(out)
+    try:
+        with writing(out, rename=True):
+            staging.folder.mkdir(parents=True)
+            yield staging
+            staging.move_into_place()
+    except BaseException:
+        if made_out:
+            shutil.rmtree(out, ignore_errors=True)
+        raise
+    finally:
+        shutil.rmtree(staging.folder, ignore_errors=True)

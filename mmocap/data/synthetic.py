@@ -15,7 +15,6 @@ import json
 import shutil
 from pathlib import Path
 
-import cv2
 import numpy as np
 from tqdm.auto import tqdm
 
@@ -28,6 +27,7 @@ from mmocap.data import render
 from mmocap.data.motion import generate_motion
 from mmocap.data.sequence import FORMAT, Sequence, write_markers
 from mmocap.errors import ConfigError
+from mmocap.io import write_image, write_text_atomic, writing
 
 # name, colour sensor, azimuth in degrees: the first four are spread evenly so that the
 # usual 4-camera subset (C1, C2, C3, BW1) surrounds the subject.
@@ -98,6 +98,10 @@ def generate(root, subject: str = "S1", action: str = "walking", frames: int = 6
              distortion: float = 1.0, progress: bool = True) -> Path:
     """Render one sequence into ``root`` (replacing what is there) and return its path.
 
+    ``sequence.json`` is written last, so a folder without it is an interrupted generation; a
+    failure to write (a :class:`~mmocap.io.WriteError` naming the file or ``root``: a full
+    disk, a read-only folder) removes the half-rendered folder.
+
     Lighting and sensor (see ``conf/dataset/synthetic.yaml``): ``noise_sigma`` read noise
     (grey levels), ``shot_noise`` shot-noise variance per grey level, ``flicker`` standard
     deviation of the light's gain from frame to frame (background frames included; every
@@ -135,49 +139,54 @@ def generate(root, subject: str = "S1", action: str = "walking", frames: int = 6
     sensor = dict(noise_sigma=noise_sigma, shot_noise=shot_noise)
 
     root = Path(root)
-    if root.exists():
-        shutil.rmtree(root)
-    for sub in ("calibration", "background", "images", "silhouettes"):
-        (root / sub).mkdir(parents=True)
-    backgrounds = {}
-    for cam in cams:
-        cam.save(root / "calibration" / f"{cam.name}.json")
-        backgrounds[cam.name] = render.make_background(cam, rng)
-        folder = root / "background" / cam.name
-        folder.mkdir()
-        for k, img in enumerate(render.noisy_background_frames(
-                backgrounds[cam.name], cam, rng, background_frames, gains=background_gains, **sensor)):
-            cv2.imwrite(str(folder / f"{k:04d}.png"), img)
-        (root / "images" / cam.name).mkdir()
-        (root / "silhouettes" / cam.name).mkdir()
+    try:
+        with writing(root):
+            if root.exists():
+                shutil.rmtree(root)
+            for sub in ("calibration", "background", "images", "silhouettes"):
+                (root / sub).mkdir(parents=True)
+            backgrounds = {}
+            for cam in cams:
+                cam.save(root / "calibration" / f"{cam.name}.json")
+                backgrounds[cam.name] = render.make_background(cam, rng)
+                folder = root / "background" / cam.name
+                folder.mkdir()
+                for k, img in enumerate(render.noisy_background_frames(
+                        backgrounds[cam.name], cam, rng, background_frames, gains=background_gains, **sensor)):
+                    write_image(folder / f"{k:04d}.png", img)
+                (root / "images" / cam.name).mkdir()
+                (root / "silhouettes" / cam.name).mkdir()
 
-    markers = np.zeros((frames, len(markers_idx), 3))
-    G = global_transforms(poses, mesh.pivots, frames_of)
-    S = skinning_transforms(G, mesh.pivots)
-    for f in tqdm(range(frames), desc=f"render {subject} {action}", unit="frame", disable=not progress):
-        vertices = mesh.posed(S[f])
-        markers[f] = vertices[markers_idx]
-        for cam in cams:
-            shadow = render.floor_shadow(cam, vertices, mesh.faces, render.LIGHT_DIR,
-                                         shadow_strength, shadow_softness)
-            image, silhouette = render.render_view(cam, vertices, mesh.faces, colours,
-                                                   backgrounds[cam.name], rng, gain=frame_gains[f],
-                                                   shadow=shadow, **sensor)
-            cv2.imwrite(str(root / "images" / cam.name / f"{f:06d}.png"), image)
-            cv2.imwrite(str(root / "silhouettes" / cam.name / f"{f:06d}.png"),
-                        silhouette.astype(np.uint8) * 255)
+            markers = np.zeros((frames, len(markers_idx), 3))
+            G = global_transforms(poses, mesh.pivots, frames_of)
+            S = skinning_transforms(G, mesh.pivots)
+            for f in tqdm(range(frames), desc=f"render {subject} {action}", unit="frame", disable=not progress):
+                vertices = mesh.posed(S[f])
+                markers[f] = vertices[markers_idx]
+                for cam in cams:
+                    shadow = render.floor_shadow(cam, vertices, mesh.faces, render.LIGHT_DIR,
+                                                 shadow_strength, shadow_softness)
+                    image, silhouette = render.render_view(cam, vertices, mesh.faces, colours,
+                                                           backgrounds[cam.name], rng, gain=frame_gains[f],
+                                                           shadow=shadow, **sensor)
+                    write_image(root / "images" / cam.name / f"{f:06d}.png", image)
+                    write_image(root / "silhouettes" / cam.name / f"{f:06d}.png",
+                                silhouette.astype(np.uint8) * 255)
 
-    write_markers(root / "markers_mm.csv", markers, MARKER_NAMES)
-    np.save(root / "poses.npy", poses)
-    meta = {
-        "format": FORMAT, "subject": subject, "action": action, "fps": fps, "frames": frames,
-        "cameras": [c.name for c in cams], "marker_names": list(MARKER_NAMES),
-        "dimensions": {"height_mm": dims.height_mm, "girth": dims.girth},
-        "x0": poses[0].tolist(), "units": {"length": "mm", "angle": "rad"},
-        "generator": {**settings, "digest": settings_digest(settings)},
-    }
-    # Written last: a folder without it is an interrupted generation and is redone.
-    (root / "sequence.json").write_text(json.dumps(meta, indent=1))
+            write_markers(root / "markers_mm.csv", markers, MARKER_NAMES)
+            np.save(root / "poses.npy", poses)
+            meta = {
+                "format": FORMAT, "subject": subject, "action": action, "fps": fps, "frames": frames,
+                "cameras": [c.name for c in cams], "marker_names": list(MARKER_NAMES),
+                "dimensions": {"height_mm": dims.height_mm, "girth": dims.girth},
+                "x0": poses[0].tolist(), "units": {"length": "mm", "angle": "rad"},
+                "generator": {**settings, "digest": settings_digest(settings)},
+            }
+            # Written last: a folder without it is an interrupted generation and is redone.
+            write_text_atomic(root / "sequence.json", json.dumps(meta, indent=1))
+    except BaseException:
+        shutil.rmtree(root, ignore_errors=True)  # no half-rendered sequence is left behind
+        raise
     return root
 
 

@@ -6,12 +6,15 @@ a sequence's error is the mean over its frames.
 """
 from __future__ import annotations
 
+import contextlib
 import csv
+import os
 from pathlib import Path
 
 import numpy as np
 
 from mmocap.body.skeleton import parameter_names
+from mmocap.io import writing
 
 
 def marker_error(estimated: np.ndarray, truth: np.ndarray) -> np.ndarray:
@@ -28,24 +31,48 @@ def marker_error(estimated: np.ndarray, truth: np.ndarray) -> np.ndarray:
 
 
 class FrameLog:
-    """Per-frame CSV written row by row and flushed, so a crash keeps the finished frames.
+    """Per-frame CSV written row by row and flushed, so that a crash keeps the finished frames.
 
     Columns: frame, marker_error_mm, fitness, evaluations, seconds, then the 51 pose
-    parameters (mm, rad).
+    parameters (mm, rad). The rows go to ``<path>.partial`` (``frames.csv.partial``), which
+    :meth:`close` renames to ``path`` once every frame is in (the rule of :mod:`mmocap.io`:
+    a file appears under its final name only when complete); ``close(complete=False)``, for
+    a run that stopped, leaves the rows written so far in ``<path>.partial``. A failure to
+    write is a :class:`~mmocap.io.WriteError` naming the file.
     """
 
     def __init__(self, path: Path):
         self.path = Path(path)
-        self.file = open(self.path, "w", newline="")
+        self.partial = self.path.with_name(self.path.name + ".partial")
+        with writing(self.partial):
+            self.file = open(self.partial, "w", newline="")
         self.writer = csv.writer(self.file)
-        self.writer.writerow(["frame", "marker_error_mm", "fitness", "evaluations", "seconds",
-                              *parameter_names()])
+        self._write_row(["frame", "marker_error_mm", "fitness", "evaluations", "seconds", *parameter_names()])
 
     def write(self, frame: int, error_mm: float, fitness: float, evaluations: int,
               seconds: float, pose: np.ndarray) -> None:
-        self.writer.writerow([frame, f"{error_mm:.3f}", f"{fitness:.6f}", evaluations,
-                              f"{seconds:.4f}", *(f"{v:.6f}" for v in pose)])
-        self.file.flush()
+        self._write_row([frame, f"{error_mm:.3f}", f"{fitness:.6f}", evaluations,
+                         f"{seconds:.4f}", *(f"{v:.6f}" for v in pose)])
 
-    def close(self) -> None:
-        self.file.close()
+    def _write_row(self, row: list) -> None:
+        with writing(self.partial):
+            self.writer.writerow(row)
+            self.file.flush()
+
+    def close(self, complete: bool = True) -> None:
+        """Close the file; with ``complete``, sync it to disk and rename it to ``path``,
+        without, keep what was written in ``<path>.partial`` as far as it can be. Closing
+        again does nothing."""
+        if self.file.closed:
+            return
+        if not complete:
+            with contextlib.suppress(OSError):  # the run has failed already: that error is reported
+                self.file.close()
+            return
+        with writing(self.partial):
+            try:
+                self.file.flush()
+                os.fsync(self.file.fileno())
+            finally:
+                self.file.close()
+            os.replace(self.partial, self.path)
