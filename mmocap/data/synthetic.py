@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import logging
 import shutil
 from pathlib import Path
 
@@ -28,6 +29,8 @@ from mmocap.data.motion import generate_motion
 from mmocap.data.sequence import FORMAT, Sequence, write_markers
 from mmocap.errors import ConfigError
 from mmocap.io import write_image, write_text_atomic, writing
+
+log = logging.getLogger(__name__)
 
 # name, colour sensor, azimuth in degrees: the first four are spread evenly so that the
 # usual 4-camera subset (C1, C2, C3, BW1) surrounds the subject.
@@ -216,7 +219,10 @@ class SyntheticDataset:
         meta_path = self.path / "sequence.json"
         current = None
         if meta_path.is_file():
-            current = json.loads(meta_path.read_text()).get("generator", {}).get("digest")
+            try:
+                current = json.loads(meta_path.read_text())["generator"]["digest"]
+            except (ValueError, TypeError, KeyError) as exc:  # this class's own output, damaged: render again
+                log.warning("%s is unreadable (%s); rendering the sequence again", meta_path, exc)
         if current != settings_digest(self.settings):
             generate(self.path, progress=progress, **self.settings)
         return Sequence.open(self.path, self.cameras)

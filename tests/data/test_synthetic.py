@@ -115,3 +115,13 @@ def test_bad_lighting_settings_name_the_value(tmp_path, kwargs):
     name = next(iter(kwargs))
     with pytest.raises(ConfigError, match=f"dataset.{name} must be in"):
         generate(tmp_path / "bad", frames=1, cameras=("C1",), progress=False, **kwargs)
+
+
+def test_a_damaged_sequence_json_is_rendered_again(tmp_path):
+    from mmocap.data.synthetic import SyntheticDataset
+
+    dataset = SyntheticDataset(root=str(tmp_path), frames=1, cameras=["C1"], all_cameras=["C1"], width=64,
+                               height=48, background_frames=2)
+    dataset.open(progress=False)
+    (dataset.path / "sequence.json").write_text('{"format": "mmocap-seq')
+    assert dataset.open(progress=False).n_frames == 1
