@@ -35,18 +35,17 @@ from tqdm.auto import tqdm
 from mmocap import provenance
 from mmocap.analysis.figures import overlay, plot_error_per_frame
 from mmocap.analysis.results import ResultsStore, make_record, run_key, store_folder
-from mmocap.data.sequence import check_missing_markers
 from mmocap.errors import ConfigError, DataError, MmocapWarning
 from mmocap.evaluators.timed import TimedEvaluator
 from mmocap.io import LockBusy, exclusive, locked, write_image, write_json_atomic, writing
+from mmocap.preflight import check_config
 from mmocap.stages.evaluation import FrameLog, marker_error
 from mmocap.stages.foreground import Foreground
-from mmocap.stages.tracking import check_budget, track
+from mmocap.stages.tracking import track
 
 log = logging.getLogger(__name__)
 
 #: what ``run_dir_busy`` may say about a run folder another run is writing into
-RUN_DIR_BUSY = ("refuse", "wait")
 #: the lock file a run holds in its folder
 RUN_LOCK = ".run.lock"
 #: the files a run writes into its folder (besides ``overlays/*.png``)
@@ -77,16 +76,10 @@ def run(cfg: DictConfig, output_dir: Path) -> dict:
     for a run already in the results store, the summary of its record). The summary's
     ``warnings`` lists every :class:`MmocapWarning` the run gave."""
     output_dir = Path(output_dir)
-    wait = check_run_dir_busy(cfg.run_dir_busy) == "wait"
+    check_config(cfg)  # every value, before anything is read or written
+    wait = cfg.run_dir_busy == "wait"
     with recorded_warnings() as messages, run_folder_lock(output_dir, wait):
         return _run(cfg, output_dir, messages)
-
-
-def check_run_dir_busy(value) -> str:
-    """``value`` if it is one of :data:`RUN_DIR_BUSY`, else a ConfigError naming ``run_dir_busy``."""
-    if value not in RUN_DIR_BUSY:
-        raise ConfigError(f"run_dir_busy must be one of {', '.join(RUN_DIR_BUSY)}, got {value!r}")
-    return value
 
 
 @contextmanager
@@ -116,8 +109,6 @@ def clear_outputs(output_dir: Path) -> None:
 
 def _run(cfg: DictConfig, output_dir: Path, warning_messages: list[str]) -> dict:
     output_dir.mkdir(parents=True, exist_ok=True)
-    if cfg.overlays < 0:
-        raise ConfigError(f"overlays must be >= 0, got {cfg.overlays}")
     store = ResultsStore(store_folder(cfg, sweep_folder() or output_dir))
     run_id = run_key(cfg)
     done = store.get(run_id) or store.adopt(run_id, cfg.results.reuse)
@@ -128,14 +119,13 @@ def _run(cfg: DictConfig, output_dir: Path, warning_messages: list[str]) -> dict
     clear_outputs(output_dir)
     started = provenance.now()
 
-    check_budget(cfg.tracking.evaluations)
     # Components first: a bad value fails before any data is rendered or read.
     optimizer = instantiate(cfg.optimizer)
     strategy = instantiate(cfg.strategy)
     evaluator = TimedEvaluator(instantiate(cfg.evaluator))
     body = instantiate(cfg.body)
     coverage = instantiate(cfg.coverage)
-    missing_markers = check_missing_markers(cfg.evaluation.missing_markers)
+    missing_markers = str(cfg.evaluation.missing_markers)
     strategy.check(body, optimizer, int(cfg.tracking.evaluations))
     dataset = instantiate(cfg.dataset)
     with exclusive(getattr(dataset, "path", None)):  # parallel jobs render a sequence once

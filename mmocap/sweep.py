@@ -21,6 +21,8 @@ import os
 import time
 from pathlib import Path
 
+from hydra._internal.core_plugins.basic_sweeper import BasicSweeper
+from hydra.core.global_hydra import GlobalHydra
 from hydra.core.hydra_config import HydraConfig
 from hydra.core.override_parser.overrides_parser import OverridesParser
 from hydra.core.utils import JobReturn, JobStatus
@@ -32,6 +34,7 @@ from mmocap import provenance, registry
 from mmocap.analysis.results import ResultsStore, export, run_key, store_folder
 from mmocap.errors import ConfigError
 from mmocap.io import WriteError, append_line, read_json_lines, write_json_atomic
+from mmocap.preflight import check_config
 
 log = logging.getLogger(__name__)
 
@@ -72,6 +75,24 @@ def check_sweep(config: DictConfig, values: dict[str, list[str]]) -> None:
                               "choose another evaluator")
 
 
+def job_overrides(config: DictConfig) -> list[list[str]]:
+    """Each job's overrides, in the order Hydra's basic sweeper launches them."""
+    params = [f"{k}={v}" for k, v in (config.hydra.sweeper.get("params") or {}).items()]
+    parsed = OverridesParser.create().parse_overrides(params + list(config.hydra.overrides.task))
+    return [job for batch in BasicSweeper.split_arguments(parsed, None) for job in batch]
+
+
+def check_jobs(config: DictConfig) -> None:
+    """ConfigError, before any job starts, for the first job of the sweep whose composed
+    config fails :func:`mmocap.preflight.check_config`, naming the job and its overrides."""
+    loader = GlobalHydra.instance().config_loader()
+    for number, overrides in enumerate(job_overrides(config)):
+        try:
+            check_config(loader.load_sweep_config(config, overrides))
+        except ConfigError as exc:
+            raise ConfigError(f"sweep job {number} ({' '.join(overrides)}): {exc}; no job was started") from None
+
+
 class SweepProgress(Callback):
     """Provenance, progress and export of a multirun sweep (see module doc)."""
 
@@ -79,6 +100,7 @@ class SweepProgress(Callback):
         sweep_dir = Path(config.hydra.sweep.dir)
         values = sweep_overrides(config)
         check_sweep(config, values)
+        check_jobs(config)
         total = math.prod(len(v) for v in values.values())
         sweep_dir.mkdir(parents=True, exist_ok=True)
         store = ResultsStore(store_folder(config, sweep_dir))

@@ -19,6 +19,7 @@ from mmocap.body.mesh import (
 )
 from mmocap.body.skeleton import JOINTS
 from mmocap.errors import ConfigError
+from mmocap.validate import check_number
 
 ARM_JOINTS = ("LShoulder", "LElbow", "LWrist", "RShoulder", "RElbow", "RWrist")
 FORWARD = np.array([0.0, 0.0, 1.0])
@@ -77,6 +78,17 @@ def marker_vertices(mesh: SkinMesh) -> np.ndarray:
     return np.asarray(out)
 
 
+def check_body(subject, dof, vertices, seed) -> None:
+    """ConfigError naming the ``body.*`` key of the first bad argument of :class:`BodyModel`
+    (cheap: nothing is loaded)."""
+    subject_dimensions(subject)
+    dof = check_number("body.dof", dof, 1, 51, integer=True)
+    skeleton.dof_mask(dof)
+    if vertices is not None:
+        check_number("body.vertices", vertices, 1000, 200_000, integer=True)
+    check_number("body.seed", seed, 0, 2**32 - 1, integer=True)
+
+
 class BodyModel:
     """The articulated body the tracker fits: skeleton, vertex-sampled skin and markers.
 
@@ -94,6 +106,7 @@ class BodyModel:
     """
 
     def __init__(self, subject: str = "S1", dof: int = 39, vertices: int | None = 13695, seed: int = 0):
+        check_body(subject, dof, vertices, seed)
         self.subject = subject_dimensions(subject)
         self.dof = int(dof)
         self.mask = skeleton.dof_mask(self.dof)

@@ -29,6 +29,7 @@ from mmocap.data.motion import generate_motion
 from mmocap.data.sequence import FORMAT, Sequence, write_markers
 from mmocap.errors import ConfigError
 from mmocap.io import write_image, write_text_atomic, writing
+from mmocap.validate import check_number
 
 log = logging.getLogger(__name__)
 
@@ -93,6 +94,36 @@ def settings_digest(settings: dict) -> str:
     return hashlib.sha256(json.dumps(settings, sort_keys=True).encode()).hexdigest()[:16]
 
 
+
+#: the largest image side the generator renders, px (as for calibrations)
+MAX_SIDE = 16384
+
+
+def check_settings(*, subject, action, frames, cameras, width, height, fps, seed, background_frames,
+                   noise_sigma, shot_noise, flicker, shadow_strength, shadow_softness, distortion) -> None:
+    """ConfigError naming the ``dataset.*`` key of the first bad generator setting (before
+    anything is rendered or allocated)."""
+    subject_dimensions(subject)
+    check_number("dataset.frames", frames, 1, 100_000, integer=True)
+    check_number("dataset.width", width, 32, MAX_SIDE, integer=True)
+    check_number("dataset.height", height, 32, MAX_SIDE, integer=True)
+    check_number("dataset.fps", fps, 0, 10_000, low_open=True)
+    check_number("dataset.seed", seed, 0, 2**32 - 1, integer=True)
+    check_number("dataset.background_frames", background_frames, 2, 10_000, integer=True)
+    for name, value, high in (("noise_sigma", noise_sigma, 50), ("shot_noise", shot_noise, 5),
+                              ("flicker", flicker, 0.3), ("shadow_strength", shadow_strength, 1),
+                              ("shadow_softness", shadow_softness, 0.5), ("distortion", distortion, 10)):
+        check_number(f"dataset.{name}", value, 0, high)
+    known = [name for name, _, _ in CAMERA_RING]
+    if isinstance(cameras, str) or not all(isinstance(c, str) for c in cameras) or not cameras:
+        raise ConfigError(f"dataset cameras must be a list of names from {', '.join(known)}, got {cameras!r}")
+    unknown = [c for c in cameras if c not in known]
+    if unknown:
+        raise ConfigError(f"dataset cameras: unknown camera {', '.join(unknown)}; known: {', '.join(known)}")
+    if not isinstance(action, str):
+        raise ConfigError(f"dataset.action must be a name, got {action!r}")
+
+
 def generate(root, subject: str = "S1", action: str = "walking", frames: int = 60,
              cameras=("C1", "C2", "C3", "BW1", "BW2", "BW3", "BW4"), width: int = 640,
              height: int = 480, fps: float = 60.0, seed: int = 0, background_frames: int = 10,
@@ -111,18 +142,10 @@ def generate(root, subject: str = "S1", action: str = "walking", frames: int = 6
     camera sees the same light), ``shadow_strength`` fraction of the light the person's floor
     shadow removes at its core, ``shadow_softness`` angular radius of the area light (rad).
     """
-    if frames < 1:
-        raise ConfigError(f"dataset.frames must be >= 1, got {frames}")
-    if width < 32 or height < 32:
-        raise ConfigError(f"dataset image size must be at least 32x32, got {width}x{height}")
-    if background_frames < 2:
-        raise ConfigError(f"dataset.background_frames must be >= 2, got {background_frames}")
-    ranges = (("noise_sigma", noise_sigma, 0, 50), ("shot_noise", shot_noise, 0, 5),
-              ("flicker", flicker, 0, 0.3), ("shadow_strength", shadow_strength, 0, 1),
-              ("shadow_softness", shadow_softness, 0, 0.5))
-    for name, value, low, high in ranges:
-        if not low <= value <= high:
-            raise ConfigError(f"dataset.{name} must be in [{low}, {high}], got {value}")
+    check_settings(subject=subject, action=action, frames=frames, cameras=cameras, width=width, height=height,
+                   fps=fps, seed=seed, background_frames=background_frames, noise_sigma=noise_sigma,
+                   shot_noise=shot_noise, flicker=flicker, shadow_strength=shadow_strength,
+                   shadow_softness=shadow_softness, distortion=distortion)
     settings = dict(subject=subject, action=action, frames=frames, cameras=list(cameras),
                     width=width, height=height, fps=fps, seed=seed,
                     background_frames=background_frames, noise_sigma=noise_sigma,
@@ -207,6 +230,14 @@ class SyntheticDataset:
                  noise_sigma: float = 2.0, shot_noise: float = 0.02, flicker: float = 0.02,
                  shadow_strength: float = 0.4, shadow_softness: float = 0.15,
                  distortion: float = 1.0):
+        check_settings(subject=subject, action=action, frames=frames, cameras=list(all_cameras), width=width,
+                       height=height, fps=fps, seed=seed, background_frames=background_frames,
+                       noise_sigma=noise_sigma, shot_noise=shot_noise, flicker=flicker,
+                       shadow_strength=shadow_strength, shadow_softness=shadow_softness, distortion=distortion)
+        missing = [c for c in cameras if c not in all_cameras]
+        if missing:
+            raise ConfigError(f"dataset.cameras: {', '.join(map(str, missing))} not in dataset.all_cameras "
+                              f"({', '.join(all_cameras)}); add them there")
         self.path = Path(root) / f"{subject}_{action}"
         self.cameras = list(cameras)
         self.settings = dict(subject=subject, action=action, frames=frames, cameras=list(all_cameras),

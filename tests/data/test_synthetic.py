@@ -113,7 +113,7 @@ def test_lighting_effects_can_be_turned_off(tmp_path):
                                     {"noise_sigma": -2.0}])
 def test_bad_lighting_settings_name_the_value(tmp_path, kwargs):
     name = next(iter(kwargs))
-    with pytest.raises(ConfigError, match=f"dataset.{name} must be in"):
+    with pytest.raises(ConfigError, match=f"dataset.{name} must be a number in"):
         generate(tmp_path / "bad", frames=1, cameras=("C1",), progress=False, **kwargs)
 
 

@@ -1,0 +1,62 @@
+"""Bad config values: one line naming the key, exit 2, before any data is rendered or read;
+in a sweep, before the first job starts."""
+import pytest
+
+from tests.bad_input.conftest import assert_clean_error, mmocap
+
+CASES = [
+    ("seed=abc", "seed"),
+    ("seed=-1", "seed"),
+    ("seed=1.5", "seed"),
+    ("tracking.evaluations=150.7", "tracking.evaluations"),  # was truncated to 150 silently
+    ("tracking.evaluations=lots", "tracking.evaluations"),
+    ("tracking.evaluations=0", "tracking.evaluations"),
+    ("tracking.frames=0", "tracking.frames"),
+    ("overlays=-1", "overlays"),
+    ("progress=maybe", "progress"),
+    ("dataset.width=wide", "dataset.width"),
+    ("dataset.width=60000", "dataset.width"),   # with the height below: refused before allocating
+    ("dataset.frames=two", "dataset.frames"),
+    ("dataset.noise_sigma=-2", "dataset.noise_sigma"),
+    ("dataset.cameras=[C1,C9]", "C9"),
+    ("body.dof=many", "body.dof"),
+    ("body.dof=40", "body.dof"),
+    ("body.vertices=12.5", "body.vertices"),
+    ("body.subject=S9", "S9"),
+    ("optimizer.popsize=1", "optimizer.popsize"),
+    ("evaluator.name=nope", "nope"),
+    ("coverage.frames=0", "coverage.frames"),
+    ("run_dir_busy=later", "run_dir_busy"),
+    ("evaluation.missing_markers=ignore", "evaluation.missing_markers"),
+]
+
+
+@pytest.mark.parametrize("override, key", CASES, ids=[c[0] for c in CASES])
+def test_a_bad_value_names_its_key_before_any_data_is_read(tmp_path, override, key):
+    data = tmp_path / "data"
+    extra = ["dataset.height=40000"] if override == "dataset.width=60000" else []
+    outcome = mmocap(override, *extra, f"dataset.root={data}", f"hydra.run.dir={tmp_path / 'run'}",
+                     "progress=false" if not override.startswith("progress") else "overlays=0")
+    assert_clean_error(outcome, key)
+    assert not data.exists(), "data was rendered before the config was checked"
+
+
+def test_a_bad_value_in_the_last_job_of_a_sweep_stops_it_before_the_first_job(tmp_path):
+    seeds = ",".join(str(s) for s in range(39)) + ",-1"
+    sweep = tmp_path / "sweep"
+    outcome = mmocap("-m", f"seed={seeds}", f"dataset.root={tmp_path / 'data'}", f"hydra.sweep.dir={sweep}",
+                     "progress=false")
+    line = assert_clean_error(outcome, "sweep job 39", "seed=-1", "seed must be")
+    assert "no job was started" in line
+    assert not sweep.exists() and not (tmp_path / "data").exists()
+
+
+def test_an_unknown_key_gets_hydras_own_message_without_a_traceback(tmp_path):
+    outcome = mmocap("tracking.evaluatoins=3", f"hydra.run.dir={tmp_path / 'run'}")
+    assert outcome.code != 0 and "Traceback" not in outcome.stderr
+    assert "tracking.evaluatoins" in outcome.stderr
+
+
+def test_a_bad_benchmark_argument_is_one_line(tmp_path):
+    outcome = mmocap("bench", "table2", "--vertices", "500", cwd=tmp_path)
+    assert_clean_error(outcome, "vertices")
