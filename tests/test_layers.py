@@ -12,7 +12,8 @@ PACKAGE = Path(__file__).resolve().parents[1] / "mmocap"
 # Top first. A module is placed by its dotted name's longest prefix found here.
 LAYERS = [
     ("command line", ["mmocap.cli", "mmocap.__main__"]),
-    ("jobs", ["mmocap.pipeline", "mmocap.preflight", "mmocap.sweep", "mmocap.bench", "mmocap.report", "mmocap.testing"]),
+    ("jobs", ["mmocap.pipeline", "mmocap.preflight", "mmocap.sweep", "mmocap.bench", "mmocap.report",
+              "mmocap.testing"]),
     ("analysis", ["mmocap.analysis"]),
     ("stages", ["mmocap.stages"]),
     ("components", ["mmocap.evaluators", "mmocap.optimizers", "mmocap.data", "mmocap.body",

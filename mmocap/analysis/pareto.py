@@ -45,6 +45,11 @@ def summarise(runs: pd.DataFrame, by: list[str] = CONFIGURATION, objectives: lis
     if runs.empty:
         raise DataError(f"{source}: no runs to compare")
     values = {column: finite_numbers(runs, column, source) for column in objectives}
+    for column in by:  # a groupby would drop these rows silently
+        empty = runs[column].isna().to_numpy()
+        if empty.any():
+            raise DataError(f"{source}: column {column!r} has {int(empty.sum())} empty cell(s), the first in "
+                            f"data row {empty.nonzero()[0][0] + 1}; every run needs its configuration")
     grouped = runs[by].assign(**values).groupby(by, observed=True)
     table = grouped[objectives].mean().assign(runs=grouped.size()).reset_index()
     table["pareto"] = non_dominated(table[objectives].to_numpy())

@@ -137,8 +137,18 @@ def make_record(cfg: DictConfig, summary: dict, frames: list[dict], wall_seconds
     }
 
 
-def run_row(record: dict) -> dict:
-    """One row of the ``runs`` table from a record."""
+#: the summary entries a runs table is made of
+SUMMARY_KEYS = ("subject", "action", "optimizer", "strategy", "dof", "evaluations_per_frame", "vertices",
+                "backend", "frames", "mean_marker_error_mm")
+
+
+def run_row(record: dict, source: str = "record") -> dict:
+    """One row of the ``runs`` table from a record; ``mean_marker_error_mm`` is empty (NaN)
+    for a run without ground truth. A record missing a part is a DataError naming ``source``."""
+    missing = [key for key in ("run_id", "seed", "summary", "timings", "provenance") if key not in record]
+    missing += [f"summary.{key}" for key in SUMMARY_KEYS if key not in record.get("summary", {})]
+    if missing:
+        raise DataError(f"run record {source} lacks {', '.join(missing)}; delete it to run that job again")
     s, t, p = record["summary"], record["timings"], record["provenance"]
     return {
         "run_id": record["run_id"], "subject": s["subject"], "action": s["action"],
@@ -147,7 +157,7 @@ def run_row(record: dict) -> dict:
         "algorithm": f"{s['optimizer']}-{s['strategy']}", "dof": int(s["dof"]),
         "evaluations": int(s["evaluations_per_frame"]), "vertices": int(s["vertices"]),
         "backend": s["backend"], "frames": int(s["frames"]),
-        "mean_marker_error_mm": float(s["mean_marker_error_mm"]),
+        "mean_marker_error_mm": np.nan if s["mean_marker_error_mm"] is None else float(s["mean_marker_error_mm"]),
         "seconds_per_frame": float(t["seconds_per_frame"]),
         "evaluation_seconds_per_frame": float(t.get("evaluation_seconds_per_frame", np.nan)),
         "git_commit": p.get("git_commit"), "host": p.get("host"),
@@ -160,7 +170,8 @@ def load_runs(folder) -> tuple[pd.DataFrame, pd.DataFrame]:
     records = store.records()
     if not records:
         raise DataError(f"no run records in {store.records_dir}: has a sweep run into {store.folder}?")
-    runs = pd.DataFrame([run_row(r) for r in records], columns=RUN_COLUMNS)
+    runs = pd.DataFrame([run_row(r, str(store.path(i))) for i, r in zip(store.run_ids(), records)],
+                        columns=RUN_COLUMNS)
     frames = pd.DataFrame([(r["run_id"], int(f["frame"]), float(f["marker_error_mm"]))
                            for r in records for f in r["frames"]], columns=FRAME_COLUMNS)
     return runs, frames

@@ -28,6 +28,8 @@ algorithm (a sweep still running leaves such blocks) is dropped with an
 """
 from __future__ import annotations
 
+import csv
+import itertools
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -62,12 +64,21 @@ def block_matrix(table: pd.DataFrame, block: list[str] | str, algorithm: str, va
     if not block:
         raise DataError(f"{source}: no block column given")
     require_columns(table, [*block, algorithm, value], source)
+    if table.empty:
+        raise DataError(f"{source}: the table has a header but no data rows")
+    roles = [*block, algorithm, value]
+    repeated = sorted({c for c in roles if roles.count(c) > 1})
+    if repeated:
+        raise DataError(f"{source}: column {', '.join(map(repr, repeated))} is given more than one role "
+                        f"(blocks {', '.join(block)}, algorithm {algorithm!r}, value {value!r}); "
+                        "give each role its own column")
     values = finite_numbers(table, value, source)
     for column in [*block, algorithm]:
         if table[column].isna().any():
             raise DataError(f"{source}: column {column!r} has empty cells")
-    long = table[[*block, algorithm]].assign(_value=values)
-    matrix = long.pivot_table(index=block, columns=algorithm, values="_value", aggfunc="mean",
+    # names as text, so that an algorithm called 2 is asked for as --control 2
+    long = table[[*block, algorithm]].assign(**{algorithm: table[algorithm].astype(str)}, _value=values)
+    matrix = long.pivot_table(index=block, columns=algorithm, values="_value", aggfunc=overflow_free_mean,
                               observed=True)
     matrix.columns.name = algorithm
     if matrix.shape[1] < MIN_ALGORITHMS:
@@ -86,6 +97,13 @@ def block_matrix(table: pd.DataFrame, block: list[str] | str, algorithm: str, va
         raise DataError(f"{source}: the Friedman test needs at least {MIN_BLOCKS} blocks "
                         f"({', '.join(block)}) with a value for every {algorithm}, got {len(matrix)}")
     return matrix, dropped
+
+
+def overflow_free_mean(values) -> float:
+    """The mean of ``values`` (n,) as the sum of ``values / n``, which stays finite for
+    finite values near the float limit (1e308), where the sum of the values would not."""
+    values = np.asarray(values, dtype=float)
+    return float(np.sum(values / len(values)))
 
 
 def require_columns(table: pd.DataFrame, columns: list[str], source: str) -> None:
@@ -246,6 +264,12 @@ def read_table(path: str | Path) -> pd.DataFrame:
             return pd.read_parquet(path)
         with open(path) as f:
             comments = sum(1 for _ in iter(lambda: f.readline().startswith("#"), False))
+        with open(path, newline="") as f:
+            header = next(itertools.islice(csv.reader(f), comments, None), [])
+        repeated = sorted({str(c) for c in header if header.count(c) > 1})
+        if repeated:
+            raise DataError(f"{path}: column name(s) {', '.join(map(repr, repeated))} appear more than once "
+                            "in the header; rename them so that each column has its own name")
         return pd.read_csv(path, skiprows=comments)
     except ImportError as err:
         raise DataError(f"{path}: reading Parquet needs pyarrow (pip install pyarrow): {err}") from None

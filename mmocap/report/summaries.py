@@ -23,7 +23,13 @@ def collect(folder: Path) -> pd.DataFrame:
     """One row per summary.json below ``folder``, sorted by mean marker error."""
     rows = []
     for path in sorted(Path(folder).rglob("summary.json")):
-        summary = json.loads(path.read_text())
+        try:
+            summary = json.loads(path.read_text())
+        except ValueError as exc:
+            raise DataError(f"{path} is not valid JSON ({exc}); that run did not finish: delete its folder "
+                            "or run it again") from None
+        if not isinstance(summary, dict):
+            raise DataError(f"{path} is not a run summary (a JSON object)")
         rows.append({**{k: summary.get(k) for k in COLUMNS}, "run": str(path.parent)})
     if not rows:
         return pd.DataFrame(columns=COLUMNS + ["run"])

@@ -72,3 +72,12 @@ def test_bad_runs_are_clear_errors(damage, message):
     with pytest.raises(DataError) as err:
         summarise(damage(runs_table()), source="sweep/runs.csv")
     assert str(err.value).startswith("sweep/runs.csv: ") and message in str(err.value)
+
+
+def test_a_run_without_its_configuration_is_refused_not_dropped():
+    runs = pd.DataFrame({"algorithm": ["cmaes", None, "pso"], "dof": [39, 39, 39], "vertices": [1000] * 3,
+                         "evaluations": [500] * 3, "mean_marker_error_mm": [10.0, 5.0, 12.0],
+                         "seconds_per_frame": [1.0, 0.5, 0.8]})
+    with pytest.raises(DataError, match="column 'algorithm' has 1 empty cell"):
+        summarise(runs, by=["algorithm", "dof", "vertices", "evaluations"],
+                  objectives=["mean_marker_error_mm", "seconds_per_frame"])
