@@ -35,10 +35,12 @@ import pandas as pd
 
 from mmocap import registry
 from mmocap.analysis.figures import plot_frames_per_second
-from mmocap.body.model import BodyModel
+from mmocap.body.model import VERTICES_RANGE, BodyModel
 from mmocap.data.synthetic import CAMERA_RING, camera_rig
+from mmocap.errors import ConfigError
 from mmocap.evaluators.timed import TimedEvaluator
-from mmocap.stages.tracking import Holistic
+from mmocap.stages.tracking import MAX_EVALUATIONS, START_EVALUATIONS, Holistic
+from mmocap.validate import check_number
 
 MAX_FRAMES = 5  # frames per budget and backend that frame_ms adds to fill its seconds
 
@@ -179,6 +181,18 @@ def write(df: pd.DataFrame, out: Path, name: str, title: str) -> None:
     print(text)
 
 
+def integer_list(option: str, text: str, low: int, high: int) -> list[int]:
+    """The comma-separated integers of ``text`` ("27393,13695"), each in [``low``, ``high``],
+    else a ConfigError naming ``option``."""
+    try:
+        values = [int(v) for v in text.split(",") if v.strip()]
+    except ValueError:
+        values = []
+    if not values:
+        raise ConfigError(f"{option} must be comma-separated integers, got {text!r}")
+    return [check_number(option, v, low, high, integer=True) for v in values]
+
+
 def main(argv: list[str], prog: str) -> None:
     parser = argparse.ArgumentParser(prog=prog, description=__doc__.split("\n\n")[0])
     parser.add_argument("table", choices=["table1", "table2", "all"])
@@ -200,7 +214,14 @@ def main(argv: list[str], prog: str) -> None:
     if unknown:
         parser.error(f"unknown backend(s) {', '.join(unknown)}; installed: "
                      f"{', '.join(sorted(registry.available('evaluator')))}")
-    levels = [int(v) for v in args.vertices.split(",")]
+    # every argument before anything is built
+    levels = integer_list("--vertices", args.vertices, *VERTICES_RANGE)
+    budgets = integer_list("--budgets", args.budgets, START_EVALUATIONS + 1, MAX_EVALUATIONS)
+    check_number("--cameras", args.cameras, 1, len(CAMERA_RING), integer=True)
+    check_number("--population", args.population, 1, 1_000_000, integer=True)
+    check_number("--repeats", args.repeats, 1, 1000, integer=True)
+    check_number("--frames", args.frames, 1, 1000, integer=True)
+    check_number("--seconds", args.seconds, 0, 86_400)
     scenes = {v: Scene(v, args.cameras) for v in levels}
     evaluators = {name: registry.make_evaluator(name) for name in names}
     try:
@@ -215,8 +236,7 @@ def main(argv: list[str], prog: str) -> None:
             naive = t2[t2.backend == "naive"]
             naive_us = dict(zip(naive.vertices, naive.us_per_model_view))
         if args.table in ("table1", "all"):
-            t1 = table1(evaluators, scenes, [int(b) for b in args.budgets.split(",")],
-                        args.frames, naive_us, args.seconds)
+            t1 = table1(evaluators, scenes, budgets, args.frames, naive_us, args.seconds)
             title = (f"Time per frame (Cano Table 1, Fig. 3): CMA-ES, {args.cameras} cameras, "
                      "milliseconds; naive extrapolated from Table 2")
             write(t1, args.out, f"{args.prefix}table1", title)

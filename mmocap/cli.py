@@ -14,6 +14,7 @@ import os
 # (and fight with process-level parallelism), so default to one unless the user says.
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
+import contextlib  # noqa: E402
 import importlib  # noqa: E402
 import sys  # noqa: E402
 import warnings  # noqa: E402
@@ -22,6 +23,7 @@ from pathlib import Path  # noqa: E402
 import hydra  # noqa: E402
 from hydra.core.hydra_config import HydraConfig  # noqa: E402
 from hydra.errors import InstantiationException  # noqa: E402
+from hydra.types import RunMode  # noqa: E402
 from hydra.utils import instantiate  # noqa: E402
 from omegaconf import DictConfig  # noqa: E402
 
@@ -64,6 +66,8 @@ def guarded(job):
 def track_app(cfg: DictConfig) -> None:
     from mmocap.pipeline import run
 
+    if HydraConfig.get().mode == RunMode.MULTIRUN and os.getpid() != _LAUNCHER_PID:
+        _end_with_parent()
     output_dir = Path(HydraConfig.get().runtime.output_dir)
     summary = guarded(lambda: run(cfg, output_dir))
     mean = summary["mean_marker_error_mm"]  # over the frames with ground truth; None without any
@@ -87,6 +91,7 @@ class SweepCallback(SweepProgress):
     (``hydra.callbacks`` in ``conf/config.yaml``)."""
 
     def on_multirun_start(self, config: DictConfig, **kwargs) -> None:
+        _resume_hint["folder"] = str(config.hydra.sweep.dir)
         guarded(lambda: SweepProgress.on_multirun_start(self, config, **kwargs))
 
     def on_multirun_end(self, config: DictConfig, **kwargs) -> None:
@@ -166,6 +171,104 @@ def usage() -> str:
     return "\n".join(lines)
 
 
+def _end_with_parent() -> None:
+    """Ask Linux to SIGTERM this worker process when the process that started it ends, even
+    by SIGKILL, so that no worker of a killed sweep runs on (elsewhere: nothing happens)."""
+    import ctypes
+    import signal
+
+    parent = os.getppid()
+    try:
+        ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGTERM))  # 1 = PR_SET_PDEATHSIG
+    except (AttributeError, OSError):
+        return
+    if os.getppid() != parent:  # the parent ended before the request was in place
+        os._exit(128 + signal.SIGTERM)
+
+
+# the process that ran ``main``: a sweep's jobs run in it (n_jobs=1) or in its workers
+_LAUNCHER_PID = os.getpid()
+# the sweep folder of this command, once known: the interruption message tells how to resume it
+_resume_hint: dict[str, str] = {}
+# seconds the worker processes get to end after SIGTERM before they are killed
+WORKER_GRACE_SECONDS = 3.0
+
+
+def _descendants(pid: int) -> list[int]:
+    """The process ids of every descendant of ``pid`` (Linux ``/proc``; none elsewhere)."""
+    children: dict[int, list[int]] = {}
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except (OSError, IndexError):
+            continue  # the process ended meanwhile
+        children.setdefault(int(fields[1]), []).append(int(stat.parent.name))
+    found, queue = [], [pid]
+    while queue:
+        for child in children.get(queue.pop(), []):
+            found.append(child)
+            queue.append(child)
+    return found
+
+
+def _stop_workers() -> None:
+    """SIGTERM to every descendant process (a sweep's workers and their resource trackers),
+    then SIGKILL to those still there after :data:`WORKER_GRACE_SECONDS`."""
+    import signal
+    import time
+
+    workers = _descendants(os.getpid())
+    for pid in workers:
+        with contextlib.suppress(ProcessLookupError):
+            os.kill(pid, signal.SIGTERM)
+    deadline = time.monotonic() + WORKER_GRACE_SECONDS
+    while workers and time.monotonic() < deadline:
+        workers = [pid for pid in workers if Path(f"/proc/{pid}").exists() and not _is_zombie(pid)]
+        time.sleep(0.05)
+    for pid in workers:
+        with contextlib.suppress(ProcessLookupError):
+            os.kill(pid, signal.SIGKILL)
+
+
+def _is_zombie(pid: int) -> bool:
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] == "Z"
+    except (OSError, IndexError):
+        return True
+
+
+def _interrupted(signum, frame) -> None:
+    """On SIGTERM or SIGINT: stop the workers, say how to resume, exit 128 + signal number.
+    Every output is written atomically, so what an interrupted write leaves is a temporary
+    file that a rerun removes or ignores; finished runs keep their records."""
+    import signal
+
+    _stop_workers()
+    folder = _resume_hint.get("folder")
+    where = (f"finished runs are kept in {folder}/records; run the same command with "
+             f"hydra.sweep.dir={folder} to run only the rest") if folder else \
+        "the run did not finish and wrote no record; run the same command again"
+    print(f"mmocap: interrupted by {signal.Signals(signum).name}; {where}", file=sys.stderr, flush=True)
+    os._exit(128 + signum)
+
+
+@contextlib.contextmanager
+def _interruptible():
+    """SIGTERM and SIGINT handled by :func:`_interrupted` for the block (main thread only)."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = {sig: signal.signal(sig, _interrupted) for sig in (signal.SIGTERM, signal.SIGINT)}
+    try:
+        yield
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+
+
 def main(argv: list[str] | None = None) -> None:
     args = sys.argv[1:] if argv is None else list(argv)
     if args and args[0] in ("-h", "--help"):
@@ -173,7 +276,8 @@ def main(argv: list[str] | None = None) -> None:
         return
     name = args.pop(0) if args and args[0] in SUBCOMMANDS else "track"
     command, _ = SUBCOMMANDS[name]
-    guarded(lambda: command(args, f"mmocap {name}"))
+    with _interruptible():
+        guarded(lambda: command(args, f"mmocap {name}"))
 
 
 if __name__ == "__main__":

@@ -45,7 +45,6 @@ from mmocap.stages.tracking import track
 
 log = logging.getLogger(__name__)
 
-#: what ``run_dir_busy`` may say about a run folder another run is writing into
 #: the lock file a run holds in its folder
 RUN_LOCK = ".run.lock"
 #: the files a run writes into its folder (besides ``overlays/*.png``)
@@ -117,6 +116,7 @@ def _run(cfg: DictConfig, output_dir: Path, warning_messages: list[str]) -> dict
                  run_id, store.path(run_id))
         return done["summary"]
     clear_outputs(output_dir)
+    store.clear_unfinished(run_id)
     started = provenance.now()
 
     # Components first: a bad value fails before any data is rendered or read.

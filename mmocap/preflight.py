@@ -19,7 +19,7 @@ from mmocap.body.model import check_body
 from mmocap.body.skeleton import dof_mask
 from mmocap.data.sequence import check_missing_markers
 from mmocap.errors import ConfigError
-from mmocap.stages.tracking import START_EVALUATIONS
+from mmocap.stages.tracking import check_budget
 from mmocap.validate import check_flag, check_number
 
 #: what a run does when another run holds its run folder (``run_dir_busy``)
@@ -38,8 +38,7 @@ def check_config(cfg: DictConfig) -> None:
     check_number("seed", cfg.seed, 0, 2**32 - 1, integer=True)
     check_flag("progress", cfg.progress)
     check_number("overlays", cfg.overlays, 0, 10_000, integer=True)
-    evaluations = check_number("tracking.evaluations", cfg.tracking.evaluations, START_EVALUATIONS + 1,
-                               10**8, integer=True)
+    evaluations = check_budget(cfg.tracking.evaluations)
     if cfg.tracking.frames is not None:
         check_number("tracking.frames", cfg.tracking.frames, 1, integer=True)
     check_run_dir_busy(cfg.run_dir_busy)

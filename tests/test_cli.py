@@ -70,10 +70,10 @@ BAD_CONFIGS = [
     (["optimizer=nope"], "optimizer/nope"),
     (["optimizer.name=nope"], "unknown optimizer 'nope'"),
     (["evaluator.name=gpu9"], "unknown evaluator 'gpu9'"),
-    (["tracking.evaluations=-5"], "tracking.evaluations must be >= 2, got -5"),
+    (["tracking.evaluations=-5"], "tracking.evaluations must be an integer in [2, 100000000], got -5"),
     (["body.dof=30"], "body.dof must be one of"),
     (["tracking.frames=99"], "tracking.frames must be in [1, 4], got 99"),
-    (["dataset.cameras=[C1,C4]"], "camera C4 not in sequence"),
+    (["dataset.cameras=[C1,C4]"], "C4 not in dataset.all_cameras"),
     (["strategy.rotation_radius=0"], "strategy.rotation_radius must be in (0, pi], got 0"),
     (["tracking.evaluations=14"], "tracking.evaluations=14 gives the frame 13 evaluations but "
                                   "optimizer 'cmaes' needs at least 14 for 39 degrees of freedom"),

@@ -15,12 +15,18 @@ without what does not change its result (output paths, progress bars, overlays, 
   evaluation_seconds_per_frame (time inside the evaluator), git_commit, host;
 - ``frames``: one row per tracked frame: run_id, frame, marker_error_mm.
 
+Errors are empty (NaN) where there is no ground truth: ``mean_marker_error_mm`` of a run
+with no scored frame (a warning names those runs) and ``marker_error_mm`` of an unscored
+frame. A record missing an entry, or holding one of the wrong kind, is a DataError naming
+the record file and the entry.
+
 ``mmocap collect FOLDER`` writes them as ``runs.csv`` and ``frames.csv``.
 """
 from __future__ import annotations
 
 import hashlib
 import json
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -28,8 +34,9 @@ import pandas as pd
 from omegaconf import DictConfig, OmegaConf
 
 from mmocap import provenance
-from mmocap.errors import DataError
+from mmocap.errors import DataError, MmocapWarning
 from mmocap.io import write_json_atomic, write_text_atomic
+from mmocap.validate import is_integer, is_real
 
 # Top-level config keys that do not change a run's result.
 NOT_IN_KEY = ("hydra", "progress", "overlays", "results", "scale", "foreground_cache", "run_dir_busy",
@@ -80,9 +87,19 @@ class ResultsStore:
         if not path.is_file():
             return None
         try:
-            return json.loads(path.read_text())
-        except json.JSONDecodeError as exc:
+            record = json.loads(path.read_text())
+        except ValueError as exc:  # not JSON, or not text at all
             raise DataError(f"run record {path} is not valid JSON ({exc}); delete it to run again") from None
+        if not isinstance(record, dict):
+            raise DataError(f"run record {path} is not a JSON object but {type(record).__name__}; "
+                            "delete it to run again")
+        return record
+
+    def clear_unfinished(self, run_id: str) -> None:
+        """Remove what an interrupted write of ``run_id``'s record left (its temporaries);
+        called by the job that now runs ``run_id``, the only writer of that record."""
+        for path in self.records_dir.glob(f".{run_id}.json.*.tmp"):
+            path.unlink(missing_ok=True)
 
     def put(self, record: dict) -> Path:
         """Write ``record`` atomically; returns its path."""
@@ -103,7 +120,9 @@ class ResultsStore:
 
     def run_ids(self) -> list[str]:
         """The run_id of every finished run, sorted."""
-        return sorted(p.stem for p in self.records_dir.glob("*.json")) if self.records_dir.is_dir() else []
+        if not self.records_dir.is_dir():
+            return []
+        return sorted(p.stem for p in self.records_dir.glob("*.json") if p.is_file())
 
     def records(self) -> list[dict]:
         """Every record, in run_id order."""
@@ -137,19 +156,68 @@ def make_record(cfg: DictConfig, summary: dict, frames: list[dict], wall_seconds
     }
 
 
-#: the summary entries a runs table is made of
-SUMMARY_KEYS = ("subject", "action", "optimizer", "strategy", "dof", "evaluations_per_frame", "vertices",
-                "backend", "frames", "mean_marker_error_mm")
+#: what a runs table takes from a record: part -> {key: kind}; a kind ending in "?" may be null
+RECORD_ENTRIES = {
+    "record": {"run_id": "text", "seed": "integer", "frames": "list", "summary": "object", "timings": "object",
+               "provenance": "object"},
+    "summary": {"subject": "text", "action": "text", "optimizer": "text", "strategy": "text", "dof": "integer",
+                "evaluations_per_frame": "integer", "vertices": "integer", "backend": "text",
+                "frames": "integer", "mean_marker_error_mm": "number?"},
+    "timings": {"seconds_per_frame": "number"},
+    "provenance": {},
+}
+#: what every entry of a record's ``frames`` holds
+FRAME_ENTRIES = {"frame": "integer", "marker_error_mm": "number?"}
+KIND_NAMES = {"text": "text", "integer": "an integer", "number": "a number", "list": "a list",
+              "object": "a JSON object"}
+DAMAGED = "delete it to run that job again"
+
+
+def _is_kind(value, kind: str) -> bool:
+    """Whether a JSON value is of ``kind`` (a key of :data:`KIND_NAMES`, "?" appended: or null)."""
+    if value is None:
+        return kind.endswith("?")
+    kind = kind.rstrip("?")
+    if kind == "text":
+        return isinstance(value, str)
+    if kind == "list":
+        return isinstance(value, list)
+    if kind == "object":
+        return isinstance(value, dict)
+    if kind == "integer":
+        return is_integer(value) or (is_real(value) and float(value).is_integer())
+    return is_real(value)  # number
+
+
+def _checked(part, entries: dict[str, str], where: str, source: str) -> dict:
+    """``part`` (a record or a part of one) after checking that it is a JSON object holding each of
+    ``entries`` as its kind; a DataError naming ``source`` and every entry missing, or the first
+    of the wrong kind."""
+    if not isinstance(part, dict):
+        raise DataError(f"run record {source} is not a JSON object but {part!r:.40}; {DAMAGED}")
+    missing = [f"{where}{key}" for key in entries if key not in part]
+    if missing:
+        raise DataError(f"run record {source} lacks {', '.join(missing)}; {DAMAGED}")
+    for key, kind in entries.items():
+        if not _is_kind(part[key], kind):
+            wanted = KIND_NAMES[kind.rstrip("?")] + (" or null" if kind.endswith("?") else "")
+            raise DataError(f"run record {source}: {where}{key} is {part[key]!r:.40}, not {wanted}; {DAMAGED}")
+    return part
+
+
+def _number(value) -> float:
+    """A checked number entry as float, NaN for null (a run or frame without ground truth)."""
+    return np.nan if value is None else float(value)
 
 
 def run_row(record: dict, source: str = "record") -> dict:
-    """One row of the ``runs`` table from a record; ``mean_marker_error_mm`` is empty (NaN)
-    for a run without ground truth. A record missing a part is a DataError naming ``source``."""
-    missing = [key for key in ("run_id", "seed", "summary", "timings", "provenance") if key not in record]
-    missing += [f"summary.{key}" for key in SUMMARY_KEYS if key not in record.get("summary", {})]
-    if missing:
-        raise DataError(f"run record {source} lacks {', '.join(missing)}; delete it to run that job again")
-    s, t, p = record["summary"], record["timings"], record["provenance"]
+    """One row of the ``runs`` table from a record; ``mean_marker_error_mm`` is NaN for a run
+    without ground truth. A record missing an entry, or with one of the wrong kind, is a
+    DataError naming ``source`` and the entry."""
+    record = _checked(record, RECORD_ENTRIES["record"], "", source)
+    s, t, p = (_checked(record[part], RECORD_ENTRIES[part], f"{part}.", source)
+               for part in ("summary", "timings", "provenance"))
+    evaluation = t.get("evaluation_seconds_per_frame")
     return {
         "run_id": record["run_id"], "subject": s["subject"], "action": s["action"],
         "sequence": f"{s['subject']}_{s['action']}", "seed": int(record["seed"]),
@@ -157,24 +225,43 @@ def run_row(record: dict, source: str = "record") -> dict:
         "algorithm": f"{s['optimizer']}-{s['strategy']}", "dof": int(s["dof"]),
         "evaluations": int(s["evaluations_per_frame"]), "vertices": int(s["vertices"]),
         "backend": s["backend"], "frames": int(s["frames"]),
-        "mean_marker_error_mm": np.nan if s["mean_marker_error_mm"] is None else float(s["mean_marker_error_mm"]),
+        "mean_marker_error_mm": _number(s["mean_marker_error_mm"]),
         "seconds_per_frame": float(t["seconds_per_frame"]),
-        "evaluation_seconds_per_frame": float(t.get("evaluation_seconds_per_frame", np.nan)),
+        "evaluation_seconds_per_frame": float(evaluation) if is_real(evaluation) else np.nan,
         "git_commit": p.get("git_commit"), "host": p.get("host"),
     }
 
 
+def frame_rows(record: dict, source: str = "record") -> list[tuple[str, int, float]]:
+    """The rows of the ``frames`` table from a checked record (:func:`run_row`): run_id, frame,
+    marker_error_mm (NaN for a frame without ground truth)."""
+    rows = []
+    for k, frame in enumerate(record["frames"]):
+        frame = _checked(frame, FRAME_ENTRIES, f"frames[{k}].", source)
+        rows.append((record["run_id"], int(frame["frame"]), _number(frame["marker_error_mm"])))
+    return rows
+
+
 def load_runs(folder) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """``(runs, frames)`` tables of every record in the store ``folder`` (see module doc)."""
+    """``(runs, frames)`` tables of every record in the store ``folder`` (see module doc). Runs
+    without ground truth keep an empty ``mean_marker_error_mm``, with a warning naming them."""
     store = ResultsStore(folder)
-    records = store.records()
-    if not records:
+    run_ids = store.run_ids()
+    if not run_ids:
         raise DataError(f"no run records in {store.records_dir}: has a sweep run into {store.folder}?")
-    runs = pd.DataFrame([run_row(r, str(store.path(i))) for i, r in zip(store.run_ids(), records)],
-                        columns=RUN_COLUMNS)
-    frames = pd.DataFrame([(r["run_id"], int(f["frame"]), float(f["marker_error_mm"]))
-                           for r in records for f in r["frames"]], columns=FRAME_COLUMNS)
-    return runs, frames
+    rows, frames, unscored = [], [], []
+    for run_id in run_ids:
+        record, source = store.get(run_id), store.path(run_id)
+        rows.append(run_row(record, str(source)))
+        frames += frame_rows(record, str(source))
+        if np.isnan(rows[-1]["mean_marker_error_mm"]):
+            unscored.append(source.name)
+    if unscored:
+        warnings.warn(f"{len(unscored)} of {len(rows)} run(s) in {store.records_dir} have no ground truth "
+                      f"(mean_marker_error_mm null: {', '.join(unscored[:3])}{', ...' if len(unscored) > 3 else ''}"
+                      "): their mean_marker_error_mm is left empty, and the statistics refuse such runs",
+                      MmocapWarning, stacklevel=2)
+    return pd.DataFrame(rows, columns=RUN_COLUMNS), pd.DataFrame(frames, columns=FRAME_COLUMNS)
 
 
 def export(folder) -> tuple[Path, Path]:

@@ -21,10 +21,13 @@ Demšar (2006) and García et al. (2010), on k algorithms measured on the same N
    is max over l <= j of min(1, (k - l) p_(l)): significant exactly when it is <= alpha.
 
 Bad input is a :class:`mmocap.errors.DataError` naming the source and the column: a missing
-column, a value that is not a number, NaN or infinite values (a failed measurement must not
-pass for a missing one), fewer than three algorithms or two blocks. A block that lacks some
-algorithm (a sweep still running leaves such blocks) is dropped with an
-:class:`IncompleteBlocksWarning` naming it.
+or duplicated column, a column given two roles (a block column that is also the algorithm),
+a value that is not a number, NaN, empty or infinite values (a failed measurement must not
+pass for a missing one), empty block or algorithm cells, fewer than three algorithms or two
+blocks. A block that lacks some algorithm (a sweep still running leaves such blocks) is
+dropped with an :class:`IncompleteBlocksWarning` naming it, and the test's summary line says
+how many were. Cell means are computed without overflow, so values near the float limit
+(1e308) rank as the same values scaled down would.
 """
 from __future__ import annotations
 
@@ -38,13 +41,14 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
-from mmocap.errors import DataError
+from mmocap.errors import DataError, MmocapWarning
+from mmocap.validate import is_integer
 
 MIN_ALGORITHMS = 3
 MIN_BLOCKS = 2
 
 
-class IncompleteBlocksWarning(UserWarning):
+class IncompleteBlocksWarning(MmocapWarning):
     """Blocks without a value for every algorithm were left out of the test."""
 
 
@@ -73,9 +77,7 @@ def block_matrix(table: pd.DataFrame, block: list[str] | str, algorithm: str, va
                         f"(blocks {', '.join(block)}, algorithm {algorithm!r}, value {value!r}); "
                         "give each role its own column")
     values = finite_numbers(table, value, source)
-    for column in [*block, algorithm]:
-        if table[column].isna().any():
-            raise DataError(f"{source}: column {column!r} has empty cells")
+    no_empty_cells(table, [*block, algorithm], source)
     # names as text, so that an algorithm called 2 is asked for as --control 2
     long = table[[*block, algorithm]].assign(**{algorithm: table[algorithm].astype(str)}, _value=values)
     matrix = long.pivot_table(index=block, columns=algorithm, values="_value", aggfunc=overflow_free_mean,
@@ -114,21 +116,58 @@ def require_columns(table: pd.DataFrame, columns: list[str], source: str) -> Non
                         f"columns are {', '.join(map(str, table.columns))}")
 
 
-def finite_numbers(table: pd.DataFrame, column: str, source: str) -> np.ndarray:
-    """The column as floats (n,); a DataError names the first text or NaN/infinite cell."""
+def data_row(table: pd.DataFrame, position: int) -> str:
+    """Where row ``position`` of ``table`` is in its file: ``data row N`` (1 = the first row
+    below the header), from its index label, which filtering keeps (a table as
+    :func:`read_table` gives it has the index 0, 1, ...)."""
+    label = table.index[position]
+    return f"data row {label + 1}" if is_integer(label) else f"row {label!r}"
+
+
+def finite_numbers(table: pd.DataFrame, column: str, source: str, *, missing_ok: bool = False) -> np.ndarray:
+    """The column as floats (n,); a DataError names the first text cell, and the first NaN
+    (an empty cell reads as NaN) or infinite one. ``missing_ok`` lets NaN through (values
+    that may be missing, such as the marker error of a frame without ground truth)."""
     values = pd.to_numeric(table[column], errors="coerce").to_numpy(dtype=float)
     text = np.isnan(values) & table[column].notna().to_numpy()
     if text.any():
         row = text.nonzero()[0][0]
         raise DataError(f"{source}: column {column!r} holds {int(text.sum())} value(s) that are not "
-                        f"numbers, the first {table[column].iloc[row]!r} in data row {row + 1}")
-    broken = ~np.isfinite(values)
+                        f"numbers, the first {table[column].iloc[row]!r} in {data_row(table, row)}")
+    broken = np.isinf(values) if missing_ok else ~np.isfinite(values)
     if broken.any():
         row = broken.nonzero()[0][0]
-        raise DataError(f"{source}: column {column!r} holds {int(broken.sum())} NaN or infinite "
-                        f"value(s), the first in data row {row + 1}; remove those rows or "
+        kind = "infinite" if missing_ok else "NaN or infinite"
+        raise DataError(f"{source}: column {column!r} holds {int(broken.sum())} {kind} value(s) (an empty "
+                        f"cell is NaN), the first in {data_row(table, row)}; remove those rows or "
                         f"re-run their measurements")
     return values
+
+
+def no_empty_cells(table: pd.DataFrame, columns: list[str], source: str) -> None:
+    """A DataError naming the first of ``columns`` with empty cells, how many and the first
+    row: a row without its block, algorithm or configuration cannot be placed (a groupby
+    would drop it silently)."""
+    for column in columns:
+        empty = table[column].isna().to_numpy()
+        if empty.any():
+            raise DataError(f"{source}: column {column!r} has {int(empty.sum())} empty cell(s), the first "
+                            f"in {data_row(table, empty.nonzero()[0][0])}; fill them in or remove those rows")
+
+
+def whole_numbers(table: pd.DataFrame, column: str, source: str) -> np.ndarray:
+    """The column as int64 (n,); a DataError names the first cell that is not a whole number
+    (text, a fraction, empty, NaN or infinite)."""
+    values = pd.to_numeric(table[column], errors="coerce").to_numpy(dtype=float)
+    with np.errstate(invalid="ignore"):
+        bad = ~np.isfinite(values) | (values != np.round(values))
+    if bad.any():
+        row = bad.nonzero()[0][0]
+        cell = table[column].iloc[row]
+        shown = "an empty cell" if pd.isna(cell) else repr(cell)
+        raise DataError(f"{source}: column {column!r} must hold whole numbers; {int(bad.sum())} cell(s) do "
+                        f"not, the first {shown} in {data_row(table, row)}")
+    return values.astype(np.int64)
 
 
 def _block_name(name) -> str:
@@ -179,8 +218,11 @@ def holm_versus_control(average_ranks: pd.Series, n_blocks: int, control: str | 
     k = len(ranks)
     if control is None:
         control = ranks.index[0]
-    elif control not in ranks.index:
-        raise DataError(f"control algorithm {control!r} not among {', '.join(map(str, ranks.index))}")
+    else:  # matched as text: names read from a file are numbers when they look like them
+        named = [name for name in ranks.index if str(name) == str(control)]
+        if not named:
+            raise DataError(f"control algorithm {str(control)!r} not among {', '.join(map(str, ranks.index))}")
+        control = named[0]
     se = np.sqrt(k * (k + 1) / (6.0 * n_blocks))
     others = ranks.drop(control)
     z = (others - ranks[control]) / se
@@ -231,7 +273,8 @@ class FriedmanHolm:
         return (f"Friedman test, {k} algorithms on {n} blocks ({', '.join(self.blocks)}): "
                 f"chi2_F = {self.statistic:.3f} ({k - 1} d.o.f.), p = {self.p_value:.3g}; "
                 f"Iman-Davenport F_F = {self.iman_davenport:.3f} ({k - 1}, {(k - 1) * (n - 1)} d.o.f.), "
-                f"p = {self.iman_davenport_p:.3g}; Holm vs control {self.control} at alpha = {self.alpha:g}")
+                f"p = {self.iman_davenport_p:.3g}; Holm vs control {self.control} at alpha = {self.alpha:g}"
+                + (f"; {len(self.dropped)} incomplete block(s) left out" if self.dropped else ""))
 
 
 def friedman_holm(table: pd.DataFrame, block: list[str] | str, algorithm: str, value: str, *,
@@ -257,8 +300,12 @@ def friedman_holm(table: pd.DataFrame, block: list[str] | str, algorithm: str, v
 def read_table(path: str | Path) -> pd.DataFrame:
     """A results table from CSV (leading '# ...' lines skipped) or Parquet (needs pyarrow)."""
     path = Path(path)
+    if path.is_dir():
+        raise DataError(f"{path} is a folder; give the table file (CSV or Parquet) in it")
     if not path.is_file():
         raise DataError(f"{path}: no such file")
+    if path.stat().st_size == 0:
+        raise DataError(f"{path} is empty; a table has a header line, then one row per measurement")
     try:
         if path.suffix.lower() in (".parquet", ".pq"):
             return pd.read_parquet(path)

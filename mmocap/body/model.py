@@ -78,6 +78,10 @@ def marker_vertices(mesh: SkinMesh) -> np.ndarray:
     return np.asarray(out)
 
 
+#: the skin sample counts ``body.vertices`` takes, lowest and highest
+VERTICES_RANGE = (1000, 200_000)
+
+
 def check_body(subject, dof, vertices, seed) -> None:
     """ConfigError naming the ``body.*`` key of the first bad argument of :class:`BodyModel`
     (cheap: nothing is loaded)."""
@@ -85,7 +89,7 @@ def check_body(subject, dof, vertices, seed) -> None:
     dof = check_number("body.dof", dof, 1, 51, integer=True)
     skeleton.dof_mask(dof)
     if vertices is not None:
-        check_number("body.vertices", vertices, 1000, 200_000, integer=True)
+        check_number("body.vertices", vertices, *VERTICES_RANGE, integer=True)
     check_number("body.seed", seed, 0, 2**32 - 1, integer=True)
 
 

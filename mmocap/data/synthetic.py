@@ -94,7 +94,6 @@ def settings_digest(settings: dict) -> str:
     return hashlib.sha256(json.dumps(settings, sort_keys=True).encode()).hexdigest()[:16]
 
 
-
 #: the largest image side the generator renders, px (as for calibrations)
 MAX_SIDE = 16384
 

@@ -1,19 +1,24 @@
 """Collect the ``summary.json`` files of finished runs into one table.
 
-``python -m mmocap.report.summaries FOLDER [--csv OUT]`` prints a Markdown table (one row
-per run, best first) of every summary.json below FOLDER.
+``mmocap summaries FOLDER [--csv OUT]`` prints a Markdown table (one row per run, best
+first) of every summary.json below FOLDER. A run without ground truth (a null mean marker
+error) is listed last, with a warning naming it; a summary that is not valid JSON, not an
+object, or whose marker errors are not numbers is an error naming the file.
 """
 from __future__ import annotations
 
 import argparse
 import json
+import warnings
 from pathlib import Path
 
 import pandas as pd
 
-from mmocap.errors import DataError
+from mmocap.errors import DataError, MmocapWarning
 from mmocap.io import write_text_atomic
+from mmocap.validate import is_real
 
+ERRORS = ["mean_marker_error_mm", "median_marker_error_mm", "max_marker_error_mm"]
 COLUMNS = ["optimizer", "strategy", "dof", "evaluations_per_frame", "subject", "action", "frames",
            "mean_marker_error_mm", "median_marker_error_mm", "max_marker_error_mm",
            "seconds_per_frame", "backend"]
@@ -30,10 +35,19 @@ def collect(folder: Path) -> pd.DataFrame:
                             "or run it again") from None
         if not isinstance(summary, dict):
             raise DataError(f"{path} is not a run summary (a JSON object)")
+        for key in ERRORS:
+            if summary.get(key) is not None and not is_real(summary[key]):
+                raise DataError(f"{path}: {key} is {summary[key]!r:.40}, not a number or null")
         rows.append({**{k: summary.get(k) for k in COLUMNS}, "run": str(path.parent)})
     if not rows:
         return pd.DataFrame(columns=COLUMNS + ["run"])
-    return pd.DataFrame(rows).sort_values("mean_marker_error_mm", ignore_index=True)
+    table = pd.DataFrame(rows).astype({key: float for key in ERRORS})
+    unscored = table.loc[table["mean_marker_error_mm"].isna(), "run"].tolist()
+    if unscored:
+        warnings.warn(f"{len(unscored)} run(s) without ground truth (mean_marker_error_mm null), listed "
+                      f"last: {', '.join(unscored[:3])}{', ...' if len(unscored) > 3 else ''}",
+                      MmocapWarning, stacklevel=2)
+    return table.sort_values("mean_marker_error_mm", ignore_index=True, na_position="last")
 
 
 def main(argv: list[str], prog: str) -> None:

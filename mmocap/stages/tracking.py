@@ -22,6 +22,7 @@ import numpy as np
 from mmocap.api import SearchSpace
 from mmocap.body.skeleton import JOINTS
 from mmocap.errors import ConfigError
+from mmocap.validate import check_number
 
 #: Evaluations of a frame's budget spent on its start pose (the previous frame's estimate).
 START_EVALUATIONS = 1
@@ -105,7 +106,7 @@ class Strategy(ABC):
     def check(self, body, optimizer, budget: int) -> None:
         """Raise a ConfigError if a search of the plan gets less than ``optimizer`` needs
         (its ``min_budget(dim, partitions)``, one evaluation for optimisers without one)."""
-        check_budget(budget)
+        budget = check_budget(budget)
         min_budget = getattr(optimizer, "min_budget", lambda dim, partitions=1: 1)
         for k, (parts, share) in enumerate(self.plan(body, budget - START_EVALUATIONS)):
             dim = sum(len(p) for p in parts)
@@ -195,10 +196,15 @@ class Hierarchical(Strategy):
         return list(zip(groups, self.budgets(groups, budget)))
 
 
-def check_budget(evaluations) -> None:
-    """Reject a per-frame evaluation budget that leaves nothing after the start pose."""
-    if evaluations < START_EVALUATIONS + 1:
-        raise ConfigError(f"tracking.evaluations must be >= {START_EVALUATIONS + 1}, got {evaluations}")
+#: the largest per-frame evaluation budget ``tracking.evaluations`` takes
+MAX_EVALUATIONS = 10**8
+
+
+def check_budget(evaluations) -> int:
+    """``evaluations`` as an int if it is a per-frame evaluation budget that leaves something
+    after the start pose, else a ConfigError naming ``tracking.evaluations`` (150.7 is refused,
+    not truncated)."""
+    return check_number("tracking.evaluations", evaluations, START_EVALUATIONS + 1, MAX_EVALUATIONS, integer=True)
 
 
 def track(sequence, body, foreground, evaluator, optimizer, strategy, evaluations: int,
@@ -209,7 +215,7 @@ def track(sequence, body, foreground, evaluator, optimizer, strategy, evaluation
     ``coverage`` (a :class:`mmocap.stages.foreground.ForegroundCoverage`) stops the run
     at, or drops, a camera whose foreground is empty or nearly the whole image.
     """
-    check_budget(evaluations)
+    evaluations = check_budget(evaluations)
     n = sequence.n_frames if frames is None else int(frames)
     if not 1 <= n <= sequence.n_frames:
         raise ConfigError(f"tracking.frames must be in [1, {sequence.n_frames}], got {frames}")

@@ -57,6 +57,20 @@ def test_an_unknown_key_gets_hydras_own_message_without_a_traceback(tmp_path):
     assert "tracking.evaluatoins" in outcome.stderr
 
 
-def test_a_bad_benchmark_argument_is_one_line(tmp_path):
-    outcome = mmocap("bench", "table2", "--vertices", "500", cwd=tmp_path)
-    assert_clean_error(outcome, "vertices")
+BENCH_CASES = [
+    ("table2", "--vertices", "500"),
+    ("table2", "--vertices", "abc"),    # was a ValueError traceback
+    ("table2", "--population", "0"),    # was a ZeroDivisionError traceback
+    ("table2", "--repeats", "0"),       # was an infinite time per model-view
+    ("table2", "--cameras", "99"),
+    ("table1", "--budgets", "500,x"),
+    ("table1", "--seconds", "-1"),
+]
+
+
+@pytest.mark.parametrize("table, option, value", BENCH_CASES, ids=[f"{c[1]}={c[2]}" for c in BENCH_CASES])
+def test_a_bad_benchmark_argument_is_one_line_before_anything_is_built(tmp_path, table, option, value):
+    outcome = mmocap("bench", table, option, value, "--backends", "numpy", "--out", str(tmp_path / "out"),
+                     cwd=tmp_path)
+    assert_clean_error(outcome, option)
+    assert not (tmp_path / "out").exists()
