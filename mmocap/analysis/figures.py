@@ -16,6 +16,9 @@ import pandas as pd  # noqa: E402
 from mmocap.body.skeleton import PARENT_INDEX  # noqa: E402
 from mmocap.io import atomic_writer  # noqa: E402
 
+#: magnitude above which a value is plotted in units of a power of ten (:func:`_axis_units`)
+PLOTTABLE_MAGNITUDE = 1e300
+
 
 def plot_error_per_frame(errors_mm: np.ndarray, path: Path, title: str) -> None:
     """Line plot of the marker error (mm) per frame with its mean."""
@@ -141,8 +144,11 @@ def plot_pareto_front(table: pd.DataFrame, path: Path, *, title: str, note: str 
 
     ``table`` holds one row per configuration: ``vertices`` (marker shape), ``backend``
     (colour), ``evaluations`` (written beside the point), ``x``, ``y`` and ``pareto`` (bool).
-    ``note`` (provenance) is stored as the PNG's Description.
+    ``note`` (provenance) is stored as the PNG's Description. Values near the float limit are
+    plotted in units of a power of ten that the axis label names.
     """
+    (x_factor, x_unit), (y_factor, y_unit) = _axis_units(table[x]), _axis_units(table[y])
+    table = table.assign(**{x: table[x] / x_factor, y: table[y] / y_factor})
     backends, meshes = sorted(table["backend"].unique()), sorted(table["vertices"].unique())
     colours = dict(zip(backends, plt.get_cmap("tab10")(np.arange(len(backends)) % 10)))
     markers = dict(zip(meshes, "os^Dvp*hX"))
@@ -163,12 +169,23 @@ def plot_pareto_front(table: pd.DataFrame, path: Path, *, title: str, note: str 
     ax.legend(handles=handles, fontsize=8, loc="upper right")
     if table[x].max() > 20 * table[x].min() > 0:
         ax.set_xscale("log")
-    ax.set_xlabel("time per frame (s)")
-    ax.set_ylabel("mean marker error (mm)")
+    ax.set_xlabel(f"time per frame (s){x_unit}")
+    ax.set_ylabel(f"mean marker error (mm){y_unit}")
     ax.set_title(f"{title}\n(numbers: evaluations per frame; outlined: non-dominated)", fontsize=10)
     ax.grid(alpha=0.3, which="both")
     fig.tight_layout()
     _save(fig, path, note)
+
+
+def _axis_units(values: pd.Series) -> tuple[float, str]:
+    """The factor to divide ``values`` by before plotting them, and the axis label's note of it:
+    1 and '' unless they exceed :data:`PLOTTABLE_MAGNITUDE`, where matplotlib's tick arithmetic
+    overflows; then the power of ten of the largest, e.g. 1e307 and ' (x 1e307)'."""
+    largest = float(np.abs(values).max())
+    if not largest > PLOTTABLE_MAGNITUDE:
+        return 1.0, ""
+    exponent = int(np.floor(np.log10(largest)))
+    return 10.0 ** exponent, f" (x 1e{exponent})"
 
 
 def plot_frames_per_second(table: pd.DataFrame, path: Path, *, title: str,

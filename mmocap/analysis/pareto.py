@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from mmocap.analysis.statistics import finite_numbers, require_columns
+from mmocap.analysis.statistics import finite_numbers, no_empty_cells, overflow_free_mean, require_columns
 from mmocap.errors import DataError
 
 CONFIGURATION = ["vertices", "evaluations", "backend"]
@@ -40,17 +40,15 @@ def summarise(runs: pd.DataFrame, by: list[str] = CONFIGURATION, objectives: lis
     Returns:
         One row per configuration: the ``by`` columns, the mean of each objective, ``runs``
         (how many were averaged) and ``pareto`` (bool), sorted by the first objective.
+        A missing column, an empty configuration cell, or an objective that is not a finite
+        number is a DataError naming the column and the row.
     """
     require_columns(runs, [*by, *objectives], source)
     if runs.empty:
         raise DataError(f"{source}: no runs to compare")
     values = {column: finite_numbers(runs, column, source) for column in objectives}
-    for column in by:  # a groupby would drop these rows silently
-        empty = runs[column].isna().to_numpy()
-        if empty.any():
-            raise DataError(f"{source}: column {column!r} has {int(empty.sum())} empty cell(s), the first in "
-                            f"data row {empty.nonzero()[0][0] + 1}; every run needs its configuration")
+    no_empty_cells(runs, by, source)  # every run needs its configuration: a groupby would drop it
     grouped = runs[by].assign(**values).groupby(by, observed=True)
-    table = grouped[objectives].mean().assign(runs=grouped.size()).reset_index()
+    table = grouped[objectives].agg(overflow_free_mean).assign(runs=grouped.size()).reset_index()
     table["pareto"] = non_dominated(table[objectives].to_numpy())
     return table.sort_values([*objectives], kind="stable", ignore_index=True)

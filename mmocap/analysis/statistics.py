@@ -298,7 +298,10 @@ def friedman_holm(table: pd.DataFrame, block: list[str] | str, algorithm: str, v
 
 
 def read_table(path: str | Path) -> pd.DataFrame:
-    """A results table from CSV (leading '# ...' lines skipped) or Parquet (needs pyarrow)."""
+    """A results table from CSV (leading '# ...' lines skipped) or Parquet (needs pyarrow), its
+    index 0, 1, ... (data row N is label N - 1). A DataError names the path when it is missing,
+    a folder, empty, binary, ragged or has a column name twice (pandas would rename the second
+    copy, and a lookup by name would silently use the first)."""
     path = Path(path)
     if path.is_dir():
         raise DataError(f"{path} is a folder; give the table file (CSV or Parquet) in it")
@@ -309,6 +312,9 @@ def read_table(path: str | Path) -> pd.DataFrame:
     try:
         if path.suffix.lower() in (".parquet", ".pq"):
             return pd.read_parquet(path)
+        with open(path, "rb") as f:
+            if b"\0" in f.read(1 << 16):
+                raise DataError(f"{path}: not a readable table: it holds binary data (NUL bytes), not CSV text")
         with open(path) as f:
             comments = sum(1 for _ in iter(lambda: f.readline().startswith("#"), False))
         with open(path, newline="") as f:

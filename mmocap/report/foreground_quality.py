@@ -12,6 +12,9 @@ Command line (``make foreground``)::
 
 ``overrides`` are Hydra overrides of ``conf/config.yaml`` (``dataset.action=boxing``,
 ``dataset.cameras=[C1,BW1]``); each method is ``background=<method>`` composed with them.
+Before anything is computed: an empty or unknown method, and a ``--csv`` or ``--md`` that is a
+folder or cannot be written, end the command with one line; a method named twice counts once.
+A true silhouette of another size than its image is an error naming the camera and frame.
 """
 from __future__ import annotations
 
@@ -26,7 +29,7 @@ from tqdm.auto import tqdm
 
 from mmocap import config
 from mmocap.errors import ConfigError, DataError
-from mmocap.io import write_text_atomic
+from mmocap.io import check_writable_folder, write_text_atomic
 
 METHODS = ("horprasert", "gaussian", "mog2", "knn")
 COLUMNS = ["method", "camera", "precision", "recall", "iou"]
@@ -57,7 +60,12 @@ def evaluate(sequence, make_background, frames=None, progress: bool = False,
     counts = np.zeros((len(sequence.cameras), 3), np.int64)
     for frame in tqdm(frames, desc=f"foreground {label}".strip(), unit="frame", disable=not progress):
         for c, (cam, model, image) in enumerate(zip(sequence.cameras, models, sequence.images(frame))):
-            counts[c] += confusion(model.apply(image, name=cam.name), sequence.silhouette(frame, cam))
+            mask, truth = model.apply(image, name=cam.name), sequence.silhouette(frame, cam)
+            if truth.shape != mask.shape:
+                raise DataError(f"camera {cam.name}, frame {frame}: the true silhouette is {truth.shape[1]}x"
+                                f"{truth.shape[0]} px but the image {mask.shape[1]}x{mask.shape[0]} px "
+                                f"(under {sequence.root / 'silhouettes' / cam.name}); re-render the sequence")
+            counts[c] += confusion(mask, truth)
     return counts
 
 
@@ -92,9 +100,17 @@ def main(argv: list[str], prog: str) -> None:
     parser.add_argument("--md", type=Path, default=Path("outputs/tables/foreground.md"))
     parser.add_argument("overrides", nargs="*", help="Hydra overrides, e.g. dataset.action=boxing")
     args = parser.parse_intermixed_args(argv)
+    methods = list(dict.fromkeys(m.strip() for m in args.methods.split(",")))
+    if "" in methods:
+        raise ConfigError(f"--methods {args.methods!r} has an empty name; give comma-separated "
+                          f"background configs, e.g. {','.join(METHODS)}")
+    for option, path in (("--csv", args.csv), ("--md", args.md)):
+        if path.is_dir():
+            raise ConfigError(f"{option} {path} is a folder; give the file to write, e.g. {path / 'foreground'}")
+        check_writable_folder(path.parent)
 
     configs = {}
-    for m in args.methods.split(","):
+    for m in methods:
         try:
             configs[m] = config.compose([*args.overrides, f"background={m}"])
         except ConfigCompositionException as exc:

@@ -28,6 +28,7 @@ significant, and write every statistic in ``NAME_data.csv``. Errors in mm, times
 from __future__ import annotations
 
 import argparse
+import warnings
 from collections.abc import Callable
 from pathlib import Path
 
@@ -38,16 +39,23 @@ from mmocap.analysis import figures
 from mmocap.analysis.pareto import summarise
 from mmocap.analysis.statistics import (
     FriedmanHolm,
+    finite_numbers,
     friedman_holm,
+    no_empty_cells,
+    overflow_free_mean,
     read_table,
     require_columns,
+    whole_numbers,
 )
 from mmocap.analysis.tables import format_p, provenance, write_csv, write_table
-from mmocap.errors import DataError
+from mmocap.errors import DataError, MmocapWarning
+from mmocap.validate import check_number
 
 ERROR = "mean_marker_error_mm"
 OPTIMIZER_ORDER = ["cmaes", "de", "pso", "apf", "psapf"]
 DEFAULT_BLOCK = ("sequence", "seed")
+#: columns of runs.csv that are whole numbers (they name, group and label runs)
+WHOLE_NUMBER_COLUMNS = ("seed", "dof", "evaluations", "vertices")
 Outputs = list[Path]
 
 
@@ -76,15 +84,28 @@ def by_optimizer(pairs) -> list[tuple[str, str]]:
 def describe_runs(runs: pd.DataFrame, source: str) -> str:
     """The source of a table or figure: its file, how many runs, their seeds and commits."""
     parts = [f"{len(runs)} runs"]
-    if "seed" in runs:
-        seeds = sorted(int(s) for s in runs["seed"].unique())
-        contiguous = len(seeds) > 2 and seeds == list(range(seeds[0], seeds[-1] + 1))
-        parts.append(f"seeds {seeds[0]}-{seeds[-1]}" if contiguous else f"seeds {', '.join(map(str, seeds))}")
+    if "seed" in runs and not runs.empty:
+        numbers = pd.to_numeric(runs["seed"], errors="coerce")
+        if (numbers % 1 == 0).all():  # whole numbers (NaN fails): a range where they are contiguous
+            seeds = sorted({int(s) for s in numbers})
+            contiguous = len(seeds) > 2 and seeds == list(range(seeds[0], seeds[-1] + 1))
+            parts.append(f"seeds {seeds[0]}-{seeds[-1]}" if contiguous else f"seeds {', '.join(map(str, seeds))}")
+        else:
+            parts.append(f"seeds {', '.join(sorted(map(str, runs['seed'].unique())))}")
     if "git_commit" in runs:
         commits = sorted({str(c)[:10] for c in runs["git_commit"].dropna()})
         if commits:
             parts.append(f"run commit(s) {', '.join(commits)}")
     return f"{source} ({'; '.join(parts)})"
+
+
+def checked(runs: pd.DataFrame, columns: list[str], source: str) -> pd.DataFrame:
+    """``runs`` after checking the ``columns`` a table or figure needs: present, without empty
+    cells, and those of :data:`WHOLE_NUMBER_COLUMNS` whole numbers (returned as int). The
+    error column is left to the statistics, which name its bad values."""
+    require_columns(runs, columns, source)
+    no_empty_cells(runs, [c for c in columns if c != ERROR], source)
+    return runs.assign(**{c: whole_numbers(runs, c, source) for c in columns if c in WHOLE_NUMBER_COLUMNS})
 
 
 def _mark(p: float, significant: bool) -> str:
@@ -151,7 +172,7 @@ def _write_rankings(runs: pd.DataFrame, out: Path, name: str, caption: str,
 def yeguas_rankings(runs: pd.DataFrame, out: Path, *, name: str, dof: int, block=DEFAULT_BLOCK,
                     alpha: float = 0.05, source: str = "runs") -> Outputs:
     """Yeguas Table 4 (dof 39) or 5 (dof 28): the algorithms ranked at each budget."""
-    require_columns(runs, ["optimizer", "strategy", "dof", "evaluations", ERROR, *block], source)
+    runs = checked(runs, ["optimizer", "strategy", "dof", "evaluations", ERROR, *block], source)
     runs = runs[runs["dof"] == dof]
     if runs.empty:
         raise DataError(f"{source}: no runs with dof = {dof} for {name}")
@@ -179,7 +200,7 @@ def table5(runs, frames, out, **options) -> Outputs:
 def strategy_variants(runs: pd.DataFrame, out: Path, *, name: str, hierarchical: bool,
                       block=DEFAULT_BLOCK, alpha: float = 0.05, source: str = "runs") -> Outputs:
     """Yeguas Table 6 (hierarchical) or 7 (holistic): each algorithm's DOF x budget variants."""
-    require_columns(runs, ["optimizer", "strategy", "dof", "evaluations", ERROR, *block], source)
+    runs = checked(runs, ["optimizer", "strategy", "dof", "evaluations", ERROR, *block], source)
     runs = runs[is_hierarchical(runs) == hierarchical]
     kind = "hierarchical" if hierarchical else "holistic"
     if runs.empty:
@@ -207,20 +228,33 @@ def table7(runs, frames, out, **options) -> Outputs:
 
 
 def frame_errors(runs: pd.DataFrame, frames: pd.DataFrame | None, source: str) -> pd.DataFrame:
-    """The frames joined with their run's columns; a frame of an unknown run is an error."""
+    """The frames joined with their run's columns. A frame of an unknown run, without a run_id,
+    with a frame number that is not a whole number or an error that is not a number (or is
+    infinite) is a DataError naming frames.csv; frames without ground truth (an empty error)
+    are left out, with a warning saying how many."""
     if frames is None:
         raise DataError(f"{source}: no frames.csv beside the runs")
-    require_columns(frames, ["run_id", "frame", "marker_error_mm"], f"{source} (frames)")
+    frames_source = str(Path(source).with_name("frames.csv"))
+    require_columns(frames, ["run_id", "frame", "marker_error_mm"], frames_source)
+    no_empty_cells(frames, ["run_id"], frames_source)
+    errors = finite_numbers(frames, "marker_error_mm", frames_source, missing_ok=True)
+    frames = frames.assign(frame=whole_numbers(frames, "frame", frames_source), marker_error_mm=errors)
     unknown = sorted(set(frames["run_id"]) - set(runs["run_id"]))
     if unknown:
-        raise DataError(f"{source}: frames of {len(unknown)} run(s) not in runs.csv, "
+        raise DataError(f"{frames_source}: frames of {len(unknown)} run(s) not in runs.csv, "
                         f"e.g. {unknown[0]!r}")
+    unscored = np.isnan(errors)
+    if unscored.any():
+        warnings.warn(f"{frames_source}: {int(unscored.sum())} of {len(frames)} frame(s), of "
+                      f"{frames.loc[unscored, 'run_id'].nunique()} run(s), have no marker error (no ground "
+                      "truth) and are left out of the figure", MmocapWarning, stacklevel=2)
+        frames = frames[~unscored]
     return frames.merge(runs, on="run_id", how="inner")
 
 
 def fig7(runs, frames, out, *, source: str = "runs", **_) -> Outputs:
     """Yeguas Fig. 7: box plots of the error of every frame, per sequence and algorithm-DOF."""
-    require_columns(runs, ["run_id", "optimizer", "strategy", "dof", "evaluations", "sequence"], source)
+    runs = checked(runs, ["run_id", "optimizer", "strategy", "dof", "evaluations", "sequence"], source)
     data = frame_errors(runs, frames, source)
     pair = [f"{short_name(o, s)}({d})" for o, s, d in zip(data.optimizer, data.strategy, data.dof)]
     pairs = [f"{short_name(o, s)}({d})" for o, s in by_optimizer(zip(data.optimizer, data.strategy))
@@ -251,7 +285,7 @@ def fig10(runs, frames, out, *, source: str = "runs", sequence: str | None = Non
     (else the first sequence, the middle DOF and budget). Several seeds: their mean, with
     a band from the lowest to the highest.
     """
-    require_columns(runs, ["run_id", "optimizer", "strategy", "dof", "evaluations", "sequence"], source)
+    runs = checked(runs, ["run_id", "optimizer", "strategy", "dof", "evaluations", "sequence"], source)
     data = frame_errors(runs, frames, source)
     holistic = data[~is_hierarchical(data)]
     data = holistic if not holistic.empty else data
@@ -263,8 +297,9 @@ def fig10(runs, frames, out, *, source: str = "runs", sequence: str | None = Non
         raise DataError(f"{source}: no frames of {sequence} at {dof} DOF, {evaluations} evaluations")
     data = data.assign(name=[short_name(o, s) for o, s in zip(data.optimizer, data.strategy)])
     order = [short_name(o, s) for o, s in by_optimizer(zip(data.optimizer, data.strategy))]
-    table = data.pivot_table(index="frame", columns="name", values="marker_error_mm",
-                             aggfunc=["mean", "min", "max"])
+    per_frame = data.groupby(["frame", "name"])["marker_error_mm"]  # (frames, algorithms) each
+    table = pd.concat({"mean": per_frame.agg(overflow_free_mean).unstack(), "min": per_frame.min().unstack(),
+                       "max": per_frame.max().unstack()}, axis=1)
     seeds = data.groupby("name")["run_id"].nunique()
     path = out / "figures" / "fig10.png"
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -284,7 +319,7 @@ def _configuration_label(vertices: int, evaluations: int) -> str:
 def cano_table3(runs, frames, out, *, block=DEFAULT_BLOCK, source: str = "runs", **_) -> Outputs:
     """Cano Table 3: error (mm) per sequence of each mesh level x budget, its average over the
     sequences and the configurations' Friedman ranks."""
-    require_columns(runs, ["algorithm", "dof", "vertices", "evaluations", "sequence", ERROR, *block], source)
+    runs = checked(runs, ["algorithm", "dof", "vertices", "evaluations", "sequence", ERROR, *block], source)
     setups = runs[["algorithm", "dof"]].drop_duplicates()
     if len(setups) > 1:
         held = ", ".join(f"{a}/{d}" for a, d in setups.itertuples(index=False))
@@ -297,9 +332,9 @@ def cano_table3(runs, frames, out, *, block=DEFAULT_BLOCK, source: str = "runs",
                                       zip(runs.vertices, runs.evaluations)])
     test = _test(runs, runs.configuration, block, 0.05, source, "cano_table3", "configuration")
     per_sequence = runs.pivot_table(index="sequence", columns="configuration", values=ERROR,
-                                    aggfunc="mean")[columns]
+                                    aggfunc=overflow_free_mean)[columns]
     ranks = test.comparisons.set_index("algorithm")["rank"]
-    table = pd.concat([per_sequence, per_sequence.mean().to_frame("Avg. Error").T,
+    table = pd.concat([per_sequence, per_sequence.agg(overflow_free_mean).to_frame("Avg. Error").T,
                        ranks.reindex(columns).to_frame("Ranks").T])
     table = table.rename_axis("Sequence").reset_index()
     algorithm, dof = setups.iloc[0]
@@ -373,7 +408,8 @@ def main(argv: list[str], prog: str) -> None:
     args = parser.parse_args(argv)
     names = list(MAKERS) if args.name == "all" else [args.name]
     block = tuple(c.strip() for c in args.block.split(",") if c.strip())
-    written, skipped = make(names, args.folder, args.out, block=block, alpha=args.alpha)
+    alpha = check_number("--alpha", args.alpha, 0, 1, low_open=True, high_open=True)
+    written, skipped = make(names, args.folder, args.out, block=block, alpha=alpha)
     for name, reason in skipped.items():
         print(f"skipped {name}: {reason}")
     print("written: " + ", ".join(map(str, written)))

@@ -64,7 +64,7 @@ def test_summarise_averages_runs_and_marks_the_front():
     (lambda t: t.drop(columns="backend"), "missing column(s) 'backend'"),
     (lambda t: t.iloc[0:0], "no runs to compare"),
     (lambda t: t.assign(seconds_per_frame=t.seconds_per_frame.where(t.index != 3, np.nan)),
-     "'seconds_per_frame' holds 1 NaN or infinite value(s), the first in data row 4"),
+     "'seconds_per_frame' holds 1 NaN or infinite value(s) (an empty cell is NaN), the first in data row 4"),
     (lambda t: t.assign(mean_marker_error_mm=t.mean_marker_error_mm.astype(object).where(t.index != 0, "x")),
      "the first 'x' in data row 1"),
 ])
@@ -81,3 +81,13 @@ def test_a_run_without_its_configuration_is_refused_not_dropped():
     with pytest.raises(DataError, match="column 'algorithm' has 1 empty cell"):
         summarise(runs, by=["algorithm", "dof", "vertices", "evaluations"],
                   objectives=["mean_marker_error_mm", "seconds_per_frame"])
+
+
+def test_means_near_the_float_limit_do_not_overflow():
+    moderate = runs_table()
+    huge = moderate.assign(seconds_per_frame=moderate.seconds_per_frame * 1e307,
+                           mean_marker_error_mm=moderate.mean_marker_error_mm * 4e306)
+    a, b = summarise(moderate), summarise(huge)
+    assert np.isfinite(b[["seconds_per_frame", "mean_marker_error_mm"]].to_numpy()).all()
+    assert b["pareto"].tolist() == a["pareto"].tolist()
+    np.testing.assert_allclose(b["mean_marker_error_mm"] / 4e306, a["mean_marker_error_mm"], rtol=1e-12)

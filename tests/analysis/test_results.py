@@ -18,7 +18,7 @@ from mmocap.analysis.results import (
     make_record,
     run_key,
 )
-from mmocap.errors import ConfigError, DataError
+from mmocap.errors import ConfigError, DataError, MmocapWarning
 from mmocap.sweep import check_sweep, format_seconds, progress_line, sweep_overrides
 from tests.conftest import run_cli
 
@@ -98,6 +98,70 @@ def test_a_damaged_record_is_a_clear_error(tmp_path):
     (store.records_dir / "0123456789abcdef.json").write_text('{"run_id": ')
     with pytest.raises(DataError, match=r"0123456789abcdef.json is not valid JSON"):
         store.get("0123456789abcdef")
+
+
+def test_a_record_that_is_not_an_object_is_a_clear_error(tmp_path):
+    store = ResultsStore(tmp_path)
+    store.records_dir.mkdir()
+    (store.records_dir / "0123456789abcdef.json").write_text("[1, 2]")
+    with pytest.raises(DataError, match=r"0123456789abcdef.json is not a JSON object but list"):
+        store.get("0123456789abcdef")
+    (store.records_dir / "folder.json").mkdir()  # not a record: a folder
+    assert store.run_ids() == ["0123456789abcdef"]
+
+
+def broken(record: dict, part: str, key: str, value) -> dict:
+    """``record`` with ``record[part][key]`` set to ``value`` (removed if it is ``...``)."""
+    record = json.loads(json.dumps(record))
+    target = record if part == "" else record[part]
+    if value is ...:
+        del target[key]
+    else:
+        target[key] = value
+    return record
+
+
+@pytest.mark.parametrize("part, key, value, message", [
+    ("", "summary", ..., "lacks summary;"),
+    ("", "summary", [1], "summary is [1], not a JSON object"),
+    ("summary", "mean_marker_error_mm", ..., "lacks summary.mean_marker_error_mm"),
+    ("summary", "mean_marker_error_mm", "low", "summary.mean_marker_error_mm is 'low', not a number or null"),
+    ("summary", "dof", 39.5, "summary.dof is 39.5, not an integer"),
+    ("summary", "optimizer", None, "summary.optimizer is None, not text"),
+    ("timings", "seconds_per_frame", ..., "lacks timings.seconds_per_frame"),
+    ("", "provenance", None, "provenance is None, not a JSON object"),
+    ("", "frames", {"0": 1}, "frames is {'0': 1}, not a list"),
+])
+def test_a_record_missing_an_entry_or_with_one_of_the_wrong_kind_is_named(tmp_path, part, key, value, message):
+    store = ResultsStore(tmp_path)
+    path = store.put(broken(record_of(config(), [4.0]), part, key, value))
+    with pytest.raises(DataError) as err:
+        load_runs(tmp_path)
+    assert str(err.value).startswith(f"run record {path}") and message in str(err.value)
+    assert str(err.value).endswith("delete it to run that job again")
+
+
+def test_a_frame_entry_is_checked_too(tmp_path):
+    record = record_of(config(), [4.0, 6.0])
+    record["frames"][1]["frame"] = "one"
+    path = ResultsStore(tmp_path).put(record)
+    with pytest.raises(DataError, match=rf"{path}: frames\[1\].frame is 'one', not an integer"):
+        load_runs(tmp_path)
+
+
+def test_a_run_without_ground_truth_is_kept_empty_with_a_warning(tmp_path):
+    store = ResultsStore(tmp_path)
+    unscored = record_of(config("seed=1"), [4.0])
+    unscored["summary"]["mean_marker_error_mm"] = None
+    unscored["frames"][0]["marker_error_mm"] = None
+    store.put(unscored)
+    store.put(record_of(config("seed=2"), [6.0]))
+    with pytest.warns(MmocapWarning, match=rf"1 of 2 run\(s\) .* no ground truth .*{unscored['run_id']}.json"):
+        runs, frames = load_runs(tmp_path)
+    by_seed = runs.set_index("seed")["mean_marker_error_mm"]
+    assert np.isnan(by_seed[1]) and by_seed[2] == 6.0
+    errors = frames.set_index("run_id")["marker_error_mm"]
+    assert np.isnan(errors[unscored["run_id"]]) and len(frames) == 2
 
 
 def test_load_runs_gives_the_contract_tables(tmp_path):

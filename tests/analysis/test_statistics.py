@@ -12,12 +12,16 @@ from scipy import stats
 from mmocap.analysis.statistics import (
     IncompleteBlocksWarning,
     block_ranks,
+    finite_numbers,
     friedman_holm,
     friedman_statistic,
     holm_versus_control,
+    no_empty_cells,
+    overflow_free_mean,
     read_table,
+    whole_numbers,
 )
-from mmocap.errors import DataError
+from mmocap.errors import DataError, MmocapWarning
 
 # Demšar (2006), JMLR 7, Table 6: AUC of four C4.5 variants on fourteen UCI data sets.
 DEMSAR_NAMES = ["C4.5", "C4.5+m", "C4.5+cf", "C4.5+m+cf"]
@@ -173,9 +177,10 @@ BAD = [
     (lambda t: t.assign(value=t.value.astype(object).where(t.index != 4, "fast")),
      "'value' holds 1 value(s) that are not numbers, the first 'fast' in data row 5"),
     (lambda t: t.assign(value=t.value.where(t.index != 2, np.nan)),
-     "'value' holds 1 NaN or infinite value(s), the first in data row 3"),
+     "'value' holds 1 NaN or infinite value(s) (an empty cell is NaN), the first in data row 3"),
     (lambda t: t.assign(value=t.value.where(t.index != 0, np.inf)), "NaN or infinite"),
-    (lambda t: t.assign(algorithm=t.algorithm.where(t.index != 1, None)), "column 'algorithm' has empty cells"),
+    (lambda t: t.assign(algorithm=t.algorithm.where(t.index != 1, None)),
+     "column 'algorithm' has 1 empty cell(s), the first in data row 2"),
 ]
 
 
@@ -201,6 +206,73 @@ def test_read_table_skips_provenance_lines_and_names_missing_files(tmp_path):
     assert read_table(path).to_dict("list") == {"block": [0], "algorithm": ["a"], "value": [1.5]}
     with pytest.raises(DataError, match="nope.csv: no such file"):
         read_table(tmp_path / "nope.csv")
+
+
+def test_read_table_refuses_what_is_not_one_table(tmp_path):
+    cases = {"empty.csv": ("", "is empty"), "binary.csv": ("a,b\n\0\1,2\n", "binary data"),
+             "twice.csv": ("block,value,value\n0,1,2\n", "'value' appear more than once")}
+    for name, (text, message) in cases.items():
+        (tmp_path / name).write_text(text)
+        with pytest.raises(DataError, match=message):
+            read_table(tmp_path / name)
+    with pytest.raises(DataError, match="is a folder"):
+        read_table(tmp_path)
+
+
+def test_numbers_as_algorithm_names_match_the_control_as_text():
+    table = long_table([[3, 1, 2], [3, 2, 1], [1, 2, 3]], [10, 20, 30])
+    for control in ("20", 20):
+        result = friedman_holm(table, "block", "algorithm", "value", control=control)
+        assert result.control == "20" and result.comparisons["algorithm"].tolist()[0] == "20"
+
+
+def test_cell_means_near_the_float_limit_rank_as_moderate_values():
+    # two rows per cell; the plain sum of a's 1.6e308 and 1.7e308 overflows to inf (rank 3)
+    moderate = pd.DataFrame({"block": [0, 0, 0, 0, 1, 1, 1, 1], "algorithm": list("aabcaabc"),
+                             "value": [1.6, 1.7, 1.66, 1.75, 1.0, 1.1, 1.2, 1.3]})
+    huge = moderate.assign(value=moderate.value * 1e308)
+    with np.errstate(over="ignore"):
+        assert np.isinf(huge.value.to_numpy()[:2].sum())
+    a = friedman_holm(moderate, "block", "algorithm", "value")
+    b = friedman_holm(huge, "block", "algorithm", "value")
+    assert b.ranks.loc[0].tolist() == [1.0, 2.0, 3.0] == a.ranks.loc[0].tolist()
+    assert b.statistic == a.statistic and b.comparisons["p"].equals(a.comparisons["p"])
+    assert overflow_free_mean([1.6e308, 1.7e308]) == pytest.approx(1.65e308, rel=1e-15)
+
+
+def test_an_error_names_the_row_in_the_file_after_filtering():
+    table = long_table([[1, 2, 3], [1, 3, 2], [2, 1, 3]], list("abc"))
+    table.loc[7, "value"] = np.nan  # block 2, algorithm b: data row 8 of its file
+    with pytest.raises(DataError, match="the first in data row 8"):
+        friedman_holm(table[table.block > 0], "block", "algorithm", "value")
+
+
+def test_whole_numbers_and_empty_cells_name_the_first_bad_cell():
+    table = pd.DataFrame({"dof": [39, 28.0, "39.5", None], "name": ["a", None, "c", None]})
+    assert whole_numbers(table.iloc[:2], "dof", "runs.csv").tolist() == [39, 28]
+    with pytest.raises(DataError, match=r"runs.csv: column 'dof' must hold whole numbers; 2 cell\(s\) do not, "
+                                        r"the first '39.5' in data row 3"):
+        whole_numbers(table, "dof", "runs.csv")
+    with pytest.raises(DataError, match="the first an empty cell in data row 4"):
+        whole_numbers(table.iloc[[0, 3]], "dof", "runs.csv")
+    with pytest.raises(DataError, match=r"column 'name' has 2 empty cell\(s\), the first in data row 2"):
+        no_empty_cells(table, ["name"], "runs.csv")
+
+
+def test_missing_values_may_be_let_through_but_never_text_or_inf():
+    table = pd.DataFrame({"error": [1.0, np.nan, 2.0]})
+    assert np.isnan(finite_numbers(table, "error", "f.csv", missing_ok=True)[1])
+    with pytest.raises(DataError, match="1 infinite value"):
+        finite_numbers(table.assign(error=[1.0, np.nan, np.inf]), "error", "f.csv", missing_ok=True)
+
+
+def test_the_summary_says_how_many_incomplete_blocks_were_left_out():
+    table = long_table([[1, 2, 3], [1, 3, 2], [2, 1, 3]], list("abc"))
+    with pytest.warns(IncompleteBlocksWarning) as caught:
+        result = friedman_holm(table.drop(index=4), "block", "algorithm", "value")
+    assert issubclass(caught[0].category, MmocapWarning)
+    assert result.summary().endswith("; 1 incomplete block(s) left out")
+    assert "left out" not in friedman_holm(table, "block", "algorithm", "value").summary()
 
 
 def stats_cli(*args, cwd):

@@ -5,7 +5,7 @@ import pandas as pd
 import pytest
 from PIL import Image
 
-from mmocap.errors import DataError
+from mmocap.errors import DataError, MmocapWarning
 from mmocap.report import paper
 from tests.conftest import run_cli
 
@@ -213,3 +213,48 @@ def test_bad_runs_exit_2_with_one_line(sweep, tmp_path, capsys, damage, message)
 def test_missing_folder(tmp_path, capsys):
     assert run_cli("paper", *["fig4", str(tmp_path / "nope")]) == 2
     assert capsys.readouterr().err == f"mmocap: error: {tmp_path / 'nope'}: no such folder\n"
+
+
+def test_runs_csv_columns_are_checked_for_what_each_table_uses(sweep, tmp_path):
+    runs = read(sweep / "runs.csv")
+    runs.loc[3, "evaluations"] = np.nan  # a groupby would drop this run silently
+    runs.to_csv(sweep / "runs.csv", index=False)
+    with pytest.raises(DataError, match=r"runs.csv: column 'evaluations' has 1 empty cell\(s\), the first in "
+                                        r"data row 4"):
+        paper.make(["table4"], sweep, tmp_path)
+    runs = runs.astype({"evaluations": object})
+    runs.loc[3, "evaluations"] = "150 ev."
+    runs.to_csv(sweep / "runs.csv", index=False)
+    with pytest.raises(DataError, match="column 'evaluations' must hold whole numbers; 1 cell.s. do not, "
+                                        "the first '150 ev.' in data row 4"):
+        paper.make(["table4"], sweep, tmp_path)
+
+
+def test_whole_number_columns_read_as_floats_label_as_integers(sweep, tmp_path):
+    runs = read(sweep / "runs.csv")
+    runs.assign(dof=runs.dof.astype(float)).to_csv(sweep / "runs.csv", index=False)  # 39.0, as pandas writes them
+    paper.make(["table4"], sweep, tmp_path)
+    assert "CMAES(39,150)" in (tmp_path / "tables" / "table4.md").read_text()
+
+
+def test_frames_without_ground_truth_are_left_out_with_a_warning(sweep, tmp_path):
+    frames = read(sweep / "frames.csv")
+    frames.loc[[0, 1], "marker_error_mm"] = np.nan
+    frames.to_csv(sweep / "frames.csv", index=False)
+    with pytest.warns(MmocapWarning, match=r"frames.csv: 2 of \d+ frame\(s\), of 1 run\(s\), have no marker error"):
+        data = paper.frame_errors(read(sweep / "runs.csv"), frames, str(sweep / "runs.csv"))
+    assert len(data) == len(frames) - 2 and data["marker_error_mm"].notna().all()
+    frames.loc[0, "marker_error_mm"] = np.inf
+    with pytest.raises(DataError, match=r"frames.csv: column 'marker_error_mm' holds 1 infinite value"):
+        paper.frame_errors(read(sweep / "runs.csv"), frames, str(sweep / "runs.csv"))
+
+
+def test_seeds_that_are_not_numbers_are_described_as_they_are():
+    runs = pd.DataFrame({"seed": ["a", "b", "a"]})
+    assert paper.describe_runs(runs, "runs.csv") == "runs.csv (3 runs; seeds a, b)"
+    assert paper.describe_runs(pd.DataFrame({"seed": [0, 1, 2, 3]}), "r") == "r (4 runs; seeds 0-3)"
+
+
+def test_alpha_outside_0_1_is_named(sweep, tmp_path, capsys):
+    assert run_cli("paper", "table4", sweep, "--out", tmp_path / "out", "--alpha", "1.5") == 2
+    assert capsys.readouterr().err == "mmocap: error: --alpha must be a number in (0, 1), got 1.5\n"

@@ -1,5 +1,9 @@
 import json
+import re
 
+import pytest
+
+from mmocap.errors import DataError, MmocapWarning
 from mmocap.report.summaries import collect
 from tests.conftest import run_cli
 
@@ -21,3 +25,26 @@ def test_empty_or_missing_folder_is_an_error(tmp_path, capsys):
     assert run_cli("summaries", *[str(tmp_path)]) == 2
     assert run_cli("summaries", *[str(tmp_path / "nope")]) == 2
     assert "no such folder" in capsys.readouterr().err
+
+
+def test_a_run_without_ground_truth_is_listed_last_with_a_warning(tmp_path):
+    for name, err in (("a", None), ("b", 12.5), ("c", 9.0)):
+        (tmp_path / name).mkdir()
+        (tmp_path / name / "summary.json").write_text(json.dumps({"optimizer": name, "mean_marker_error_mm": err}))
+    with pytest.warns(MmocapWarning, match=r"1 run\(s\) without ground truth .* listed last: .*/a$"):
+        table = collect(tmp_path)
+    assert list(table["optimizer"]) == ["c", "b", "a"]
+
+
+@pytest.mark.parametrize("text, message", [
+    ('{"optimizer": "x", "mean_marker_error_mm": "low"}', "mean_marker_error_mm is 'low', not a number or null"),
+    ('{"optimizer": "x", "max_marker_error_mm": [1]}', "max_marker_error_mm is [1], not a number or null"),
+    ("[1]", "is not a run summary"),
+    ('{"optimizer": ', "is not valid JSON"),
+])
+def test_a_broken_summary_names_its_file(tmp_path, text, message):
+    (tmp_path / "r").mkdir()
+    (tmp_path / "r" / "summary.json").write_text(text)
+    path = re.escape(str(tmp_path / "r" / "summary.json"))
+    with pytest.raises(DataError, match=rf"^{path}:? .*{re.escape(message)}"):
+        collect(tmp_path)
