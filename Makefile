@@ -10,7 +10,7 @@ PLUGINS       := plugins/mmocap-pycma plugins/template-optimizer plugins/templat
 PLUGIN_FILES  := $(shell find $(PLUGINS) -name '*.py' -o -name '*.toml' -o -name '*.yaml')
 
 .DEFAULT_GOAL := help
-.PHONY: help install demo foreground optimizers test test-all test-wheel lint golden clean bench table1 table2
+.PHONY: help install demo foreground optimizers test test-all test-wheel lint golden clean bench table1 table2 autostart
 .PHONY: tables table4 table5 table6 table7 fig7 fig10 cano_table3 fig4 fig5
 
 help: ## Show this help
@@ -93,6 +93,9 @@ cano_table3: $(STAMP) ## Cano Table 3: CMA-ES error per mesh level x evaluations
 
 fig4: $(STAMP) ## Cano Fig. 4: time vs error per mesh x evaluations x backend, Pareto front (reuses cano_table3 runs)
 	$(call paper_sweep,fig4,hydra.launcher.n_jobs=1)
+
+autostart: $(STAMP) ## The automatic start against the true first pose and body per sequence (paper: 9, 20 min)
+	$(call paper_sweep,autostart)
 
 fig5: $(STAMP) ## Cano Fig. 5: the tracked model over S1 walking, first and last of 20 frames (one run, any SCALE)
 	rm -rf outputs/fig5

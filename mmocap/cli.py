@@ -138,9 +138,9 @@ def _hydra_app(app):
     return command
 
 
-def _main_of(module_name: str):
+def _main_of(module_name: str, function: str = "main"):
     def command(args: list[str], prog: str) -> None:
-        importlib.import_module(module_name).main(args, prog=prog)
+        getattr(importlib.import_module(module_name), function)(args, prog=prog)
     return command
 
 
@@ -150,6 +150,11 @@ SUBCOMMANDS = {
     "generate": (_hydra_app(generate_app), "render the configured synthetic sequence only [Hydra overrides]"),
     "list": (list_components, "the installed optimisers and evaluators, and why any is unavailable"),
     "export-humaneva": (export_humaneva, "write a synthetic sequence folder in the HumanEva-I layout"),
+    "check-recording": (_main_of("mmocap.report.recording", "check_main"),
+                        "check a recording folder (calibration, videos, sync, first frame) before tracking it"),
+    "to-recording": (_main_of("mmocap.report.recording", "convert_main"),
+                     "write a sequence folder as a user's recording (OpenCV YAML calibration, MP4 videos)"),
+    "export": (_main_of("mmocap.report.export"), "a finished run's motion as TRC, C3D, BVH and CSV files"),
     "collect": (_main_of("mmocap.analysis.results"), "write runs.csv and frames.csv of a sweep folder"),
     "summaries": (_main_of("mmocap.report.summaries"), "table of the run summaries below a folder"),
     "stats": (_main_of("mmocap.report.stats"), "Friedman test and Holm's comparisons on a table of results"),

@@ -143,6 +143,30 @@ def atomic_writer(path: str | Path, mode: str = "w", **open_kwargs) -> Iterator[
             raise
 
 
+@contextlib.contextmanager
+def atomic_path(path: str | Path) -> Iterator[Path]:
+    """``with atomic_path(path) as tmp: ...``: :func:`atomic_writer` for writers that take a file
+    name rather than a file (an ffmpeg process). ``tmp`` is a path beside ``path`` (whose folder
+    is created) for the block to write; it is flushed to disk and renamed to ``path`` when the
+    block ends without an error, removed when it does not. A failure to write (the block wrote
+    no ``tmp`` included) is a :class:`WriteError` naming ``path``."""
+    path = Path(path)
+    tmp = None
+    with writing(path):
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            tmp = _temporary_beside(path)
+            yield tmp
+            with open(tmp, "rb") as f:
+                os.fsync(f.fileno())
+            os.replace(tmp, path)
+        except BaseException:
+            if tmp is not None:
+                with contextlib.suppress(OSError):
+                    tmp.unlink(missing_ok=True)
+            raise
+
+
 def write_text_atomic(path: str | Path, text: str) -> Path:
     """Write ``text`` (UTF-8) to ``path`` atomically; returns the path."""
     with atomic_writer(path, "w", encoding="utf-8", newline="") as f:

@@ -39,6 +39,7 @@ from mmocap.errors import ConfigError, DataError, MmocapWarning
 from mmocap.evaluators.timed import TimedEvaluator
 from mmocap.io import LockBusy, exclusive, locked, write_image, write_json_atomic, writing
 from mmocap.preflight import check_config
+from mmocap.report.export import EXPORT_FOLDER, export_motion, exported_files, read_poses
 from mmocap.stages.evaluation import FrameLog, marker_error
 from mmocap.stages.foreground import Foreground
 from mmocap.stages.tracking import track
@@ -102,7 +103,8 @@ def clear_outputs(output_dir: Path) -> None:
     overlays = output_dir / "overlays"
     with writing(output_dir):
         for path in [*(output_dir / name for name in RUN_OUTPUTS), *output_dir.glob(".*.tmp"),
-                     *overlays.glob("frame_*.png"), *overlays.glob(".*.tmp")]:
+                     *overlays.glob("frame_*.png"), *overlays.glob(".*.tmp"),
+                     *exported_files(output_dir / EXPORT_FOLDER)]:
             path.unlink(missing_ok=True)
 
 
@@ -125,12 +127,13 @@ def _run(cfg: DictConfig, output_dir: Path, warning_messages: list[str]) -> dict
     evaluator = TimedEvaluator(instantiate(cfg.evaluator))
     body = instantiate(cfg.body)
     coverage = instantiate(cfg.coverage)
+    auto_start = instantiate(cfg.start)
     missing_markers = str(cfg.evaluation.missing_markers)
     strategy.check(body, optimizer, int(cfg.tracking.evaluations))
     dataset = instantiate(cfg.dataset)
     with exclusive(getattr(dataset, "path", None)):  # parallel jobs render a sequence once
         sequence = dataset.open(progress=cfg.progress)
-    if body.subject.name != sequence.subject:
+    if sequence.subject is not None and body.subject.name != sequence.subject:
         raise ConfigError(f"body.subject is {body.subject.name} but the sequence shows {sequence.subject}")
     n_frames = sequence.n_frames if cfg.tracking.frames is None else int(cfg.tracking.frames)
     truth = sequence.ground_truth(n_frames, missing_markers)  # NaN where a frame has none
@@ -150,12 +153,21 @@ def _run(cfg: DictConfig, output_dir: Path, warning_messages: list[str]) -> dict
         bar.set_postfix(error_mm=f"{err:.1f}", mean_mm=f"{np.mean(scored_so_far):.1f}" if scored_so_far else "-")
         bar.update()
 
-    evaluator.warm_up(body, foreground, sequence.x0)
+    rng = np.random.default_rng(int(cfg.seed))
+    x0, start_facts = sequence.x0, {"method": "given"}
+    evaluator.warm_up(body, foreground, body.rest_pose() if x0 is None else x0)
+    if auto_start.wanted(has_x0=x0 is not None):
+        found = auto_start.find(body, foreground.cameras, foreground.masks(0), evaluator, optimizer, strategy, rng,
+                                fit_height=cfg.body.get("height_mm") is None, fit_girth=cfg.body.get("girth") is None)
+        body, x0, start_facts = found.body, found.pose, found.summary()
+        evaluator.seconds = 0.0  # the tracking's evaluation time from here on; the start's is in start_facts
+        log.info("automatic start: %.1f s, %d evaluations; body %.0f mm tall, girth %.2f", found.seconds,
+                 found.evaluations, body.subject.height_mm, body.subject.girth)
     start = time.perf_counter()
     try:
         results = track(sequence, body, foreground, evaluator, optimizer, strategy,
                         evaluations=int(cfg.tracking.evaluations), seed=int(cfg.seed),
-                        frames=cfg.tracking.frames, on_frame=on_frame, coverage=coverage)
+                        frames=cfg.tracking.frames, on_frame=on_frame, coverage=coverage, x0=x0, rng=rng)
     except BaseException:
         frame_log.close(complete=False)  # the frames tracked stay in frames.csv.partial
         raise
@@ -163,6 +175,7 @@ def _run(cfg: DictConfig, output_dir: Path, warning_messages: list[str]) -> dict
         bar.close()
     frame_log.close()
     wall = time.perf_counter() - start
+    export_motion(output_dir / EXPORT_FOLDER, cfg.export, body, read_poses(output_dir / "frames.csv"), sequence.fps)
 
     errors = np.asarray(errors)
     scored = errors[~np.isnan(errors)]  # frames with ground truth; the statistics are over them, null if none
@@ -181,10 +194,13 @@ def _run(cfg: DictConfig, output_dir: Path, warning_messages: list[str]) -> dict
         "backend": getattr(evaluator, "name", "") or str(cfg.evaluator.name),  # auto's choice
         "evaluator_choice": str(cfg.evaluator.name),
         "vertices": body.n_vertices,
-        "subject": sequence.subject,
+        "subject": sequence.subject or "unknown",  # a recording names nobody
+        "body": {"preset": body.subject.name, "height_mm": body.subject.height_mm, "girth": body.subject.girth},
+        "start": start_facts,
         "action": sequence.meta.get("action"),
         "cameras": [c.name for c in sequence.cameras],
         "sequence": str(sequence.root),
+        "fps": float(sequence.fps),
         "seed": int(cfg.seed),
         "run_id": run_id,
         "provenance": {**provenance.facts(), "components": provenance.components(
@@ -194,7 +210,7 @@ def _run(cfg: DictConfig, output_dir: Path, warning_messages: list[str]) -> dict
     }
     if scored.size:
         plot_error_per_frame(errors, output_dir / "error_per_frame.png",
-                             f"{sequence.subject} {sequence.meta.get('action')}: {cfg.optimizer.name} "
+                             f"{summary['subject']} {sequence.meta.get('action')}: {cfg.optimizer.name} "
                              f"{strategy.name}, {body.dof} DOF, {cfg.tracking.evaluations} evaluations/frame")
     write_overlays(output_dir / "overlays", sequence, foreground, evaluator, body, results, truth,
                    int(cfg.overlays))

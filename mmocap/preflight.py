@@ -19,6 +19,7 @@ from mmocap.body.model import check_body
 from mmocap.body.skeleton import dof_mask
 from mmocap.data.sequence import check_missing_markers
 from mmocap.errors import ConfigError
+from mmocap.report.export import check_formats
 from mmocap.stages.tracking import check_budget
 from mmocap.validate import check_flag, check_number
 
@@ -38,15 +39,18 @@ def check_config(cfg: DictConfig) -> None:
     check_number("seed", cfg.seed, 0, 2**32 - 1, integer=True)
     check_flag("progress", cfg.progress)
     check_number("overlays", cfg.overlays, 0, 10_000, integer=True)
+    check_formats(cfg.export, "export")
     evaluations = check_budget(cfg.tracking.evaluations)
     if cfg.tracking.frames is not None:
         check_number("tracking.frames", cfg.tracking.frames, 1, integer=True)
     check_run_dir_busy(cfg.run_dir_busy)
     check_missing_markers(cfg.evaluation.missing_markers)
-    check_body(cfg.body.subject, cfg.body.dof, cfg.body.vertices, cfg.body.seed)
+    check_body(cfg.body.subject, cfg.body.dof, cfg.body.vertices, cfg.body.seed,
+               cfg.body.get("height_mm"), cfg.body.get("girth"))
     optimizer = instantiate(cfg.optimizer)
     strategy = instantiate(cfg.strategy)
     dof = int(cfg.body.dof)
     strategy.check(SimpleNamespace(dof=dof, mask=dof_mask(dof)), optimizer, evaluations)  # needs the DOF only
     instantiate(cfg.coverage)
+    instantiate(cfg.start)
     instantiate(cfg.dataset)

@@ -47,3 +47,11 @@ def check_flag(key: str, value) -> bool:
     if not isinstance(value, (bool, np.bool_)):
         raise ConfigError(f"{key} must be true or false, got {value!r}")
     return bool(value)
+
+
+def check_choice(key: str, value, choices) -> str:
+    """``value`` if it is one of ``choices`` (strings), else a ConfigError naming ``key`` and
+    listing them."""
+    if not isinstance(value, str) or value not in choices:
+        raise ConfigError(f"{key} must be one of {', '.join(choices)}, got {value!r}")
+    return value

@@ -17,6 +17,7 @@ from mmocap.io import (
     LockBusy,
     WriteError,
     append_line,
+    atomic_path,
     atomic_writer,
     check_writable_folder,
     describe_os_error,
@@ -50,6 +51,24 @@ def test_an_error_while_writing_keeps_the_old_file_and_leaves_no_temporary(tmp_p
         f.write("half")
         raise RuntimeError("crash")
     assert path.read_text() == "old" and not leftovers(tmp_path)
+
+
+def test_a_path_written_by_name_appears_only_when_the_block_ends_without_an_error(tmp_path):
+    path = write_text_atomic(tmp_path / "a.txt", "old")
+    with atomic_path(path) as tmp:
+        tmp.write_text("new")
+        assert path.read_text() == "old"
+    assert path.read_text() == "new" and not leftovers(tmp_path)
+    with pytest.raises(RuntimeError), atomic_path(path) as tmp:
+        tmp.write_text("half")
+        raise RuntimeError("crash")
+    assert path.read_text() == "new" and not leftovers(tmp_path)
+
+
+def test_a_path_the_block_did_not_write_is_a_write_error_naming_the_target(tmp_path):
+    with pytest.raises(WriteError, match="a.mp4: no such file"), atomic_path(tmp_path / "a.mp4"):
+        pass
+    assert not list(tmp_path.iterdir())
 
 
 def test_a_write_under_a_file_is_a_write_error_naming_the_file(tmp_path):

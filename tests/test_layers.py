@@ -19,7 +19,7 @@ LAYERS = [
     ("components", ["mmocap.evaluators", "mmocap.optimizers", "mmocap.data", "mmocap.body",
                     "mmocap.camera"]),
     ("foundations", ["mmocap.api", "mmocap.registry", "mmocap.errors", "mmocap.io",
-                     "mmocap.validate", "mmocap.bitmask", "mmocap.config", "mmocap.provenance",
+                     "mmocap.validate", "mmocap.bitmask", "mmocap.config", "mmocap.provenance", "mmocap.video",
                      "mmocap"]),
 ]
 __doc__ += "\n".join(f"{i}. {name}: {', '.join(prefixes)}" for i, (name, prefixes) in enumerate(LAYERS))

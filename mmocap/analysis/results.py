@@ -40,12 +40,12 @@ from mmocap.validate import is_integer, is_real
 
 # Top-level config keys that do not change a run's result.
 NOT_IN_KEY = ("hydra", "progress", "overlays", "results", "scale", "foreground_cache", "run_dir_busy",
-              "evaluation")
+              "evaluation", "export")
 
 RUN_COLUMNS = ["run_id", "subject", "action", "sequence", "seed", "optimizer", "strategy",
                "algorithm", "dof", "evaluations", "vertices", "backend", "frames",
                "mean_marker_error_mm", "seconds_per_frame", "evaluation_seconds_per_frame",
-               "git_commit", "host"]
+               "start", "start_seconds", "git_commit", "host"]
 FRAME_COLUMNS = ["run_id", "frame", "marker_error_mm"]
 
 
@@ -218,6 +218,7 @@ def run_row(record: dict, source: str = "record") -> dict:
     s, t, p = (_checked(record[part], RECORD_ENTRIES[part], f"{part}.", source)
                for part in ("summary", "timings", "provenance"))
     evaluation = t.get("evaluation_seconds_per_frame")
+    start = s.get("start") if isinstance(s.get("start"), dict) else {}  # records before the automatic start
     return {
         "run_id": record["run_id"], "subject": s["subject"], "action": s["action"],
         "sequence": f"{s['subject']}_{s['action']}", "seed": int(record["seed"]),
@@ -228,6 +229,7 @@ def run_row(record: dict, source: str = "record") -> dict:
         "mean_marker_error_mm": _number(s["mean_marker_error_mm"]),
         "seconds_per_frame": float(t["seconds_per_frame"]),
         "evaluation_seconds_per_frame": float(evaluation) if is_real(evaluation) else np.nan,
+        "start": start.get("method", "given"), "start_seconds": _number(start.get("seconds")),
         "git_commit": p.get("git_commit"), "host": p.get("host"),
     }
 

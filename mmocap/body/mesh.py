@@ -142,6 +142,11 @@ def load_makehuman() -> SkinMesh:
     return SkinMesh(all_vertices[used] - origin, faces, weights, pivots - origin, ends - origin)
 
 
+#: the standing heights (mm) and girths a subject may have
+HEIGHT_RANGE_MM = (1000.0, 2300.0)
+GIRTH_RANGE = (0.6, 1.6)
+
+
 @dataclass(frozen=True)
 class SubjectDimensions:
     """Body dimensions of one subject.
@@ -157,10 +162,11 @@ class SubjectDimensions:
     girth: float = 1.0
 
     def __post_init__(self):
-        if not 1000 <= self.height_mm <= 2300:
-            raise ConfigError(f"subject {self.name}: height_mm must be in [1000, 2300], got {self.height_mm}")
-        if not 0.6 <= self.girth <= 1.6:
-            raise ConfigError(f"subject {self.name}: girth must be in [0.6, 1.6], got {self.girth}")
+        if not HEIGHT_RANGE_MM[0] <= self.height_mm <= HEIGHT_RANGE_MM[1]:
+            raise ConfigError(f"subject {self.name}: height_mm must be in {list(HEIGHT_RANGE_MM)}, "
+                              f"got {self.height_mm}")
+        if not GIRTH_RANGE[0] <= self.girth <= GIRTH_RANGE[1]:
+            raise ConfigError(f"subject {self.name}: girth must be in {list(GIRTH_RANGE)}, got {self.girth}")
 
 
 # S1-S3 are the synthetic generator's subjects; S4 completes HumanEva-I's four with a

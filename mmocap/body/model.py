@@ -11,7 +11,10 @@ import numpy as np
 from mmocap.body import skeleton
 from mmocap.body.kinematics import KinematicChain, global_transforms
 from mmocap.body.mesh import (
+    GIRTH_RANGE,
+    HEIGHT_RANGE_MM,
     SkinMesh,
+    SubjectDimensions,
     fit_subject,
     load_makehuman,
     resample,
@@ -82,10 +85,23 @@ def marker_vertices(mesh: SkinMesh) -> np.ndarray:
 VERTICES_RANGE = (1000, 200_000)
 
 
-def check_body(subject, dof, vertices, seed) -> None:
+
+def body_dimensions(subject: str, height_mm: float | None = None, girth: float | None = None) -> SubjectDimensions:
+    """The preset ``subject`` (S1-S4) with its height (mm) and girth replaced where given;
+    a ConfigError naming ``body.height_mm`` or ``body.girth`` if out of range."""
+    preset = subject_dimensions(subject)
+    if height_mm is not None:
+        height_mm = check_number("body.height_mm", height_mm, *HEIGHT_RANGE_MM)
+    if girth is not None:
+        girth = check_number("body.girth", girth, *GIRTH_RANGE)
+    return SubjectDimensions(preset.name, preset.height_mm if height_mm is None else float(height_mm),
+                             preset.girth if girth is None else float(girth))
+
+
+def check_body(subject, dof, vertices, seed, height_mm=None, girth=None) -> None:
     """ConfigError naming the ``body.*`` key of the first bad argument of :class:`BodyModel`
     (cheap: nothing is loaded)."""
-    subject_dimensions(subject)
+    body_dimensions(subject, height_mm, girth)
     dof = check_number("body.dof", dof, 1, 51, integer=True)
     skeleton.dof_mask(dof)
     if vertices is not None:
@@ -97,7 +113,11 @@ class BodyModel:
     """The articulated body the tracker fits: skeleton, vertex-sampled skin and markers.
 
     Args:
-        subject: subject id (``"S1"``, ``"S2"``, ``"S3"``).
+        subject: the preset body (``"S1"``, ``"S2"``, ``"S3"``, ``"S4"``: height and girth).
+        height_mm: the subject's standing height in mm, top of the head to the soles (None =
+            the preset's).
+        girth: thickness of limbs and trunk relative to the base mesh (1 = as is; None = the
+            preset's).
         dof: 39 (Table 1), 28 (its reduction) or 51 (every axis).
         vertices: skin sample count, evenly spread (Cano's levels: 27393, 20544, 13695, the
             default); None keeps the mesh's 13 380 unevenly spaced vertices.
@@ -109,9 +129,11 @@ class BodyModel:
     them (the OpenCL evaluator computes them on the device from it).
     """
 
-    def __init__(self, subject: str = "S1", dof: int = 39, vertices: int | None = 13695, seed: int = 0):
-        check_body(subject, dof, vertices, seed)
-        self.subject = subject_dimensions(subject)
+    def __init__(self, subject: str = "S1", dof: int = 39, vertices: int | None = 13695, seed: int = 0,
+                 height_mm: float | None = None, girth: float | None = None):
+        check_body(subject, dof, vertices, seed, height_mm, girth)
+        self.subject = body_dimensions(subject, height_mm, girth)
+        self.vertices_requested, self.seed = vertices, seed
         self.dof = int(dof)
         self.mask = skeleton.dof_mask(self.dof)
         self.mesh = fit_subject(load_makehuman(), self.subject)
@@ -128,6 +150,12 @@ class BodyModel:
         self.marker_rest = self.mesh.vertices[marker_idx]
         self.marker_joint = self.mesh.vertex_joint[marker_idx]
         self.lower, self.upper = skeleton.limits()
+
+    def reshaped(self, height_mm: float | None = None, girth: float | None = None) -> BodyModel:
+        """The same body (preset, DOF, skin samples) with another height (mm) or girth."""
+        return BodyModel(self.subject.name, self.dof, self.vertices_requested, self.seed,
+                         self.subject.height_mm if height_mm is None else height_mm,
+                         self.subject.girth if girth is None else girth)
 
     @property
     def n_vertices(self) -> int:

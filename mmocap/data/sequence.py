@@ -41,6 +41,7 @@ from mmocap.body.model import MARKER_NAMES
 from mmocap.body.skeleton import N_FULL
 from mmocap.camera import Camera
 from mmocap.errors import ConfigError, DataError, MmocapWarning
+from mmocap.io import atomic_writer
 from mmocap.validate import is_integer, is_real
 
 FORMAT = "mmocap-sequence/1"
@@ -171,9 +172,11 @@ class SequenceBase(ABC):
         return str(self.meta["subject"])
 
     @property
-    def x0(self) -> np.ndarray:
-        """(51,) first-frame pose (mm, rad)."""
-        return np.asarray(self.meta["x0"], dtype=np.float64)
+    def x0(self) -> np.ndarray | None:
+        """(51,) first-frame pose (mm, rad), or None for a recording that gives none (the
+        automatic start, :mod:`mmocap.stages.initialisation`, finds it)."""
+        x0 = self.meta["x0"]
+        return None if x0 is None else np.asarray(x0, dtype=np.float64)
 
     def check_frame(self, frame: int) -> None:
         if not 0 <= frame < self.n_frames:
@@ -283,77 +286,82 @@ class Sequence(SequenceBase):
         return str(self.root / "markers_mm.csv")
 
     def markers(self) -> np.ndarray:
-        """``markers_mm.csv`` checked: the columns of :data:`MARKER_COLUMNS`, at least one
-        row, integer frames of the sequence, known marker names, each (frame, marker) once,
-        coordinates that are numbers (an empty cell is a missing coordinate, NaN). Frames
-        and markers without a row are NaN. Errors name the file, the column and the line."""
-        path = Path(self.markers_source)
-        if not path.is_file():
-            raise DataError(f"ground-truth markers not found: {path}")
-        try:
-            table = pd.read_csv(path, skip_blank_lines=False, dtype={"marker": str})
-        except pd.errors.EmptyDataError:
-            raise DataError(f"{path} is empty; it needs the header {','.join(MARKER_COLUMNS)} and one row "
-                            "per frame and marker") from None
-        except (pd.errors.ParserError, UnicodeDecodeError) as exc:
-            raise DataError(f"{path} is not a readable CSV table: {' '.join(str(exc).split())}") from None
-        absent = [c for c in MARKER_COLUMNS if c not in table.columns]
-        if absent:
-            raise DataError(f"{path} lacks the column{'s' * (len(absent) > 1)} {', '.join(absent)} "
-                            f"(it needs {', '.join(MARKER_COLUMNS)})")
-        table = table.dropna(how="all")  # blank lines; the index + 2 stays the line number
-        if table.empty:
-            raise DataError(f"{path} holds no rows, only its header")
+        return read_markers(Path(self.markers_source), self.n_frames, list(self.meta["marker_names"]))
 
-        text = path.read_text(errors="replace").splitlines()
 
-        def line(mask: pd.Series) -> str:
-            """The first line where ``mask`` holds, with its text."""
-            number = mask.idxmax() + 2
-            return f"line {number}: {text[number - 1]:.120}" if number <= len(text) else f"line {number}"
+def read_markers(path: Path, n_frames: int, names: list[str]) -> np.ndarray:
+    """(n_frames, M, 3) mm markers of ``names`` (M) from a ``markers_mm.csv``, checked: the
+    columns of :data:`MARKER_COLUMNS`, at least one row, integer frames in [0, n_frames),
+    known marker names, each (frame, marker) once,
+    coordinates that are numbers (an empty cell is a missing coordinate, NaN). Frames
+    and markers without a row are NaN. Errors name the file, the column and the line."""
+    if not path.is_file():
+        raise DataError(f"ground-truth markers not found: {path}")
+    try:
+        table = pd.read_csv(path, skip_blank_lines=False, dtype={"marker": str})
+    except pd.errors.EmptyDataError:
+        raise DataError(f"{path} is empty; it needs the header {','.join(MARKER_COLUMNS)} and one row "
+                        "per frame and marker") from None
+    except (pd.errors.ParserError, UnicodeDecodeError) as exc:
+        raise DataError(f"{path} is not a readable CSV table: {' '.join(str(exc).split())}") from None
+    absent = [c for c in MARKER_COLUMNS if c not in table.columns]
+    if absent:
+        raise DataError(f"{path} lacks the column{'s' * (len(absent) > 1)} {', '.join(absent)} "
+                        f"(it needs {', '.join(MARKER_COLUMNS)})")
+    table = table.dropna(how="all")  # blank lines; the index + 2 stays the line number
+    if table.empty:
+        raise DataError(f"{path} holds no rows, only its header")
 
-        frames = pd.to_numeric(table["frame"], errors="coerce")
-        bad = ~np.isfinite(frames) | (frames != np.round(frames))
+    text = path.read_text(errors="replace").splitlines()
+
+    def line(mask: pd.Series) -> str:
+        """The first line where ``mask`` holds, with its text."""
+        number = mask.idxmax() + 2
+        return f"line {number}: {text[number - 1]:.120}" if number <= len(text) else f"line {number}"
+
+    frames = pd.to_numeric(table["frame"], errors="coerce")
+    bad = ~np.isfinite(frames) | (frames != np.round(frames))
+    if bad.any():
+        raise DataError(f"{path}: column 'frame' must hold integer frame numbers; {line(bad)}")
+    frames = frames.astype(int)
+    outside = (frames < 0) | (frames >= n_frames)
+    if outside.any():
+        raise DataError(f"{path}: frame {frames[outside.idxmax()]} is outside the sequence's "
+                        f"{n_frames} frames (0-{n_frames - 1}); {line(outside)}")
+    idx = table["marker"].map({n: i for i, n in enumerate(names)})
+    if idx.isna().any():
+        raise DataError(f"{path}: unknown marker names {sorted(set(table['marker'][idx.isna()].astype(str)))} "
+                        f"(known: {', '.join(names)}); {line(idx.isna())}")
+    coordinates = {}
+    for column in MARKER_COLUMNS[2:]:
+        values = pd.to_numeric(table[column], errors="coerce")
+        bad = (values.isna() & table[column].notna()) | np.isinf(values)
         if bad.any():
-            raise DataError(f"{path}: column 'frame' must hold integer frame numbers; {line(bad)}")
-        frames = frames.astype(int)
-        outside = (frames < 0) | (frames >= self.n_frames)
-        if outside.any():
-            raise DataError(f"{path}: frame {frames[outside.idxmax()]} is outside the sequence's "
-                            f"{self.n_frames} frames (0-{self.n_frames - 1}); {line(outside)}")
-        names = list(self.meta["marker_names"])
-        idx = table["marker"].map({n: i for i, n in enumerate(names)})
-        if idx.isna().any():
-            raise DataError(f"{path}: unknown marker names {sorted(set(table['marker'][idx.isna()].astype(str)))} "
-                            f"(known: {', '.join(names)}); {line(idx.isna())}")
-        coordinates = {}
-        for column in MARKER_COLUMNS[2:]:
-            values = pd.to_numeric(table[column], errors="coerce")
-            bad = (values.isna() & table[column].notna()) | np.isinf(values)
-            if bad.any():
-                raise DataError(f"{path}: column '{column}' must hold numbers in mm (empty = missing); {line(bad)}")
-            coordinates[column] = values.to_numpy(np.float64)
-        repeated = pd.DataFrame({"frame": frames, "marker": table["marker"]}).duplicated(keep=False)
-        if repeated.any():
-            first = repeated.idxmax()
-            lines = [i + 2 for i in repeated.index[repeated & (frames == frames[first])
-                                                   & (table["marker"] == table["marker"][first])]]
-            raise DataError(f"{path}: frame {frames[first]} marker {table['marker'][first]} appears "
-                            f"{len(lines)} times (lines {listed(lines)}); give each frame and marker one row")
-        out = np.full((self.n_frames, len(names), 3), np.nan)
-        out[frames.to_numpy(), idx.to_numpy(int)] = np.stack(list(coordinates.values()), axis=1)
-        return out
+            raise DataError(f"{path}: column '{column}' must hold numbers in mm (empty = missing); {line(bad)}")
+        coordinates[column] = values.to_numpy(np.float64)
+    repeated = pd.DataFrame({"frame": frames, "marker": table["marker"]}).duplicated(keep=False)
+    if repeated.any():
+        first = repeated.idxmax()
+        lines = [i + 2 for i in repeated.index[repeated & (frames == frames[first])
+                                               & (table["marker"] == table["marker"][first])]]
+        raise DataError(f"{path}: frame {frames[first]} marker {table['marker'][first]} appears "
+                        f"{len(lines)} times (lines {listed(lines)}); give each frame and marker one row")
+    out = np.full((n_frames, len(names), 3), np.nan)
+    out[frames.to_numpy(), idx.to_numpy(int)] = np.stack(list(coordinates.values()), axis=1)
+    return out
 
 
 def write_markers(path: Path, markers: np.ndarray, names) -> None:
-    """(frames, M, 3) mm -> long-format CSV ``frame, marker, x_mm, y_mm, z_mm``."""
+    """(frames, M, 3) mm -> long-format CSV ``frame, marker, x_mm, y_mm, z_mm``, written
+    atomically; NaN (a missing marker) becomes an empty cell."""
     F, M, _ = markers.shape
     table = pd.DataFrame({
         "frame": np.repeat(np.arange(F), M),
         "marker": np.tile(np.asarray(names), F),
         "x_mm": markers[..., 0].ravel(), "y_mm": markers[..., 1].ravel(), "z_mm": markers[..., 2].ravel(),
     })
-    table.to_csv(path, index=False, float_format="%.3f")
+    with atomic_writer(path, "w", newline="") as f:
+        table.to_csv(f, index=False, float_format="%.3f")
 
 
 class SequenceFolder:

@@ -17,6 +17,7 @@ tracked frame), and writes ``outputs/tables/NAME.{csv,md,tex}`` and
   average and the Friedman ranks of the configurations;
 - ``fig4``: Cano Fig. 4, time per frame against error of each mesh level x budget x
   backend, the non-dominated configurations linked (also written as a table);
+- ``autostart``: the automatic start against the true first pose and body, per sequence;
 - ``all``: every one of them that the runs allow; the others are named with the reason.
 
 Algorithms are written as in the Yeguas paper: ``H-`` for a hierarchical search, then
@@ -360,9 +361,40 @@ def fig4(runs, frames, out, *, source: str = "runs", **_) -> Outputs:
                                 floatfmt=".4g")
 
 
+#: the largest ratio of the error from the automatic start to the error from the true start
+#: that counts as a success
+AUTOSTART_GOAL = 1.5
+
+
+def autostart(runs, frames, out, *, source: str = "runs", **_) -> Outputs:
+    """The automatic start (``+experiment=autostart``): per sequence, the mean marker error
+    tracked from the sequence's first pose and true body (start ``given``) and from the
+    silhouettes alone (start ``search``: first pose and body size found), their ratio against
+    :data:`AUTOSTART_GOAL`, and what the start cost in seconds."""
+    runs = checked(runs, ["sequence", "start", ERROR], source)
+    searched = checked(runs[runs.start == "search"], ["start_seconds"], source)
+    by_start = {"given": runs[runs.start == "given"].groupby("sequence"), "search": searched.groupby("sequence")}
+    if any(len(group) == 0 for group in by_start.values()):
+        raise DataError(f"{source}: autostart compares runs with start given and start search; "
+                        f"the runs hold {', '.join(sorted(runs.start.unique()))}")
+    table = pd.DataFrame({"given (mm)": by_start["given"][ERROR].agg(overflow_free_mean),
+                          "automatic (mm)": by_start["search"][ERROR].agg(overflow_free_mean),
+                          "start (s)": by_start["search"]["start_seconds"].agg(overflow_free_mean)}).dropna()
+    if table.empty:
+        raise DataError(f"{source}: no sequence has runs with both start given and start search")
+    table.insert(2, "ratio", table["automatic (mm)"] / table["given (mm)"])
+    table["goal met"] = np.where(table["ratio"] <= AUTOSTART_GOAL, "yes", "no")
+    table = table.rename_axis("Sequence").reset_index()
+    title = (f"Automatic start: mean marker error (mm) from the true first pose and body, and from the silhouettes "
+             f"alone; goal: ratio <= {AUTOSTART_GOAL} (met on {int((table['goal met'] == 'yes').sum())} of "
+             f"{len(table)} sequences)")
+    return write_table(table, out / "tables" / "autostart", title=title, source=describe_runs(runs, source),
+                       floatfmt=".2f")
+
+
 MAKERS: dict[str, Callable[..., Outputs]] = {
     "table4": table4, "table5": table5, "table6": table6, "table7": table7, "fig7": fig7,
-    "fig10": fig10, "cano_table3": cano_table3, "fig4": fig4}
+    "fig10": fig10, "cano_table3": cano_table3, "fig4": fig4, "autostart": autostart}
 
 
 def load_sweep(folder: Path) -> tuple[pd.DataFrame, pd.DataFrame | None]:

@@ -208,20 +208,27 @@ def check_budget(evaluations) -> int:
 
 
 def track(sequence, body, foreground, evaluator, optimizer, strategy, evaluations: int,
-          seed: int, frames: int | None = None, on_frame=None, coverage=None) -> list[FrameResult]:
-    """Track ``frames`` frames (default: all) of ``sequence``.
+          seed: int, frames: int | None = None, on_frame=None, coverage=None, x0=None,
+          rng: np.random.Generator | None = None) -> list[FrameResult]:
+    """Track ``frames`` frames (default: all) of ``sequence`` from the first frame's pose
+    ``x0`` ((51,) mm and rad; default: the sequence's).
 
     ``on_frame(result)`` is called after every frame (progress, incremental writing).
     ``coverage`` (a :class:`mmocap.stages.foreground.ForegroundCoverage`) stops the run
-    at, or drops, a camera whose foreground is empty or nearly the whole image.
+    at, or drops, a camera whose foreground is empty or nearly the whole image. The search
+    draws from ``rng`` (default: a generator seeded with ``seed``).
     """
     evaluations = check_budget(evaluations)
     n = sequence.n_frames if frames is None else int(frames)
     if not 1 <= n <= sequence.n_frames:
         raise ConfigError(f"tracking.frames must be in [1, {sequence.n_frames}], got {frames}")
-    rng = np.random.default_rng(seed)
+    rng = np.random.default_rng(seed) if rng is None else rng
     cameras = foreground.cameras
-    x_prev = body.clip(sequence.x0[None])[0]
+    x0 = sequence.x0 if x0 is None else x0
+    if x0 is None:
+        raise ConfigError(f"sequence {sequence.root} gives no first pose: find one with the automatic start "
+                          "(start.mode=auto) or give it")
+    x_prev = body.clip(np.asarray(x0, dtype=np.float64)[None])[0]
     results = []
     for frame in range(n):
         start = time.perf_counter()

@@ -1,0 +1,394 @@
+"""A user's own multi-camera recording: its folder layout, reader and checker, and a writer.
+
+A recording folder holds::
+
+    calibration.yml          every camera in one file, in any format of
+                             mmocap.data.calibration (OpenCV FileStorage YAML/XML/JSON,
+                             anipose / Pose2Sim TOML), or a folder calibration/ of
+                             per-camera files; dataset.calibration names another file
+    videos/<camera>.mp4      one video per camera (any suffix of mmocap.video.VIDEO_SUFFIXES),
+      or images/<camera>/    one image file per frame (.png, .jpg, ...), in name order
+    background/<camera>.mp4  optional: the empty scene, as a video or an image folder;
+      or background/<camera>/  without it, dataset.background names frames of the main videos
+                             where nobody is in view
+    markers_mm.csv           optional ground truth: frame, marker, x_mm, y_mm, z_mm (frames
+                             numbered from the synchronised frame 0, as the tracker's)
+
+Synchronisation: ``offsets`` gives, per camera, how many frames of its video come before the
+common frame 0 (a camera started 3 frames early has offset 3). Frame ``k`` of the recording
+is frame ``k + offset`` of each camera's source. World axes: the calibration's world,
+turned so that ``up`` (the axis pointing up, e.g. ``+z`` for Pose2Sim) becomes mmocap's
+``+y``; ground truth is turned with it. Translations become mm (``units``: mm, m, or auto:
+detected and announced, never guessed silently).
+
+A recording gives no first pose and names no subject: the automatic start
+(:mod:`mmocap.stages.initialisation`) finds the pose and the body's height and girth.
+
+:func:`write_recording` writes any sequence folder in this layout (OpenCV YAML calibration,
+H.264 MP4 videos, ground truth), optionally with offsets and a turned world, so that the
+path from a user's files to a tracked result is tested end to end on data with known truth.
+"""
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from mmocap.body.model import MARKER_NAMES
+from mmocap.camera import Camera
+from mmocap.data.calibration import CALIBRATION_FORMATS, read_calibration, write_opencv_yaml
+from mmocap.data.sequence import Sequence, SequenceBase, listed, read_markers, write_markers
+from mmocap.errors import ConfigError, DataError
+from mmocap.validate import check_choice, check_number
+from mmocap.video import VIDEO_SUFFIXES, VideoReader, count_frames, frame_rate, write_video
+
+log = logging.getLogger(__name__)
+
+#: suffixes read as image files in an image folder
+IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff")
+#: the names tried, in this order, for the calibration when ``dataset.calibration`` is null
+CALIBRATION_NAMES = ("calibration",)
+#: ``up``: the world axis pointing up -> the rotation taking the calibration's world to
+#: mmocap's (y up), a right-handed turn
+UP_AXES = {
+    "+y": np.eye(3),
+    "-y": np.diag([1.0, -1.0, -1.0]),
+    "+z": np.array([[1.0, 0, 0], [0, 0, 1], [0, -1, 0]]),
+    "-z": np.array([[1.0, 0, 0], [0, 0, -1], [0, 1, 0]]),
+    "+x": np.array([[0.0, -1, 0], [1, 0, 0], [0, 0, 1]]),
+    "-x": np.array([[0.0, 1, 0], [-1, 0, 0], [0, 0, 1]]),
+}
+#: frame rates of the cameras' videos that differ by more than this fraction disagree
+FPS_TOLERANCE = 0.01
+
+
+class FrameSource:
+    """The frames of one camera: a video file or a folder of image files.
+
+    ``read(k)`` returns frame ``k`` (0-based) as the camera's images are (see
+    :func:`mmocap.data.sequence.read_image`): (H, W, 3) BGR for a colour camera, (H, W) for
+    a greyscale one, whose video frames are converted; the size must be the calibration's.
+    """
+
+    def __init__(self, path: Path, camera: Camera):
+        self.path, self.camera = path, camera
+        if path.is_dir():
+            self.files = sorted(p for p in path.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES)
+            if not self.files:
+                raise DataError(f"camera {camera.name}: no image files ({', '.join(IMAGE_SUFFIXES)}) in {path}")
+            self.video = None
+            self.count = len(self.files)
+            self.fps = None
+        else:
+            self.files = None
+            self.video = VideoReader(path)
+            self.count = count_frames(path)
+            self.fps = frame_rate(path)
+            if self.count == 0:
+                raise DataError(f"camera {camera.name}: video {path} holds no frame that decodes")
+
+    @property
+    def kind(self) -> str:
+        return "images" if self.video is None else "video"
+
+    def read(self, index: int) -> np.ndarray:
+        cam = self.camera
+        if self.video is None:
+            path = self.files[index]
+            image = cv2.imread(str(path), cv2.IMREAD_COLOR if cam.colour else cv2.IMREAD_GRAYSCALE)
+            if image is None:
+                raise DataError(f"camera {cam.name}: cannot read image {path} (damaged, or not an image file)")
+            where = f"image {path}"
+        else:
+            image = self.video.read(index)
+            if not cam.colour:
+                image = cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
+            where = f"frame {index} of video {self.path}"
+        if image.shape[:2] != (cam.height, cam.width):
+            raise DataError(f"camera {cam.name}: {where} is {image.shape[1]}x{image.shape[0]}, its calibration "
+                            f"says {cam.width}x{cam.height}: the calibration of another resolution?")
+        return image
+
+
+def find_source(folder: Path, camera: str, what: str) -> Path | None:
+    """``folder/<camera>`` as an image folder or ``folder/<camera>.<video suffix>``; None if
+    neither exists, a DataError if both do (which one is meant?)."""
+    found = [p for p in [folder / camera, *(folder / f"{camera}{s}" for s in VIDEO_SUFFIXES)] if p.exists()]
+    if len(found) > 1:
+        raise DataError(f"camera {camera}: {what} found twice ({', '.join(map(str, found))}); keep one")
+    return found[0] if found else None
+
+
+def turned(camera: Camera, world: np.ndarray) -> Camera:
+    """``camera`` in a world turned by ``world`` (3, 3): X_new = world @ X_old."""
+    if np.array_equal(world, np.eye(3)):
+        return camera
+    return replace(camera, R=camera.R @ world.T, _maps={})
+
+
+@dataclass
+class RecordingSequence(SequenceBase):
+    """An opened recording (see the module docstring); ``sources`` one per camera,
+    ``offsets`` the source frame of frame 0 per camera, ``start`` the first recording frame
+    tracked, ``markers_path`` the ground truth or None, ``world`` the turn applied."""
+
+    sources: list = None
+    offsets: list = None
+    background_sources: list = None
+    background_frames: list = None
+    markers_path: Path | None = None
+    world: np.ndarray = None
+
+    @property
+    def subject(self):
+        return None  # nobody known: the automatic start fits the body
+
+    def images(self, frame: int) -> list[np.ndarray]:
+        self.check_frame(frame)
+        return [source.read(frame + offset) for source, offset in zip(self.sources, self.offsets)]
+
+    def background(self, camera: Camera) -> list[np.ndarray]:
+        k = [c.name for c in self.cameras].index(camera.name)
+        source, frames = self.background_sources[k], self.background_frames[k]
+        return [source.read(f) for f in frames]
+
+    @property
+    def markers_source(self) -> str:
+        return str(self.markers_path) if self.markers_path is not None else f"{self.root} (no markers_mm.csv)"
+
+    def markers(self) -> np.ndarray:
+        """(frames, 15, 3) mm: the ground truth of ``markers_mm.csv`` (turned into mmocap's
+        world), NaN without the file."""
+        names = list(self.meta["marker_names"])
+        if self.markers_path is None:
+            return np.full((self.n_frames, len(names), 3), np.nan)
+        start = int(self.meta["start"])
+        markers = read_markers(self.markers_path, int(self.meta["recorded_frames"]), names)
+        return markers[start:start + self.n_frames] @ self.world.T
+
+    def ground_truth(self, frames: int, missing_markers: str = "warn") -> np.ndarray:
+        if self.markers_path is None:
+            log.info("recording %s has no markers_mm.csv: the run has no marker error", self.root)
+            return self.markers()[:frames]
+        return super().ground_truth(frames, missing_markers)
+
+
+class RecordingDataset:
+    """Hydra component (``dataset=recording``): a recording folder (module docstring).
+
+    Args:
+        root: the recording folder.
+        subject: the body preset the tracker starts from; its height and girth are fitted
+            by the automatic start unless ``body.height_mm`` / ``body.girth`` are given.
+        cameras: cameras to track with (None: every camera with frames).
+        calibration: the calibration file or folder, relative to ``root`` (None: the one
+            ``calibration.*`` or ``calibration/`` there).
+        units: the calibration's translation units: ``mm``, ``m`` or ``auto``.
+        up: the calibration world's axis that points up (``+y``, ``+z``, ...).
+        offsets: camera name -> frames of its source before the common frame 0.
+        start: the first synchronised frame tracked.
+        frames: frames to read at most (None: to the end of the shortest source).
+        fps: frame rate (None: the videos'; required for image folders).
+        background: None for the ``background/`` folder, or [first, last] synchronised
+            frames of the main sources in which nobody is in view.
+        background_frames: frames taken, evenly spaced, from the background.
+        greyscale: cameras whose frames are used as greyscale.
+    """
+
+    def __init__(self, root: str, subject: str = "S1", cameras: list[str] | None = None,
+                 calibration: str | None = None, units: str = "auto", up: str = "+y",
+                 offsets: dict | None = None, start: int = 0, frames: int | None = None,
+                 fps: float | None = None, background: list[int] | None = None, background_frames: int = 20,
+                 greyscale: list[str] | None = None):
+        self.path = Path(root)
+        self.subject = subject
+        self.cameras = None if cameras is None else list(cameras)
+        self.calibration = calibration
+        self.units = check_choice("dataset.units", units, ("mm", "m", "auto"))
+        self.up = check_choice("dataset.up", up, tuple(UP_AXES))
+        self.offsets = {str(k): check_number(f"dataset.offsets.{k}", v, 0, integer=True)
+                        for k, v in dict(offsets or {}).items()}
+        self.start = check_number("dataset.start", start, 0, integer=True)
+        self.frames = None if frames is None else check_number("dataset.frames", frames, 1, integer=True)
+        self.fps = None if fps is None else check_number("dataset.fps", fps, 0, 10_000, low_open=True)
+        if background is not None:
+            if len(background) != 2:
+                raise ConfigError(f"dataset.background must be [first, last] frames of the empty scene, got "
+                                  f"{list(background)}")
+            first, last = (check_number("dataset.background", v, 0, integer=True) for v in background)
+            if last < first:
+                raise ConfigError(f"dataset.background: last frame {last} comes before first {first}")
+            background = [first, last]
+        self.background = background
+        self.background_frames = check_number("dataset.background_frames", background_frames, 1, integer=True)
+        self.greyscale = list(greyscale or [])
+
+    def calibration_path(self) -> Path:
+        """The calibration file or folder (see ``calibration``)."""
+        if self.calibration is not None:
+            path = self.path / self.calibration
+            if not path.exists():
+                raise DataError(f"calibration {path} not found (dataset.calibration={self.calibration})")
+            return path
+        suffixes = tuple(CALIBRATION_FORMATS)
+        found = [p for name in CALIBRATION_NAMES for p in self.path.glob(f"{name}*")
+                 if p.is_dir() or p.suffix.lower() in suffixes]
+        if not found:
+            raise DataError(f"no calibration in recording {self.path}: add calibration.yml (OpenCV), "
+                            "calibration.toml (anipose / Pose2Sim) or a calibration/ folder, or name the file "
+                            "with dataset.calibration")
+        if len(found) > 1:
+            raise DataError(f"recording {self.path} holds {len(found)} calibrations ({listed(found)}): "
+                            "name one with dataset.calibration")
+        return found[0]
+
+    def open(self, progress: bool = True) -> RecordingSequence:
+        root = self.path
+        if not root.is_dir():
+            raise DataError(f"recording folder not found: {root}")
+        calibration = read_calibration(self.calibration_path(), self.units)
+        world = UP_AXES[self.up]
+        by_name = {c.name: turned(c, world) for c in calibration.cameras}
+        for name in self.greyscale:
+            if name not in by_name:
+                raise ConfigError(f"dataset.greyscale names camera {name}, which {calibration.source} lacks "
+                                  f"(it has {', '.join(by_name)})")
+            by_name[name] = replace(by_name[name], colour=False, _maps={})
+        unknown = [name for name in self.offsets if name not in by_name]
+        if unknown:
+            raise ConfigError(f"dataset.offsets names camera {unknown[0]}, which {calibration.source} lacks "
+                              f"(it has {', '.join(by_name)})")
+        names = self.cameras or [n for n in by_name if self._main_source(n) is not None]
+        missing = [n for n in names if n not in by_name]
+        if missing:
+            raise DataError(f"camera {missing[0]} not in calibration {calibration.source} "
+                            f"(it has {', '.join(by_name)})")
+        if not names:
+            raise DataError(f"recording {root}: no camera of {calibration.source} has a video in {root / 'videos'} "
+                            f"or an image folder in {root / 'images'}")
+        cameras, sources = [], []
+        for name in names:
+            path = self._main_source(name)
+            if path is None:
+                raise DataError(f"camera {name}: no video {root / 'videos' / name}.mp4 (or another video suffix) "
+                                f"and no image folder {root / 'images' / name}")
+            cameras.append(by_name[name])
+            sources.append(FrameSource(path, by_name[name]))
+        offsets = [self.offsets.get(c.name, 0) for c in cameras]
+        usable = [s.count - o for s, o in zip(sources, offsets)]
+        if min(usable) <= self.start:
+            k = int(np.argmin(usable))
+            raise DataError(f"camera {cameras[k].name}: {sources[k].path} has {sources[k].count} frames; with offset "
+                            f"{offsets[k]} and dataset.start={self.start} none is left to track")
+        recorded = min(usable)
+        n_frames = recorded - self.start if self.frames is None else min(self.frames, recorded - self.start)
+        background_sources, background_frames = self._background(cameras, sources, offsets)
+        markers = root / "markers_mm.csv"
+        meta = {"format": "mmocap-recording/1", "subject": None, "action": root.resolve().name,
+                "fps": self._fps(cameras, sources),
+                "frames": n_frames, "recorded_frames": recorded, "start": self.start,
+                "cameras": [c.name for c in cameras], "marker_names": list(MARKER_NAMES), "x0": None,
+                "calibration": str(calibration.source), "units": calibration.units, "up": self.up}
+        return RecordingSequence(root, meta, cameras, sources=[_Shifted(s, self.start) for s in sources],
+                                 offsets=offsets, background_sources=background_sources,
+                                 background_frames=background_frames,
+                                 markers_path=markers if markers.is_file() else None, world=world)
+
+    def _main_source(self, name: str) -> Path | None:
+        videos = find_source(self.path / "videos", name, "a video")
+        images = find_source(self.path / "images", name, "an image folder")
+        if videos is not None and images is not None:
+            raise DataError(f"camera {name}: both {videos} and {images} exist; keep one")
+        return videos or images
+
+    def _fps(self, cameras, sources) -> float:
+        stated = {c.name: s.fps for c, s in zip(cameras, sources) if s.fps is not None}
+        if self.fps is not None:
+            return float(self.fps)
+        if not stated:
+            raise ConfigError("the recording's frame rate is unknown (image folders state none): set dataset.fps")
+        low, high = min(stated.values()), max(stated.values())
+        if high - low > FPS_TOLERANCE * high:
+            rates = ", ".join(f"{name}: {fps:g}" for name, fps in stated.items())
+            raise DataError(f"the cameras' videos disagree on the frame rate ({rates}): cameras at different rates "
+                            "cannot be synchronised frame by frame; resample them, or set dataset.fps if the "
+                            "containers are wrong")
+        return float(np.median(list(stated.values())))
+
+    def _background(self, cameras, sources, offsets):
+        """Per camera: the source of its empty-scene frames and the frame indices to take."""
+        out_sources, out_frames = [], []
+        for camera, source, offset in zip(cameras, sources, offsets):
+            if self.background is not None:
+                first, last = self.background
+                if last + offset >= source.count:
+                    raise DataError(f"camera {camera.name}: dataset.background ends at frame {last}, after the end "
+                                    f"of {source.path} ({source.count} frames, offset {offset})")
+                frames = np.unique(np.linspace(first, last, self.background_frames).round().astype(int)) + offset
+                out_sources.append(source)
+            else:
+                path = find_source(self.path / "background", camera.name, "a background")
+                if path is None:
+                    raise DataError(f"camera {camera.name}: no background video or image folder "
+                                    f"{self.path / 'background' / camera.name}[.mp4]; record the empty scene, or "
+                                    "set dataset.background=[first,last] to frames in which nobody is in view")
+                background = FrameSource(path, camera)
+                frames = np.unique(np.linspace(0, background.count - 1, self.background_frames).round().astype(int))
+                out_sources.append(background)
+            out_frames.append(frames.tolist())
+        return out_sources, out_frames
+
+
+class _Shifted:
+    """A FrameSource read from ``start`` on: ``read(k)`` is the source's ``read(start + k)``."""
+
+    def __init__(self, source: FrameSource, start: int):
+        self.source, self.start = source, start
+
+    def read(self, index: int) -> np.ndarray:
+        return self.source.read(self.start + index)
+
+
+def write_recording(sequence: Sequence, out: Path, offsets: dict | None = None, yaw_deg: float = 0.0,
+                    units: str = "mm", crf: int = 0, progress: bool = True) -> Path:
+    """Write ``sequence`` (a sequence folder, opened) as a recording folder ``out``:
+    ``calibration.yml`` (OpenCV YAML, translations in ``units``), ``videos/<camera>.mp4``,
+    ``background/<camera>.mp4`` and ``markers_mm.csv``; no first pose and no subject.
+
+    ``offsets`` (camera -> frames) puts that many frames of the empty scene before a
+    camera's video, as a camera started early would; the recording is then read with the
+    same ``dataset.offsets``. ``yaw_deg`` turns the world about its vertical axis, so that
+    the same images show the person at another heading in the calibration's world. ``crf``
+    is the videos' H.264 quality (:func:`mmocap.video.write_video`; 0, the default, is
+    lossless: the recording then holds the sequence's own pixels). Returns ``out``.
+    """
+    offsets = {str(k): check_number(f"offsets.{k}", v, 0, 10_000, integer=True) for k, v in (offsets or {}).items()}
+    names = [c.name for c in sequence.cameras]
+    unknown = [name for name in offsets if name not in names]
+    if unknown:
+        raise ConfigError(f"offsets name camera {unknown[0]}, which sequence {sequence.root} lacks "
+                          f"(it has {', '.join(names)})")
+    units = check_choice("units", units, ("mm", "m"))
+    yaw = math.radians(check_number("yaw", yaw_deg, -360, 360))
+    world = np.array([[math.cos(yaw), 0, math.sin(yaw)], [0, 1, 0], [-math.sin(yaw), 0, math.cos(yaw)]])
+    out = Path(out)
+    write_opencv_yaml(out / "calibration.yml", [turned(c, world) for c in sequence.cameras], units=units)
+    for camera in sequence.cameras:
+        one = Sequence(sequence.root, sequence.meta, [camera])
+        empty = one.background(camera)
+        early = [empty[k % len(empty)] for k in range(offsets.get(camera.name, 0))]
+        frames = (one.images(k)[0] for k in range(sequence.n_frames))
+        write_video(out / "videos" / f"{camera.name}.mp4", _chain(early, frames), sequence.fps,
+                    count=len(early) + sequence.n_frames, progress=progress, crf=crf)
+        write_video(out / "background" / f"{camera.name}.mp4", iter(empty), sequence.fps, count=len(empty), crf=crf)
+    write_markers(out / "markers_mm.csv", sequence.markers() @ world.T, sequence.meta["marker_names"])
+    return out
+
+
+def _chain(first, rest):
+    yield from first
+    yield from rest

@@ -1,0 +1,161 @@
+"""Commands for users' recordings (layout: :mod:`mmocap.data.recording`).
+
+``mmocap check-recording DIR [overrides]`` opens the recording as a tracking run would
+(``dataset=recording dataset.root=DIR`` plus Hydra ``overrides`` such as
+``dataset.offsets={C2:3}`` or ``dataset.up=+z``) and prints what it found before a long run:
+the calibration (file, format, units and how they were decided), each camera (source,
+frames, frame rate, offset, resolution, position), the frames that will be tracked, the
+background, the ground truth, and three sanity checks on the first frame:
+
+- the foreground of every camera (fraction of the image): a camera that sees nobody, or
+  nearly only foreground, has a wrong background or is out of sync;
+- the calibration: the rays through the centres of the silhouettes must meet; the distance
+  in pixels between each silhouette's centre and the projection of the point where they
+  meet shows a camera whose calibration does not fit its images;
+- the up axis: the person must stand upright in mmocap's world (y up), above the cameras'
+  floor, else ``dataset.up`` is wrong.
+
+Every finding that would spoil a run is a warning line; a recording that cannot be read at
+all is one error line (exit 2).
+
+``mmocap to-recording SEQUENCE OUT [--offsets C2=3,BW1=1] [--yaw DEG] [--units mm|m]``
+writes a sequence folder (a synthetic one: ``outputs/data/S1_walking``) in the recording
+layout, ground truth included, to test the path from a user's files to a result.
+"""
+from __future__ import annotations
+
+import argparse
+import warnings
+from pathlib import Path
+
+import numpy as np
+from hydra.errors import ConfigCompositionException
+from hydra.utils import instantiate
+
+from mmocap import config
+from mmocap.data.recording import write_recording
+from mmocap.data.sequence import Sequence
+from mmocap.errors import ConfigError, MmocapWarning
+from mmocap.stages.foreground import Foreground
+from mmocap.stages.initialisation import nearest_point_to_rays, silhouette_rays
+
+#: foreground fractions of the image outside which a camera's first frame is suspect
+FOREGROUND_RANGE = (0.001, 0.5)
+#: pixels between a silhouette's centre and the projected meeting point of the rays that
+#: suggest a calibration that does not fit the images (a person's centre, not a point)
+REPROJECTION_WARN_PX = 40.0
+
+
+def check_recording(root: str, overrides: list[str], out=print) -> dict:
+    """Open the recording ``root`` with ``overrides`` and ``out`` the report, line by line;
+    returns the facts found (for tests)."""
+    try:
+        cfg = config.compose(["dataset=recording", f"dataset.root={root}", "progress=false", *overrides])
+    except ConfigCompositionException as exc:
+        raise ConfigError(f"{' '.join(overrides)}: {str(exc).splitlines()[0]}") from None
+    sequence = instantiate(cfg.dataset).open(progress=False)
+    meta = sequence.meta
+    out(f"recording {sequence.root}")
+    out(f"  calibration {meta['calibration']}: translations in {meta['units']}, world up axis {meta['up']}")
+    out(f"  {len(sequence.cameras)} camera(s):")
+    for camera, source, offset in zip(sequence.cameras, (s.source for s in sequence.sources), sequence.offsets):
+        centre_m = camera.centre / 1000
+        rate = f"{source.fps:g} fps" if source.fps else "no frame rate"
+        out(f"    {camera.name}: {source.kind} {source.path} ({source.count} frames, {rate}, offset {offset}); "
+            f"{camera.width}x{camera.height} {'colour' if camera.colour else 'greyscale'}, "
+            f"focal {camera.focal:.0f} px, "
+            f"at ({centre_m[0]:.2f}, {centre_m[1]:.2f}, {centre_m[2]:.2f}) m, "
+            f"{np.linalg.norm(centre_m):.2f} m from the origin")
+    seconds = sequence.n_frames / sequence.fps
+    out(f"  frames tracked: {sequence.n_frames} from frame {meta['start']} ({seconds:.1f} s at {sequence.fps:g} fps; "
+        f"{meta['recorded_frames']} frames recorded after the offsets)")
+    for camera, source, frames in zip(sequence.cameras, sequence.background_sources, sequence.background_frames):
+        out(f"  background {camera.name}: {len(frames)} frames of {source.path}")
+    truth = sequence.markers()
+    scored = int((~np.isnan(truth).any(axis=2)).any(axis=1).sum())
+    out(f"  ground truth: {sequence.markers_source}: {scored} of {sequence.n_frames} frames have markers"
+        if sequence.markers_path else "  ground truth: none (no markers_mm.csv): runs report no marker error")
+    facts = {"cameras": [c.name for c in sequence.cameras], "frames": sequence.n_frames, "fps": sequence.fps,
+             "frames_with_markers": scored}
+    facts.update(_first_frame_checks(sequence, instantiate(cfg.background), out))
+    return facts
+
+
+def _first_frame_checks(sequence, background, out) -> dict:
+    """The foreground, calibration and up-axis checks of the module docstring on frame 0."""
+    foreground = Foreground(sequence, background, cache_dir=None)
+    cameras, masks = foreground.cameras, foreground.masks(0)
+    fractions = {}
+    for camera, mask in zip(cameras, masks):
+        fraction = float(np.count_nonzero(mask)) / mask.size
+        fractions[camera.name] = fraction
+        note = ""
+        if not FOREGROUND_RANGE[0] <= fraction <= FOREGROUND_RANGE[1]:
+            note = " <- suspect"
+            warnings.warn(f"camera {camera.name}: the foreground of the first frame is {100 * fraction:.2f} % of the "
+                          "image: nobody in view, or a background that does not fit (check background, offsets)",
+                          MmocapWarning, stacklevel=2)
+        out(f"  first frame, camera {camera.name}: foreground {100 * fraction:.2f} % of the image{note}")
+    centres, directions = silhouette_rays(cameras, masks)
+    meet = nearest_point_to_rays(centres, directions)
+    errors = {}
+    for camera, mask in zip(cameras, masks):
+        rows, cols = np.nonzero(np.asarray(mask))
+        if rows.size == 0:
+            continue
+        errors[camera.name] = float(np.hypot(*(camera.project(meet[None])[0] - (cols.mean(), rows.mean()))))
+    out(f"  the silhouettes' rays meet at ({meet[0] / 1000:.2f}, {meet[1] / 1000:.2f}, {meet[2] / 1000:.2f}) m; "
+        "distance of each silhouette's centre from that point's image: "
+        + ", ".join(f"{name} {px:.1f} px" for name, px in errors.items()))
+    for name, px in errors.items():
+        if px > REPROJECTION_WARN_PX:
+            warnings.warn(f"camera {name}: its silhouette lies {px:.0f} px from where the other cameras place the "
+                          "person: its calibration may not fit its images (another camera's? wrong units?), or it is "
+                          "out of sync (dataset.offsets)", MmocapWarning, stacklevel=2)
+    camera_heights = np.array([c.centre[1] for c in cameras])
+    if meet[1] < 0 or np.median(camera_heights) < 0:
+        warnings.warn(f"the person's centre is {meet[1] / 1000:.2f} m and the cameras' median height "
+                      f"{np.median(camera_heights) / 1000:.2f} m above the floor along +y: is the world's up axis "
+                      "another one? set dataset.up (e.g. +z)", MmocapWarning, stacklevel=2)
+    return {"foreground_fraction": fractions, "reprojection_px": errors, "meeting_point_mm": meet.tolist()}
+
+
+def check_main(argv: list[str], prog: str) -> None:
+    parser = argparse.ArgumentParser(prog=prog, description="Check a recording folder before tracking it: "
+                                     "what it holds, and the first frame's foreground, calibration and up axis.")
+    parser.add_argument("root", help="the recording folder")
+    parser.add_argument("overrides", nargs="*", help="Hydra overrides, e.g. dataset.offsets={C2:3} dataset.up=+z")
+    args = parser.parse_args(argv)
+    check_recording(args.root, args.overrides)
+
+
+def _offsets(text: str) -> dict:
+    """``"C2=3,BW1=1"`` -> {"C2": 3, "BW1": 1}; a ConfigError naming --offsets otherwise."""
+    offsets = {}
+    for item in filter(None, (part.strip() for part in text.split(","))):
+        name, _, value = item.partition("=")
+        if not name or not value.strip().isdigit():
+            raise ConfigError(f"--offsets {text!r}: give CAMERA=FRAMES pairs separated by commas, e.g. C2=3,BW1=1")
+        offsets[name.strip()] = int(value)
+    return offsets
+
+
+def convert_main(argv: list[str], prog: str) -> None:
+    parser = argparse.ArgumentParser(prog=prog, description="Write a sequence folder (with ground truth) in the "
+                                     "layout of a user's recording: OpenCV YAML calibration, MP4 videos.")
+    parser.add_argument("sequence", type=Path, help="a sequence folder (the one holding sequence.json)")
+    parser.add_argument("out", type=Path, help="the recording folder to write")
+    parser.add_argument("--offsets", default="", help="frames of empty scene before a camera's video, e.g. C2=3")
+    parser.add_argument("--yaw", type=float, default=0.0, help="turn the world about the vertical by DEG degrees")
+    parser.add_argument("--units", choices=("mm", "m"), default="mm", help="units of the calibration's translations")
+    parser.add_argument("--crf", type=int, default=0,
+                        help="H.264 quality of the videos: 0 (default) lossless, 16 good, 23 ffmpeg's default; "
+                             "compressed videos are harder for the background models")
+    parser.add_argument("--no-progress", action="store_true", help="no progress bars")
+    args = parser.parse_args(argv)
+    sequence = Sequence.open(args.sequence)
+    out = write_recording(sequence, args.out, offsets=_offsets(args.offsets), yaw_deg=args.yaw, units=args.units,
+                          crf=args.crf, progress=not args.no_progress)
+    print(f"recording written to {out}; track it with: mmocap track dataset=recording dataset.root={out}"
+          + (f" dataset.offsets={{{','.join(f'{k}:{v}' for k, v in _offsets(args.offsets).items())}}}"
+             if args.offsets else ""))

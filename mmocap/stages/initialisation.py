@@ -1,0 +1,276 @@
+"""Stage "initialisation": the first frame's pose, and the body's size, from the silhouettes alone.
+
+A user's recording gives no first pose (``x0``) and no body dimensions. :class:`AutoStart`
+finds both from the foreground masks of the first frame:
+
+1. **Where:** the rays through the centroids of the silhouettes, one per camera, meet (in
+   the least-squares sense) near the person's centre; a visual hull is carved around that
+   point (:func:`visual_hull`: voxels inside the foreground of every camera that sees them),
+   first coarse, then fine inside the coarse hull's box. The hull's lowest voxel is the
+   floor under the person, its height is the person's standing height (unless
+   ``body.height_mm`` is given), and its centre gives the root's position on the floor
+   plane.
+2. **Heading:** the rest pose at that position is scored at ``headings`` yaw angles over a
+   full turn, because people face any way; the ``candidates`` best headings go on.
+3. **Pose:** from each of them, the run's optimiser searches the full pose with
+   ``evaluations`` (a box of ``rotation_radius`` and ``translation_radius_mm`` around the
+   current estimate); from the best, each step of the strategy but the root (torso and
+   head, each arm, each leg) is searched alone over its whole joint range
+   (``limb_evaluations`` each), then the full pose ``rounds`` times more.
+4. **Shape:** the body starts at girth 1 (the base mesh); each girth of ``girths`` (unless
+   ``body.girth`` is given) and then each height offset of ``height_steps_mm`` (unless
+   ``body.height_mm`` is given) is tried with a short search from the best pose; the body
+   with the lowest fitness is kept and tracks the whole sequence. The preset's dimensions
+   (``body.subject``) are never used for what is fitted: they are unknown for a recording.
+
+World axes are mmocap's (y up, mm). The cost (seconds, evaluations) is returned and
+recorded in the run's summary.
+"""
+from __future__ import annotations
+
+import logging
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from mmocap.body.mesh import GIRTH_RANGE, HEIGHT_RANGE_MM
+from mmocap.errors import DataError
+from mmocap.validate import check_choice, check_number
+
+log = logging.getLogger(__name__)
+
+#: what ``start.mode`` may be
+START_MODES = ("auto", "search")
+#: the root's yaw parameter in the 51-vector (``Root.ry``) and the root translation
+ROOT_YAW, ROOT_TRANSLATION = 4, slice(0, 3)
+#: half the side of the cube, mm, in which the coarse visual hull is carved around the
+#: point where the silhouettes' rays meet
+HULL_REACH_MM = 1400.0
+#: voxel side of the coarse hull, mm
+COARSE_VOXEL_MM = 40.0
+
+
+@dataclass
+class StartResult:
+    """What :meth:`AutoStart.find` found: ``pose`` (51,) mm and rad, its ``fitness``, the
+    ``body`` it was found with (resized if shape fitting ran), the ``evaluations`` and
+    ``seconds`` spent, and what the visual hull measured (``height_mm``, ``floor_y_mm``)."""
+
+    pose: np.ndarray
+    fitness: float
+    body: object
+    evaluations: int
+    seconds: float
+    height_mm: float
+    floor_y_mm: float
+
+    def summary(self) -> dict:
+        """The facts a run records about its start (JSON types)."""
+        return {"method": "search", "seconds": round(self.seconds, 3), "evaluations": int(self.evaluations),
+                "fitness": float(self.fitness), "heading_rad": float(self.pose[ROOT_YAW]),
+                "hull_height_mm": round(self.height_mm, 1), "floor_y_mm": round(self.floor_y_mm, 1),
+                "body_height_mm": float(self.body.subject.height_mm), "body_girth": float(self.body.subject.girth)}
+
+
+def silhouette_rays(cameras, masks) -> tuple[np.ndarray, np.ndarray]:
+    """(C, 3) camera centres (mm) and (C, 3) unit directions of the rays through the
+    centroids of the ``masks`` ((H, W) bool each, in the ideal geometry of ``cameras``);
+    cameras whose mask is empty are left out."""
+    centres, directions = [], []
+    for camera, mask in zip(cameras, masks):
+        rows, cols = np.nonzero(np.asarray(mask))
+        if rows.size == 0:
+            continue
+        pixel = np.array([cols.mean(), rows.mean(), 1.0])
+        direction = camera.R.T @ np.linalg.solve(camera.K, pixel)
+        centres.append(camera.centre)
+        directions.append(direction / np.linalg.norm(direction))
+    return np.asarray(centres), np.asarray(directions)
+
+
+def nearest_point_to_rays(centres: np.ndarray, directions: np.ndarray) -> np.ndarray:
+    """(3,) the point with the least sum of squared distances to the rays (``centres`` +
+    s ``directions``, (C, 3) each, unit directions); a DataError with fewer than two rays
+    or parallel ones."""
+    if len(centres) < 2:
+        raise DataError("the automatic start needs a person in the foreground of at least two cameras "
+                        f"in the first frame, found {len(centres)}: check the foreground, or give the first pose")
+    projectors = np.eye(3)[None] - directions[:, :, None] * directions[:, None, :]
+    A = projectors.sum(axis=0)
+    if np.linalg.cond(A) > 1e8:
+        raise DataError("the cameras' rays through the person's silhouettes are parallel: the cameras "
+                        "cannot place the person; give the first pose")
+    return np.linalg.solve(A, np.einsum("cij,cj->i", projectors, centres))
+
+
+def visual_hull(cameras, masks, lower: np.ndarray, upper: np.ndarray, voxel_mm: float,
+                min_views: int = 2) -> np.ndarray:
+    """(N, 3) mm centres of the voxels of side ``voxel_mm`` in the box ``lower``-``upper``
+    ((3,) mm) that lie inside the foreground of every camera that sees them, and are seen
+    by at least ``min_views`` cameras. ``masks``: (H, W) bool in the ideal geometry of
+    ``cameras``."""
+    axes = [np.arange(lo + voxel_mm / 2, hi, voxel_mm) for lo, hi in zip(lower, upper)]
+    points = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+    inside = np.ones(len(points), bool)
+    seen = np.zeros(len(points), np.int32)
+    for camera, mask in zip(cameras, masks):
+        mask = np.asarray(mask)
+        if not mask.any():
+            continue  # a camera without a person in view says nothing about where it is
+        depth = points @ camera.R[2] + camera.t[2]
+        uv = camera.project(points)
+        col, row = np.floor(uv[:, 0] + 0.5).astype(np.int64), np.floor(uv[:, 1] + 0.5).astype(np.int64)
+        visible = (depth > 0) & (col >= 0) & (col < camera.width) & (row >= 0) & (row < camera.height)
+        seen += visible
+        foreground = np.zeros(len(points), bool)
+        foreground[visible] = mask[row[visible], col[visible]]
+        inside &= ~visible | foreground
+    return points[inside & (seen >= min_views)]
+
+
+class AutoStart:
+    """Hydra component (``start:`` in ``conf/config.yaml``): finds the first frame's pose
+    when the sequence gives none (``mode=auto``), or always (``mode=search``: the sequence's
+    ``x0`` is ignored, as when testing the search on data that has one).
+
+    Args:
+        mode: ``auto`` or ``search`` (see above).
+        headings: yaw angles tried over a full turn (step 2 of the module docstring).
+        candidates: best headings searched in full.
+        evaluations: evaluations of each full-pose search.
+        rounds: full-pose searches in a row from each heading.
+        rotation_radius: half-width of the search box of every rotation, rad.
+        translation_radius_mm: half-width of the search box of the root position, mm.
+        voxel_mm: voxel side of the fine visual hull, mm.
+        girths: girths tried once the pose is found ([] keeps girth 1).
+        height_steps_mm: offsets (mm) from the visual hull's height tried after the girths
+            ([] keeps the hull's height).
+        shape_evaluations: evaluations of the search for each girth and height tried.
+        limb_evaluations: evaluations of the search of each step but the root (torso,
+            each arm, each leg) over its whole joint range.
+    """
+
+    def __init__(self, mode: str = "auto", headings: int = 12, candidates: int = 4, evaluations: int = 2000,
+                 rounds: int = 6, rotation_radius: float = 0.6, translation_radius_mm: float = 200.0,
+                 voxel_mm: float = 15.0, girths=(0.9, 1.1),
+                 height_steps_mm=(-40.0, 40.0), shape_evaluations: int = 800, limb_evaluations: int = 2000):
+        self.mode = check_choice("start.mode", mode, START_MODES)
+        self.headings = check_number("start.headings", headings, 1, 360, integer=True)
+        self.candidates = check_number("start.candidates", candidates, 1, self.headings, integer=True)
+        self.evaluations = check_number("start.evaluations", evaluations, 2, 10**7, integer=True)
+        self.rounds = check_number("start.rounds", rounds, 1, 100, integer=True)
+        self.rotation_radius = check_number("start.rotation_radius", rotation_radius, 0, np.pi, low_open=True)
+        self.translation_radius_mm = check_number("start.translation_radius_mm", translation_radius_mm, 0, 5000,
+                                                  low_open=True)
+        self.voxel_mm = check_number("start.voxel_mm", voxel_mm, 2, COARSE_VOXEL_MM)
+        self.girths = [check_number("start.girths", g, *GIRTH_RANGE) for g in girths]
+        self.height_steps_mm = [check_number("start.height_steps_mm", h, -500, 500) for h in height_steps_mm]
+        self.limb_evaluations = check_number("start.limb_evaluations", limb_evaluations, 2, 10**7, integer=True)
+        self.shape_evaluations = check_number("start.shape_evaluations", shape_evaluations, 2, 10**7, integer=True)
+
+    def wanted(self, has_x0: bool) -> bool:
+        """Whether to search: always with ``mode=search``, else when there is no ``x0``."""
+        return self.mode == "search" or not has_x0
+
+    def measure(self, cameras, masks) -> tuple[np.ndarray, float, float]:
+        """The visual hull of one frame: ((3,) mm centre of the hull, its height in mm, the y
+        of its lowest voxel in mm). ``masks``: (H, W) bool in the ideal geometry of ``cameras``."""
+        meet = nearest_point_to_rays(*silhouette_rays(cameras, masks))
+        coarse = visual_hull(cameras, masks, meet - HULL_REACH_MM, meet + HULL_REACH_MM, COARSE_VOXEL_MM)
+        if len(coarse) == 0:
+            raise DataError("the automatic start found no volume inside every camera's foreground in the first "
+                            "frame: the cameras' calibrations may not match the images, or the person is out of "
+                            "view of some camera; check with `mmocap check-recording`, or give the first pose")
+        pad = COARSE_VOXEL_MM
+        hull = visual_hull(cameras, masks, coarse.min(axis=0) - pad, coarse.max(axis=0) + pad, self.voxel_mm)
+        if len(hull) == 0:
+            hull = coarse
+        floor_y = float(hull[:, 1].min() - self.voxel_mm / 2)
+        height = float(hull[:, 1].max() + self.voxel_mm / 2 - floor_y)
+        return hull.mean(axis=0), height, floor_y
+
+    def find(self, body, cameras, masks, evaluator, optimizer, strategy, rng, fit_height: bool = True,
+             fit_girth: bool = True) -> StartResult:
+        """The first frame's pose for ``body`` (a BodyModel, resized to what is fitted),
+        from its foreground ``masks`` ((H, W) bool per camera, ideal geometry of
+        ``cameras``), scored by ``evaluator`` and searched by ``optimizer`` in ``strategy``'s
+        steps. ``fit_height`` / ``fit_girth``: whether the body's height / girth are
+        unknown (not given in the config) and fitted."""
+        started = time.perf_counter()
+        centre, height, floor_y = self.measure(cameras, masks)
+        log.info("automatic start: visual hull %.0f mm tall, centre (%.0f, %.0f, %.0f) mm, floor at y = %.0f mm",
+                 height, *centre, floor_y)
+        body = body.reshaped(height_mm=float(np.clip(height, *HEIGHT_RANGE_MM)) if fit_height else None,
+                             girth=1.0 if fit_girth else None)
+        used = 0
+        search = type(strategy)(rotation_radius=self.rotation_radius,
+                                translation_radius_mm=self.translation_radius_mm, steps=strategy.steps)
+
+        def placed(body_) -> np.ndarray:
+            x = body_.rest_pose()
+            x[ROOT_TRANSLATION] = (centre[0], floor_y + body_.floor_offset_mm, centre[2])
+            return x
+
+        evaluator.setup(body, cameras, masks)
+        starts = np.repeat(placed(body)[None], self.headings, axis=0)
+        starts[:, ROOT_YAW] = np.arange(self.headings) * (2 * np.pi / self.headings) - np.pi
+        scores = evaluator(starts)
+        used += len(starts)
+        scouted = []
+        for k in np.argsort(scores, kind="stable")[:self.candidates]:
+            x, f, n = search.estimate(body, starts[k], evaluator, optimizer, self.evaluations, rng)
+            used += n
+            log.info("automatic start: heading %+.0f deg -> fitness %.4f", np.degrees(starts[k, ROOT_YAW]), f)
+            scouted.append((f, k, x))
+        best_f, _, best_x = min(scouted, key=lambda s: s[:2])
+        best_x, best_f, n = self._refine(body, best_x, best_f, evaluator, optimizer, search, rng)
+        used += n
+        changes = ([{"girth": g} for g in self.girths] if fit_girth else []) + (
+            [{"height_mm": body.subject.height_mm + dh} for dh in self.height_steps_mm] if fit_height else [])
+        for change in changes:
+            best_x, best_f, body, n = self._try_shape(body, change, best_x, best_f, cameras, masks, evaluator,
+                                                      optimizer, search, rng)
+            used += n
+        evaluator.setup(body, cameras, masks)  # leave the evaluator on the body that won
+        return StartResult(best_x, float(best_f), body, used, time.perf_counter() - started, height, floor_y)
+
+    def _refine(self, body, x, fitness, evaluator, optimizer, search, rng):
+        """From ``x``: each step but the root searched alone over its whole joint range
+        (``limb_evaluations`` each; arms raised to a boxer's guard lie far outside the box of
+        a tracking step), then ``rounds`` full-pose searches; returns (pose, fitness,
+        evaluations)."""
+        used = 0
+        whole_range = type(search)(rotation_radius=np.pi, translation_radius_mm=search.translation_radius_mm,
+                                   steps=search.steps)
+        for parts in whole_range.step_groups(body)[1:]:
+            found, found_fitness, n = whole_range.search(body, x, parts, evaluator, optimizer,
+                                                         self.limb_evaluations, rng)
+            used += n
+            if found_fitness < fitness:
+                x, fitness = found, found_fitness
+        log.info("automatic start: each limb over its range -> fitness %.4f", fitness)
+        for _ in range(self.rounds):
+            x, fitness, n = search.estimate(body, x, evaluator, optimizer, self.evaluations, rng)
+            used += n
+        log.info("automatic start: refined -> fitness %.4f", fitness)
+        return x, fitness, used
+
+    def _try_shape(self, body, change: dict, x, fitness, cameras, masks, evaluator, optimizer, search, rng):
+        """The body resized by ``change`` (``girth`` or ``height_mm``) with a short search
+        from ``x`` (its root lifted or lowered so that the feet stay on the floor); it
+        replaces ``body`` if its fitness is lower. Returns (pose, fitness, body, evaluations)."""
+        value = float(np.clip(next(iter(change.values())), *(GIRTH_RANGE if "girth" in change else HEIGHT_RANGE_MM)))
+        current = body.subject.girth if "girth" in change else body.subject.height_mm
+        if value == current:
+            return x, fitness, body, 0
+        other = body.reshaped(**{next(iter(change)): value})
+        start = x.copy()
+        start[1] += other.floor_offset_mm - body.floor_offset_mm
+        evaluator.setup(other, cameras, masks)
+        found, found_fitness, n = search.estimate(other, start, evaluator, optimizer, self.shape_evaluations, rng)
+        log.info("automatic start: %s %.3g -> fitness %.4f (%.4f before)", next(iter(change)), value,
+                 found_fitness, fitness)
+        if found_fitness < fitness:
+            return found, found_fitness, other, n
+        return x, fitness, body, n

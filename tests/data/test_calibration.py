@@ -1,0 +1,320 @@
+import logging
+import re
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from mmocap.camera import Camera
+from mmocap.data.calibration import read_calibration, write_opencv_yaml
+from mmocap.data.synthetic import camera_rig
+from mmocap.errors import ConfigError, DataError
+
+
+@pytest.fixture
+def rig() -> list[Camera]:
+    """Three cameras about 4 m from the origin, with distortion (k3 = 0), two colour, one grey."""
+    return camera_rig(["C1", "C2", "BW1"], 640, 480, np.random.default_rng(7))
+
+
+def assert_same_cameras(read: list[Camera], expected: list[Camera], colour: bool = True):
+    assert [c.name for c in read] == [c.name for c in expected]
+    for got, want in zip(read, expected, strict=True):
+        for attr in ("K", "dist", "R", "t"):
+            scale = np.abs(getattr(want, attr)).max()
+            np.testing.assert_allclose(getattr(got, attr), getattr(want, attr), rtol=1e-9, atol=1e-9 * scale,
+                                       err_msg=f"{want.name}.{attr}")
+        assert (got.width, got.height) == (want.width, want.height)
+        if colour:
+            assert got.colour == want.colour
+
+
+def rodrigues(R: np.ndarray) -> list[float]:
+    return cv2.Rodrigues(R)[0].ravel().tolist()
+
+
+def toml_list(values, trailing_comma: bool = False) -> str:
+    return "[ " + ", ".join(repr(float(v)) for v in values) + ("," if trailing_comma else "") + "]"
+
+
+def pose2sim_toml(cameras: list[Camera]) -> str:
+    """Pose2Sim's calibration.py:toml_write: tables named after the cameras, float sizes,
+    4 distortions, translations in metres, ``fisheye = false`` and a metadata table."""
+    text = ""
+    for c in cameras:
+        matrix = "[ " + ", ".join(toml_list(row) for row in c.K) + "]"
+        text += (f'[{c.name}]\nname = "{c.name}"\nsize = {toml_list([c.width, c.height])}\nmatrix = {matrix}\n'
+                 f"distortions = {toml_list(c.dist[:4])}\nrotation = {toml_list(rodrigues(c.R))}\n"
+                 f"translation = {toml_list(c.t / 1000)}\nfisheye = false\n\n")
+    return text + "[metadata]\nadjusted = false\nerror = 0.0\n"
+
+
+def anipose_toml(cameras: list[Camera]) -> str:
+    """aniposelib's CameraGroup.dump: [cam_0]..., integer sizes, 5 distortions, mm, the toml
+    package's trailing commas, a metadata table."""
+    text = ""
+    for i, c in enumerate(cameras):
+        matrix = "[ " + ", ".join(toml_list(row, True) for row in c.K) + ",]"
+        text += (f'[cam_{i}]\nname = "{c.name}"\nsize = [ {c.width}, {c.height},]\nmatrix = {matrix}\n'
+                 f"distortions = {toml_list(c.dist, True)}\nrotation = {toml_list(rodrigues(c.R), True)}\n"
+                 f"translation = {toml_list(c.t, True)}\n\n")
+    return text + "[metadata]\nadjusted = true\nerror = 0.31\n"
+
+
+def test_opencv_yaml_round_trip(tmp_path, rig, caplog):
+    path = write_opencv_yaml(tmp_path / "calibration.yml", rig)
+    assert path.read_text().startswith("%YAML")
+    assert [p.name for p in tmp_path.iterdir()] == ["calibration.yml"]  # no temporary left
+    with caplog.at_level(logging.INFO):
+        calibration = read_calibration(path)
+    assert_same_cameras(calibration.cameras, rig)
+    assert (calibration.units, calibration.units_reason) == ("mm", "stated in the file")
+    assert f"calibration file {path}: units mm (stated in the file)" in caplog.text
+    picked = read_calibration(path, cameras=["BW1", "C1"]).cameras
+    assert_same_cameras(picked, [rig[2], rig[0]])
+    assert_same_cameras(read_calibration(path, cameras="C2").cameras, [rig[1]])
+
+
+def test_opencv_5_yaml_header_and_filestorage_json(tmp_path, rig):
+    """OpenCV 5 writes ``%YAML 1.2``; FileStorage JSON is told from mmocap's JSON by its keys."""
+    text = write_opencv_yaml(tmp_path / "calibration.yml", rig).read_text()
+    assert text.startswith("%YAML:1.0\n")
+    (tmp_path / "v5.yml").write_text(text.replace("%YAML:1.0", "%YAML 1.2", 1))
+    assert_same_cameras(read_calibration(tmp_path / "v5.yml").cameras, rig)
+    storage = cv2.FileStorage(str(tmp_path / "rig.json"), cv2.FILE_STORAGE_WRITE)
+    storage.write("names", [c.name for c in rig])
+    for c in rig:
+        for key, value in (("K", c.K), ("dist", c.dist), ("R", c.R), ("T", c.t), ("W", c.width), ("H", c.height)):
+            storage.write(f"{key}_{c.name}", value)
+    storage.release()
+    calibration = read_calibration(tmp_path / "rig.json")
+    assert_same_cameras(calibration.cameras, rig, colour=False)
+    assert calibration.format == "OpenCV FileStorage JSON, or mmocap's calibration JSON (one camera, with t_mm)"
+
+
+def test_opencv_xml_with_rodrigues_and_eight_coefficients(tmp_path, rig, caplog):
+    path = xml_with(lambda c: np.r_[c.dist, 0, 0, 0])(tmp_path, rig)
+    with caplog.at_level(logging.INFO):
+        calibration = read_calibration(path)
+    assert_same_cameras(calibration.cameras, rig, colour=False)
+    assert all(c.colour for c in calibration.cameras)  # no colour key: colour by default
+    assert calibration.units == "mm"
+    assert re.search(r"units mm \(detected from camera distances 4\d\d0-4\d\d0 mm\)$", caplog.text.strip())
+
+
+def test_easymocap_names_layout_in_one_file_and_in_intri_extri(tmp_path, rig):
+    def write(path, intrinsics: bool, extrinsics: bool):
+        storage = cv2.FileStorage(str(path), cv2.FILE_STORAGE_WRITE)
+        storage.write("names", [c.name for c in rig])
+        for c in rig:
+            if intrinsics:
+                storage.write(f"K_{c.name}", c.K)
+                storage.write(f"dist_{c.name}", c.dist.reshape(1, 5))
+                storage.write(f"W_{c.name}", c.width)
+                storage.write(f"H_{c.name}", c.height)
+            if extrinsics:
+                storage.write(f"R_{c.name}", np.array(rodrigues(c.R)).reshape(3, 1))
+                storage.write(f"Rot_{c.name}", c.R)
+                storage.write(f"T_{c.name}", c.t.reshape(3, 1) / 1000)
+        storage.release()
+
+    write(tmp_path / "all.yml", True, True)
+    assert_same_cameras(read_calibration(tmp_path / "all.yml", units="m").cameras, rig, colour=False)
+    folder = tmp_path / "easymocap"
+    folder.mkdir()
+    write(folder / "intri.yml", True, False)
+    write(folder / "extri.yml", False, True)
+    calibration = read_calibration(folder)
+    assert_same_cameras(calibration.cameras, rig, colour=False)
+    assert calibration.units == "m" and calibration.format.startswith("EasyMocap")
+
+
+def test_pose2sim_metres_and_anipose_mm_give_the_same_cameras(tmp_path, rig, caplog):
+    (tmp_path / "Calib.toml").write_text(pose2sim_toml(rig))
+    (tmp_path / "calibration.toml").write_text(anipose_toml(rig))
+    with caplog.at_level(logging.INFO):
+        pose2sim = read_calibration(tmp_path / "Calib.toml")
+        anipose = read_calibration(tmp_path / "calibration.toml")
+    assert_same_cameras(pose2sim.cameras, rig, colour=False)
+    assert_same_cameras(anipose.cameras, rig, colour=False)
+    assert (pose2sim.units, anipose.units) == ("m", "mm")
+    lines = [r.getMessage() for r in caplog.records]
+    assert re.fullmatch(rf"calibration file {re.escape(str(tmp_path))}/Calib.toml: units m \(detected from camera "
+                        r"distances 4\.\d\d?-4\.\d\d? m\): converted to mm", lines[0]), lines[0]
+    assert "units mm (detected from camera distances" in lines[1] and "converted" not in lines[1]
+
+
+def test_explicit_units_are_taken_and_announced(tmp_path, rig, caplog):
+    (tmp_path / "calibration.toml").write_text(anipose_toml(rig))
+    with caplog.at_level(logging.INFO):
+        calibration = read_calibration(tmp_path / "calibration.toml", units="m")
+    np.testing.assert_allclose(calibration.cameras[0].t, rig[0].t * 1000)
+    assert "units m (as set by calibration units): converted to mm" in caplog.text
+
+
+def test_a_camera_at_the_origin_is_left_out_of_the_units_detection(tmp_path, rig):
+    """anipose calibrates relative to cam_0, which then stands at the origin."""
+    shift = rig[0].centre
+    moved = [Camera(c.name, c.K, c.dist, c.R, c.t + c.R @ shift, c.width, c.height) for c in rig]
+    (tmp_path / "calibration.toml").write_text(pose2sim_toml(moved))
+    calibration = read_calibration(tmp_path / "calibration.toml")
+    assert calibration.units == "m"
+    np.testing.assert_allclose(calibration.cameras[0].centre, 0, atol=1e-6)
+
+
+def test_ambiguous_units_are_refused(tmp_path, rig):
+    small = [Camera(c.name, c.K, c.dist, c.R, c.t / 30, c.width, c.height) for c in rig]  # about 130 units away
+    (tmp_path / "calibration.toml").write_text(anipose_toml(small))
+    with pytest.raises(DataError) as error:
+        read_calibration(tmp_path / "calibration.toml")
+    message = str(error.value)
+    assert "\n" not in message and str(tmp_path / "calibration.toml") in message
+    assert "cannot tell whether its translations are in mm or m" in message
+    assert "set calibration units to mm or m" in message
+    assert read_calibration(tmp_path / "calibration.toml", units="mm").units == "mm"
+
+
+def test_units_contradicting_the_file_or_unknown_are_refused(tmp_path, rig):
+    path = write_opencv_yaml(tmp_path / "calibration.yml", rig)
+    with pytest.raises(DataError, match=r"states that its translations are in mm, but calibration units is m"):
+        read_calibration(path, units="m")
+    with pytest.raises(ConfigError, match=r"calibration units must be one of mm, m, auto, got 'cm'"):
+        read_calibration(path, units="cm")
+
+
+def test_folders_of_per_camera_files(tmp_path, rig):
+    json_folder = tmp_path / "json"
+    json_folder.mkdir()
+    for camera in rig:
+        camera.save(json_folder / f"{camera.name}.json")
+    yml_folder = camera_folder(tmp_path, rig)
+    (yml_folder / "BW9.yml").unlink()
+    expected = sorted(rig, key=lambda c: c.name)
+    from_json = read_calibration(json_folder)
+    assert_same_cameras(from_json.cameras, expected)
+    assert from_json.units_reason == "stated in the file"
+    assert_same_cameras(read_calibration(yml_folder).cameras, expected, colour=False)
+
+
+def write(path: Path, text: str) -> Path:
+    path.write_text(text)
+    return path
+
+
+def yaml_with(edit):
+    """A maker of the round-trip YAML of the rig with ``edit(text) -> text`` applied."""
+    def make(folder: Path, rig) -> Path:
+        path = write_opencv_yaml(folder / "calibration.yml", rig)
+        return write(path, edit(path.read_text()))
+    return make
+
+
+def toml_with(edit):
+    """A maker of the anipose TOML of the rig with ``edit(text) -> text`` applied."""
+    return lambda folder, rig: write(folder / "calibration.toml", edit(anipose_toml(rig)))
+
+
+def yaml_matrix(key: str, rows: int, cols: int, data) -> str:
+    return (f"   {key}: !!opencv-matrix\n      rows: {rows}\n      cols: {cols}\n      dt: d\n"
+            f"      data: [ {', '.join(map(str, data))} ]\n")
+
+
+def matrix_replaced(camera: str, key: str, new: str):
+    """An edit replacing ``camera``'s matrix ``key`` by ``new`` (YAML lines, or '')."""
+    def edit(text: str) -> str:
+        block = re.search(rf"^{camera}:\n(?:   .*\n)*", text, re.M)
+        body = re.sub(rf"^   {key}: !!opencv-matrix\n(?:      .*\n)+", new, block.group(0), count=1, flags=re.M)
+        return text[:block.start()] + body + text[block.end():]
+    return edit
+
+
+def xml_with(dist):
+    """A maker of an OpenCV XML of the rig, one map per camera, with OpenCV's tutorial names, a
+    Rodrigues ``rvec``, and ``dist(camera)`` as distortion coefficients; written by cv2 itself."""
+    def make(folder: Path, rig) -> Path:
+        path = folder / "rig.xml"
+        storage = cv2.FileStorage(str(path), cv2.FILE_STORAGE_WRITE)
+        storage.write("calibration_time", "today")
+        for c in rig:
+            storage.startWriteStruct(c.name, cv2.FileNode_MAP)
+            for key, value in (("camera_matrix", c.K), ("distortion_coefficients", dist(c)),
+                               ("rvec", cv2.Rodrigues(c.R)[0]), ("tvec", c.t), ("image_width", c.width),
+                               ("image_height", c.height)):
+                storage.write(key, value)
+            storage.endWriteStruct()
+        storage.release()
+        return path
+    return make
+
+
+def camera_folder(folder: Path, cameras: list[Camera]) -> Path:
+    """A folder of one YAML per camera of ``cameras`` (top-level keys), and BW9.yml holding none."""
+    folder = folder / "calibration"
+    folder.mkdir()
+    for camera in cameras:
+        storage = cv2.FileStorage(str(folder / f"{camera.name}.yml"), cv2.FILE_STORAGE_WRITE)
+        for key, value in (("K", camera.K), ("D", camera.dist[:4]), ("R", camera.R), ("T", camera.t),
+                           ("size", np.array([camera.width, camera.height]))):
+            storage.write(key, value)
+        storage.release()
+    write(folder / "BW9.yml", "%YAML:1.0\n---\ncalibration_time: today\n")
+    return folder
+
+
+BAD_INPUTS = {
+    # id: (make(folder, rig) -> the file, cameras=, words the one-line message holds besides the file)
+    "missing_K": (yaml_with(matrix_replaced("C2", "K", "")), None,
+                  ("camera C2", "lacks the camera matrix", "K, camera_matrix, cameraMatrix")),
+    "K_2x2": (yaml_with(matrix_replaced("C1", "K", yaml_matrix("K", 2, 2, [1, 0, 0, 1]))), None,
+              ("camera C1", "'K' must be 3 x 3 numbers, got shape (2, 2)")),
+    "R_not_a_rotation": (yaml_with(matrix_replaced("BW1", "R", yaml_matrix("R", 3, 3, [2, 0, 0, 0, 2, 0, 0, 0, 2]))),
+                         None, ("camera BW1", "'R' is not a rotation matrix")),
+    "t_of_two": (yaml_with(matrix_replaced("C1", "t", yaml_matrix("t", 2, 1, [1, 2]))), None,
+                 ("camera C1", "'t' must be 3 numbers, got shape (2, 1)")),
+    "unknown_camera": (yaml_with(lambda text: text), ["C1", "C9"],
+                       ("camera C9", "has no camera of that name (it has C1, C2, BW1)")),
+    "unparsable_yaml": (yaml_with(lambda text: text.replace("data: [ ", "data: [ [", 1)), None,
+                        ("cannot be read as OpenCV FileStorage", "Parsing error at line")),
+    "unparsable_toml": (toml_with(lambda text: text.replace("]\n", "\n", 1)), None, ("is not valid TOML", "line 1")),
+    "nonzero_k4_k6": (xml_with(lambda c: np.r_[c.dist, 0.01, 0, 0.002]), None,
+                      ("camera C1", "'distortion_coefficients'", "k4 = 0.01, k6 = 0.002", "CALIB_RATIONAL_MODEL")),
+    "six_coefficients": (xml_with(lambda c: np.r_[c.dist, 0]), None,
+                         ("camera C1", "'distortion_coefficients' must be 4, 5, 8, 12 or 14", "got shape (6,)")),
+    "duplicate_names": (lambda folder, rig: write(folder / "calibration.toml", anipose_toml([*rig, rig[0]])), None,
+                        ("camera C1", "holds two cameras of that name")),
+    "fisheye": (toml_with(lambda text: text.replace("[cam_1]\n", "[cam_1]\nfisheye = true\n")), None,
+                ("camera C2", "'fisheye' is True", "not supported")),
+    "missing_size": (toml_with(lambda text: re.sub(r"size = .*\n", "", text, count=1)), None,
+                     ("camera C1", "lacks the image size", "image_width", "size", "[cam_0]")),
+    "size_of_three": (toml_with(lambda text: text.replace("size = [", "size = [ 1,", 1)), None,
+                      ("camera C1", "'size' must be [width, height]")),
+    "no_cameras": (toml_with(lambda text: "[metadata]\nerror = 0.1\n"), None, ("holds no cameras", "metadata")),
+    "folder_file_without_camera": (lambda folder, rig: camera_folder(folder, rig[:1]), None,
+                                   ("calibration file", "BW9.yml holds no camera", "must hold one")),
+    "not_found": (lambda folder, rig: folder / "nothing.yml", None, ("calibration file not found",)),
+    "unknown_suffix": (lambda folder, rig: write(folder / "calibration.txt", "1 2 3"), None,
+                       ("unknown format .txt", ".toml")),
+}
+
+
+@pytest.mark.parametrize("case", list(BAD_INPUTS))
+def test_bad_calibration_is_one_line_naming_file_camera_and_key(tmp_path, rig, case):
+    make, cameras, words = BAD_INPUTS[case]
+    path = make(tmp_path, rig)
+    with pytest.raises(DataError) as error:
+        read_calibration(path, cameras=cameras)
+    message = str(error.value)
+    assert "\n" not in message
+    assert str(path) in message
+    for word in words:
+        assert word in message, f"{word!r} not in {message!r}"
+
+
+def test_writer_refuses_names_filestorage_cannot_hold(tmp_path, rig):
+    bad = Camera("2 cams", rig[0].K, rig[0].dist, rig[0].R, rig[0].t, 640, 480)
+    with pytest.raises(DataError, match="camera 2 cams: cannot be named"):
+        write_opencv_yaml(tmp_path / "calibration.yml", [rig[0], bad])
+    with pytest.raises(DataError, match="must end in .yml or .yaml"):
+        write_opencv_yaml(tmp_path / "calibration.xml", rig)
+    assert not any(tmp_path.iterdir())

@@ -1,0 +1,183 @@
+"""mmocap.data.recording: a sequence written as a user's recording reads back as the same
+cameras, frames and ground truth; every way a recording can be wrong is one clear error."""
+import shutil
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from mmocap.data.recording import UP_AXES, RecordingDataset, turned, write_recording
+from mmocap.data.sequence import Sequence
+from mmocap.errors import ConfigError, DataError
+
+OFFSETS = {"C2": 2}
+YAW_DEG = 30.0
+
+
+@pytest.fixture(scope="module")
+def recording(tiny_sequence, tmp_path_factory) -> Path:
+    """The tiny sequence as a recording: C2 started 2 frames early, the world turned by 30
+    degrees, the calibration in metres, lossless videos."""
+    out = tmp_path_factory.mktemp("recording") / "rec"
+    return write_recording(Sequence.open(tiny_sequence), out, offsets=OFFSETS, yaw_deg=YAW_DEG, units="m",
+                           progress=False)
+
+
+@pytest.fixture
+def recording_copy(recording, tmp_path) -> Path:
+    return Path(shutil.copytree(recording, tmp_path / "rec"))
+
+
+def yaw_matrix(deg: float) -> np.ndarray:
+    a = np.radians(deg)
+    return np.array([[np.cos(a), 0, np.sin(a)], [0, 1, 0], [-np.sin(a), 0, np.cos(a)]])
+
+
+def test_the_layout_written_holds_no_first_pose_and_no_subject(recording):
+    assert sorted(p.name for p in recording.iterdir()) == ["background", "calibration.yml", "markers_mm.csv",
+                                                            "videos"]
+    assert "units: m" in (recording / "calibration.yml").read_text()
+    opened = RecordingDataset(str(recording), offsets=OFFSETS).open(progress=False)
+    assert opened.x0 is None and opened.subject is None
+
+
+def test_a_recording_reads_back_as_its_sequence_in_a_turned_world(tiny_sequence, recording):
+    original = Sequence.open(tiny_sequence)
+    opened = RecordingDataset(str(recording), offsets=OFFSETS).open(progress=False)
+    assert opened.n_frames == original.n_frames and opened.fps == original.fps
+    assert opened.meta["units"] == "m"
+    world = yaw_matrix(YAW_DEG)
+    for mine, theirs in zip(opened.cameras, original.cameras):
+        assert mine.name == theirs.name and mine.colour == theirs.colour
+        np.testing.assert_allclose(mine.R, theirs.R @ world.T, atol=1e-12)
+        np.testing.assert_allclose(mine.t, theirs.t, rtol=1e-12)
+        point = np.array([[100.0, 900.0, -200.0]])  # the same pixel from the turned world's point
+        np.testing.assert_allclose(mine.project(point @ world.T), theirs.project(point), atol=1e-6)
+    for frame in (0, 3, 1):
+        for mine, theirs in zip(opened.images(frame), original.images(frame)):
+            np.testing.assert_array_equal(mine, theirs)  # lossless, and C2's offset undone
+    for camera, theirs in zip(opened.cameras, original.cameras):
+        assert len(opened.background(camera)) == len(original.background(theirs))
+    np.testing.assert_allclose(opened.markers(), original.markers() @ world.T, atol=1e-3)
+
+
+def test_without_its_offset_a_camera_shows_other_frames(recording):
+    opened = RecordingDataset(str(recording)).open(progress=False)
+    synced = RecordingDataset(str(recording), offsets=OFFSETS).open(progress=False)
+    c2 = [c.name for c in opened.cameras].index("C2")
+    assert not np.array_equal(opened.images(0)[c2], synced.images(0)[c2])
+    np.testing.assert_array_equal(opened.images(2)[c2], synced.images(0)[c2])
+
+
+def test_start_and_frames_select_a_window_with_its_ground_truth(recording):
+    whole = RecordingDataset(str(recording), offsets=OFFSETS).open(progress=False)
+    window = RecordingDataset(str(recording), offsets=OFFSETS, start=1, frames=2).open(progress=False)
+    assert window.n_frames == 2
+    np.testing.assert_array_equal(window.images(0)[0], whole.images(1)[0])
+    np.testing.assert_allclose(window.markers(), whole.markers()[1:3])
+
+
+def test_image_folders_and_a_background_range_read_as_videos_do(recording, recording_copy):
+    videos = RecordingDataset(str(recording), offsets=OFFSETS).open(progress=False)
+    for camera in videos.cameras:
+        (recording_copy / "videos" / f"{camera.name}.mp4").unlink()
+        folder = recording_copy / "images" / camera.name
+        folder.mkdir(parents=True)
+        source = videos.sources[videos.cameras.index(camera)].source
+        for k in range(source.count):
+            frame = source.read(k)
+            cv2.imwrite(str(folder / f"img_{k:04d}.png"), frame)
+    shutil.rmtree(recording_copy / "background")
+    images = RecordingDataset(str(recording_copy), offsets=OFFSETS, fps=60.0, background=[0, 1],
+                              background_frames=2).open(progress=False)
+    np.testing.assert_array_equal(images.images(3)[0], videos.images(3)[0])
+    assert images.background_frames[0] == [0, 1] and images.background_frames[1] == [2, 3]  # C2's offset
+
+
+@pytest.mark.parametrize("up", list(UP_AXES))
+def test_every_up_axis_is_a_rotation_that_points_it_up(up):
+    world = UP_AXES[up]
+    np.testing.assert_allclose(world @ world.T, np.eye(3))
+    assert np.linalg.det(world) == pytest.approx(1)
+    axis = np.zeros(3)
+    axis["xyz".index(up[1])] = 1.0 if up[0] == "+" else -1.0
+    np.testing.assert_allclose(world @ axis, [0, 1, 0])
+
+
+def test_a_z_up_calibration_is_turned_into_y_up(tiny_sequence):
+    camera = Sequence.open(tiny_sequence).cameras[0]
+    z_up = turned(camera, UP_AXES["+z"].T)  # the same camera in a world whose z points up
+    back = turned(z_up, UP_AXES["+z"])
+    np.testing.assert_allclose(back.R, camera.R, atol=1e-12)
+
+
+def _break(root: Path, how: str) -> dict:
+    """Break a copy of the recording; returns extra RecordingDataset arguments."""
+    if how == "no-calibration":
+        (root / "calibration.yml").unlink()
+    elif how == "two-calibrations":
+        shutil.copy(root / "calibration.yml", root / "calibration.yaml")
+    elif how == "no-video":
+        (root / "videos" / "C2.mp4").unlink()
+        return {"cameras": ["C1", "C2"]}
+    elif how == "video-and-images":
+        (root / "images" / "C1").mkdir(parents=True)
+    elif how == "damaged-video":
+        (root / "videos" / "C1.mp4").write_bytes(b"\0" * 100)
+    elif how == "no-background":
+        shutil.rmtree(root / "background")
+    elif how == "background-past-the-end":
+        return {"background": [0, 9]}
+    elif how == "offset-of-an-unknown-camera":
+        return {"offsets": {"C9": 1}}
+    elif how == "offsets-past-the-end":
+        return {"offsets": {"C1": 4}}
+    elif how == "images-without-fps":
+        for video in (root / "videos").glob("*.mp4"):
+            folder = root / "images" / video.stem
+            folder.mkdir(parents=True)
+            for k in range(4):
+                cv2.imwrite(str(folder / f"{k}.png"), np.zeros((240, 320, 3), np.uint8))
+            video.unlink()
+    elif how == "wrong-resolution":
+        folder = root / "images" / "C1"
+        folder.mkdir(parents=True)
+        cv2.imwrite(str(folder / "0.png"), np.zeros((100, 100, 3), np.uint8))
+        (root / "videos" / "C1.mp4").unlink()
+        return {"fps": 60.0, "cameras": ["C1"]}
+    return {}
+
+
+CASES = {  # how -> words the one-line error must hold
+    "no-calibration": ["no calibration in recording", "calibration.yml"],
+    "two-calibrations": ["2 calibrations", "dataset.calibration"],
+    "no-video": ["camera C2", "no video"],
+    "video-and-images": ["camera C1", "keep one"],
+    "damaged-video": ["C1.mp4"],
+    "no-background": ["camera C1", "no background", "dataset.background"],
+    "background-past-the-end": ["dataset.background ends at frame 9"],
+    "offset-of-an-unknown-camera": ["dataset.offsets", "C9"],
+    "offsets-past-the-end": ["camera C1", "offset 4", "none is left"],
+    "images-without-fps": ["dataset.fps"],
+    "wrong-resolution": ["camera C1", "100x100", "320x240"],
+}
+
+
+@pytest.mark.parametrize("how", list(CASES))
+def test_a_broken_recording_is_one_clear_error(recording_copy, how):
+    extra = {"offsets": OFFSETS, **_break(recording_copy, how)}
+    with pytest.raises((DataError, ConfigError)) as caught:
+        opened = RecordingDataset(str(recording_copy), **extra).open(progress=False)
+        opened.images(0)
+    message = str(caught.value)
+    assert "\n" not in message
+    for word in CASES[how]:
+        assert word in message, message
+
+
+@pytest.mark.parametrize("key, value", [("units", "cm"), ("up", "y"), ("start", -1), ("frames", 0),
+                                        ("background", [3]), ("background", [4, 2]), ("fps", 0)])
+def test_a_bad_setting_names_its_key(recording, key, value):
+    with pytest.raises(ConfigError, match=f"dataset.{key}"):
+        RecordingDataset(str(recording), **{key: value})

@@ -1,0 +1,45 @@
+"""The recording commands end to end: a sequence written as a recording (to-recording), checked
+(check-recording) and tracked by the one documented command with no first pose and no body
+size given (dataset=recording: the automatic start)."""
+import json
+
+import pytest
+
+from tests.conftest import run_cli
+
+QUICK_START = ["start.headings=4", "start.candidates=1", "start.evaluations=80", "start.limb_evaluations=40",
+               "start.rounds=1", "start.girths=[1.1]", "start.height_steps_mm=[]", "start.shape_evaluations=40"]
+
+
+@pytest.fixture(scope="module")
+def recording(tiny_sequence, tmp_path_factory):
+    out = tmp_path_factory.mktemp("rec") / "walk"
+    assert run_cli("to-recording", tiny_sequence, out, "--offsets", "C2=1", "--units", "m", "--no-progress") == 0
+    return out
+
+
+def test_check_recording_reports_cameras_sync_and_the_first_frame(recording, capsys):
+    assert run_cli("check-recording", recording, "dataset.offsets={C2:1}", "background.min_area_px=5") == 0
+    report = capsys.readouterr().out
+    assert "translations in m," in report
+    for camera in ("C1", "C2", "BW1"):
+        assert f"{camera}: video {recording / 'videos' / camera}.mp4" in report
+    assert "(5 frames, 60 fps, offset 1)" in report  # C2: one frame of empty scene first
+    assert "frames tracked: 4 from frame 0" in report
+    assert "4 of 4 frames have markers" in report
+    assert "the silhouettes' rays meet at" in report
+
+
+def test_a_recording_is_tracked_from_nothing_by_the_documented_command(recording, tmp_path):
+    out = tmp_path / "run"
+    code = run_cli("track", "dataset=recording", f"dataset.root={recording}", "dataset.offsets={C2:1}",
+                   "evaluator=numpy", "body.vertices=1000", "tracking.evaluations=60", "overlays=1",
+                   "progress=false", "foreground_cache=null", "export=[csv]", f"hydra.run.dir={out}", *QUICK_START)
+    assert code == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["start"]["method"] == "search" and summary["start"]["seconds"] > 0
+    assert summary["subject"] == "unknown" and summary["frames"] == summary["frames_scored"] == 4
+    assert summary["body"]["height_mm"] == pytest.approx(summary["start"]["hull_height_mm"])  # no steps tried
+    assert summary["body"]["girth"] in (1.0, 1.1)
+    assert summary["mean_marker_error_mm"] > 0
+    assert (out / "export" / "markers_mm.csv").is_file()

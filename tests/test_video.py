@@ -1,0 +1,66 @@
+"""mmocap.video: frames decoded in order, MP4 files written whole or not at all."""
+import numpy as np
+import pytest
+
+from mmocap.errors import ConfigError, DataError
+from mmocap.video import VideoReader, count_frames, frame_rate, write_video
+
+
+def ramp(count: int, width: int = 64, height: int = 48) -> list[np.ndarray]:
+    """Frames whose grey level tells their index (10 per frame), with a colour gradient."""
+    frames = []
+    for k in range(count):
+        frame = np.full((height, width, 3), 10 * k, np.uint8)
+        frame[..., 2] = np.linspace(0, 255, width, dtype=np.uint8)[None]
+        frames.append(frame)
+    return frames
+
+
+@pytest.mark.parametrize("size", [(64, 48), (65, 47)], ids=["even", "odd"])
+def test_a_lossless_video_reads_back_frame_for_frame_at_its_size(tmp_path, size):
+    frames = ramp(12, *size)
+    path = write_video(tmp_path / "v.mp4", frames, fps=25, crf=0)
+    assert count_frames(path) == 12 and frame_rate(path) == pytest.approx(25)
+    reader = VideoReader(path)
+    for k in (0, 5, 6, 11, 2):  # forwards, then back: reopened and decoded forwards
+        np.testing.assert_array_equal(reader.read(k), frames[k])
+    assert list(tmp_path.iterdir()) == [path]
+
+
+def test_a_compressed_video_keeps_every_frame_near_its_values(tmp_path):
+    frames = ramp(8)
+    path = write_video(tmp_path / "v.mp4", frames, fps=30)
+    reader = VideoReader(path)
+    for k in range(8):
+        assert np.abs(reader.read(k).astype(int) - frames[k]).mean() < 3
+
+
+def test_a_greyscale_frame_is_written_as_grey_colour(tmp_path):
+    grey = [np.full((48, 64), 100 + k, np.uint8) for k in range(3)]
+    frame = VideoReader(write_video(tmp_path / "g.mp4", grey, fps=30, crf=0)).read(1)
+    assert frame.shape == (48, 64, 3) and np.all(frame == 101)
+
+
+def test_reading_past_the_end_names_the_video_and_its_length(tmp_path):
+    path = write_video(tmp_path / "v.mp4", ramp(3), fps=30)
+    with pytest.raises(DataError, match=r"v.mp4 ends before frame 3 .*it has 3 frames"):
+        VideoReader(path).read(3)
+
+
+def test_frames_of_two_sizes_are_refused_and_nothing_is_left(tmp_path):
+    with pytest.raises(DataError, match=r"frame 1 is 32x48, the first was 64x48"):
+        write_video(tmp_path / "v.mp4", [ramp(1)[0], ramp(1, 32)[0]], fps=30)
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("bad", [-1, 52, 1.5])
+def test_a_quality_out_of_range_is_refused(tmp_path, bad):
+    with pytest.raises(ConfigError, match="crf"):
+        write_video(tmp_path / "v.mp4", ramp(2), fps=30, crf=bad)
+
+
+def test_a_file_that_is_not_a_video_is_one_clear_error(tmp_path):
+    path = tmp_path / "broken.mp4"
+    path.write_bytes(b"not a video")
+    with pytest.raises(DataError, match="cannot open video .*broken.mp4"):
+        count_frames(path)
