@@ -9,7 +9,8 @@ an estimate.
 
 Writing (:func:`write_video`) uses ``imageio-ffmpeg`` (the ``video`` extra: ``pip install
 'mmocap[video]'``), which ships its own ffmpeg binary and writes H.264 MP4 files that
-browsers, players and Blender open; without it, OpenCV's MPEG-4 Part 2 (``mp4v``) encoder.
+browsers, players and Blender open; without it, OpenCV's MPEG-4 Part 2 (``mp4v``) encoder,
+which is lossy whatever the quality asked (a lossless video is then refused).
 Either way the file is written beside its target and renamed when complete
 (:func:`mmocap.io.atomic_path`), and then decoded again to check its frame count.
 """
@@ -153,6 +154,9 @@ class _encoder:
 
     def __enter__(self):
         if importlib.util.find_spec("imageio_ffmpeg") is None:
+            if self.crf == 0:
+                raise DataError(f"cannot write the lossless video {self.path}: OpenCV's own MP4 encoder is lossy; "
+                                "install the video extra (pip install 'mmocap[video]'), or ask for a compressed one")
             self._cv = cv2.VideoWriter(str(self.path), cv2.VideoWriter_fourcc(*"mp4v"), self.fps, self.size)
             if not self._cv.isOpened():
                 raise DataError(f"OpenCV cannot write MP4 video {self.path}; install the video extra: "

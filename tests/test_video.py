@@ -64,3 +64,17 @@ def test_a_file_that_is_not_a_video_is_one_clear_error(tmp_path):
     path.write_bytes(b"not a video")
     with pytest.raises(DataError, match="cannot open video .*broken.mp4"):
         count_frames(path)
+
+
+def test_without_imageio_ffmpeg_opencv_writes_a_lossy_video_and_refuses_a_lossless_one(tmp_path, monkeypatch):
+    import importlib.util
+
+    real = importlib.util.find_spec
+    monkeypatch.setattr(importlib.util, "find_spec",
+                        lambda name, *a: None if name == "imageio_ffmpeg" else real(name, *a))
+    path = write_video(tmp_path / "v.mp4", ramp(6), fps=30, crf=16)
+    assert count_frames(path) == 6
+    assert np.abs(VideoReader(path).read(3).astype(int) - ramp(6)[3]).mean() < 8
+    with pytest.raises(DataError, match="lossless .*pip install 'mmocap\\[video\\]'"):
+        write_video(tmp_path / "w.mp4", ramp(2), fps=30, crf=0)
+    assert not (tmp_path / "w.mp4").exists()

@@ -138,7 +138,8 @@ class _Parsed:
     expected: str = ""
 
 
-def read_calibration(path: str | Path, units: str = "auto", cameras: Sequence[str] | str | None = None) -> Calibration:
+def read_calibration(path: str | Path, units: str = "auto", cameras: Sequence[str] | str | None = None,
+                     units_key: str = "calibration units") -> Calibration:
     """Read every camera of a calibration file or folder (see the module's docstring).
 
     Args:
@@ -153,12 +154,13 @@ def read_calibration(path: str | Path, units: str = "auto", cameras: Sequence[st
         the :class:`Calibration`, translations in mm.
 
     Raises:
-        ConfigError: ``units`` is none of mm, m, auto (named ``calibration units``).
+        ConfigError: ``units`` is none of mm, m, auto (named ``units_key``, the caller's
+            name for the setting, e.g. ``dataset.units``).
         DataError: one line naming the file, the camera and the key: a missing file, an
             unparsable one, no cameras, a duplicate name, a missing or bad key, a camera of
             ``cameras`` not in the file, or units that cannot be told.
     """
-    check_choice("calibration units", units, (*UNITS, "auto"))
+    check_choice(units_key, units, (*UNITS, "auto"))
     path = Path(path)
     if path.is_dir():
         parsed = _read_folder(path)
@@ -173,7 +175,7 @@ def read_calibration(path: str | Path, units: str = "auto", cameras: Sequence[st
     duplicated = sorted({name for name in names if names.count(name) > 1})
     if duplicated:
         raise DataError(f"camera {duplicated[0]}: {where} holds two cameras of that name; give each camera its own")
-    units, reason = _decide_units(where, parsed, units)
+    units, reason = _decide_units(where, parsed, units, units_key)
     scale = UNITS[units]
     found = [replace(camera, t=camera.t * scale, _maps={}) if scale != 1 else camera for camera in parsed.cameras]
     if cameras is not None:
@@ -231,15 +233,16 @@ def write_opencv_yaml(path: str | Path, cameras: Sequence[Camera], units: str = 
 # --- units -------------------------------------------------------------------------------
 
 
-def _decide_units(where: str, parsed: _Parsed, units: str) -> tuple[str, str]:
-    """``(units, reason)`` of the translations of ``parsed``; see the module's docstring."""
+def _decide_units(where: str, parsed: _Parsed, units: str, key: str) -> tuple[str, str]:
+    """``(units, reason)`` of the translations of ``parsed``; see the module's docstring.
+    Messages name the setting ``key``."""
     if parsed.stated_units is not None:
         if units not in ("auto", parsed.stated_units):
-            raise DataError(f"{where} states that its translations are in {parsed.stated_units}, but calibration "
-                            f"units is {units}; set calibration units to {parsed.stated_units} or auto")
+            raise DataError(f"{where} states that its translations are in {parsed.stated_units}, but "
+                            f"{key} is {units}; set {key} to {parsed.stated_units} or auto")
         return parsed.stated_units, "stated in the file"
     if units != "auto":
-        return units, "as set by calibration units"
+        return units, f"as set by {key}"
     distances = np.array([np.linalg.norm(camera.centre) for camera in parsed.cameras])
     if not np.any(distances > 0):
         return "mm", "every camera at the world origin: the units make no difference"
@@ -252,7 +255,7 @@ def _decide_units(where: str, parsed: _Parsed, units: str) -> tuple[str, str]:
     else:
         raise DataError(f"{where}: cannot tell whether its translations are in mm or m: its cameras stand "
                         f"{low:.4g}-{high:.4g} (median {median:.4g}) from the world origin, between "
-                        f"{METRES_BELOW:g} (metres) and {MILLIMETRES_ABOVE:g} (mm); set calibration units to mm or m")
+                        f"{METRES_BELOW:g} (metres) and {MILLIMETRES_ABOVE:g} (mm); set {key} to mm or m")
     return detected, f"detected from camera distances {_rounded(low)}-{_rounded(high)} {detected}"
 
 

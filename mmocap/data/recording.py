@@ -250,7 +250,7 @@ class RecordingDataset:
         root = self.path
         if not root.is_dir():
             raise DataError(f"recording folder not found: {root}")
-        calibration = read_calibration(self.calibration_path(), self.units)
+        calibration = read_calibration(self.calibration_path(), self.units, units_key="dataset.units")
         world = UP_AXES[self.up]
         by_name = {c.name: turned(c, world) for c in calibration.cameras}
         for name in self.greyscale:

@@ -18,7 +18,8 @@ background, the ground truth, and three sanity checks on the first frame:
 Every finding that would spoil a run is a warning line; a recording that cannot be read at
 all is one error line (exit 2).
 
-``mmocap to-recording SEQUENCE OUT [--offsets C2=3,BW1=1] [--yaw DEG] [--units mm|m]``
+``mmocap to-recording SEQUENCE OUT [--cameras C1,C2] [--offsets C2=3,BW1=1] [--yaw DEG] [--units mm|m]
+[--crf N]``
 writes a sequence folder (a synthetic one: ``outputs/data/S1_walking``) in the recording
 layout, ground truth included, to test the path from a user's files to a result.
 """
@@ -145,6 +146,7 @@ def convert_main(argv: list[str], prog: str) -> None:
                                      "layout of a user's recording: OpenCV YAML calibration, MP4 videos.")
     parser.add_argument("sequence", type=Path, help="a sequence folder (the one holding sequence.json)")
     parser.add_argument("out", type=Path, help="the recording folder to write")
+    parser.add_argument("--cameras", default=None, help="cameras to write, e.g. C1,C2,C3,BW1 (default: all)")
     parser.add_argument("--offsets", default="", help="frames of empty scene before a camera's video, e.g. C2=3")
     parser.add_argument("--yaw", type=float, default=0.0, help="turn the world about the vertical by DEG degrees")
     parser.add_argument("--units", choices=("mm", "m"), default="mm", help="units of the calibration's translations")
@@ -153,7 +155,8 @@ def convert_main(argv: list[str], prog: str) -> None:
                              "compressed videos are harder for the background models")
     parser.add_argument("--no-progress", action="store_true", help="no progress bars")
     args = parser.parse_args(argv)
-    sequence = Sequence.open(args.sequence)
+    cameras = None if args.cameras is None else [c.strip() for c in args.cameras.split(",") if c.strip()]
+    sequence = Sequence.open(args.sequence, cameras)
     out = write_recording(sequence, args.out, offsets=_offsets(args.offsets), yaw_deg=args.yaw, units=args.units,
                           crf=args.crf, progress=not args.no_progress)
     print(f"recording written to {out}; track it with: mmocap track dataset=recording dataset.root={out}"

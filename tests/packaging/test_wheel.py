@@ -21,8 +21,8 @@ pytestmark = pytest.mark.slow
 
 REPO = Path(__file__).resolve().parents[2]
 PLUGINS = sorted(p for p in (REPO / "plugins").iterdir() if (p / "pyproject.toml").is_file())
-SUBCOMMANDS = ("track", "generate", "list", "export-humaneva", "collect", "summaries", "stats",
-               "paper", "bench", "foreground-quality")
+SUBCOMMANDS = ("track", "generate", "list", "export-humaneva", "check-recording", "to-recording", "export",
+               "collect", "summaries", "stats", "paper", "bench", "foreground-quality")
 SMALL = ["dataset.frames=2", "dataset.width=320", "dataset.height=240", "dataset.background_frames=3",
          "dataset.cameras=[C1,C2,BW1]", "dataset.all_cameras=[C1,C2,BW1]", "dataset.root=data",
          "body.vertices=2000", "tracking.frames=2", "tracking.evaluations=150", "overlays=0",
@@ -121,6 +121,22 @@ def test_generates_and_tracks_with_numpy_and_opencl_alike(venv):
         assert summary["backend"] == evaluator and summary["frames"] == 2
         errors[evaluator] = summary["mean_marker_error_mm"]
     assert errors["numpy"] == errors["opencl"]  # the same pixel counts, so the same search
+
+
+def test_a_recording_is_tracked_from_nothing_and_exported_without_extras(venv):
+    """The path of a user's own recording from the installed wheel alone: without the video
+    extra the videos are OpenCV's MPEG-4 (lossy), without the export extra no C3D."""
+    mmocap(venv, "generate", *SMALL)
+    mmocap(venv, "to-recording", "data/S1_walking", "rec", "--crf", "16", "--no-progress")
+    assert "frames tracked: 2" in mmocap(venv, "check-recording", "rec").stdout
+    quick_start = ["start.headings=4", "start.candidates=1", "start.evaluations=60", "start.limb_evaluations=30",
+                   "start.rounds=1", "start.girths=[]", "start.height_steps_mm=[]"]
+    mmocap(venv, "dataset=recording", "dataset.root=rec", "body.vertices=2000", "tracking.evaluations=150",
+           "overlays=0", "progress=false", "hydra.run.dir=runs/rec", "export=[bvh,trc,csv]", *quick_start)
+    summary = json.loads((venv["work"] / "runs" / "rec" / "summary.json").read_text())
+    assert summary["start"]["method"] == "search" and summary["frames"] == 2
+    assert sorted(p.name for p in (venv["work"] / "runs" / "rec" / "export").iterdir()) == [
+        "joints_mm.csv", "markers_mm.csv", "motion.bvh", "motion.trc", "pose.csv"]
 
 
 def test_a_two_job_sweep_makes_a_paper_figure(venv):
