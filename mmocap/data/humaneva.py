@@ -528,12 +528,12 @@ class HumanEvaDataset:
                                 f"({source.count} images)")
         mocap = self._mocap(folder)
         index, truth = self._timing(folder, sources, syncs, mocap)
-        x0 = self._initial_pose(truth[0], folder)
+        x0 = self._initial_pose(truth[0], folder, mocap)
         backgrounds = {c.name: self._background_sources(c.name) for c in cams}
         meta = {
             "format": "humaneva-i", "subject": self.subject, "action": self.action, "trial": self.trial,
             "fps": self.fps, "frames": len(index), "cameras": self.cameras,
-            "marker_names": list(MARKER_NAMES), "x0": x0.tolist(),
+            "marker_names": list(MARKER_NAMES), "x0": None if x0 is None else x0.tolist(),
             "first_image": int(index[0, 0]), "marker_map": self.marker_map,
             "units": {"length": "mm", "angle": "rad"},
         }
@@ -567,11 +567,8 @@ class HumanEvaDataset:
                                 f"(the {self.cameras[0]} video {ref.path} has {ref.count})")
         else:
             usable = in_videos.copy()
-            if mocap is not None:
+            if mocap is not None:  # else (trial 2) the first image of every camera
                 usable &= ~np.isnan(sample_mocap(mocap, mocap_index)).any(axis=(1, 2))
-            elif self.x0 is None:
-                raise DataError(f"no mocap file {folder / 'Mocap_Data' / f'{self.stem}.mat'} (HumanEva-I "
-                                "withholds trial 2's): give the first frame's pose in dataset.x0")
             if not usable.any():
                 raise DataError(f"no image of {ref.path} has every mapped marker present in "
                                 f"{folder / 'Mocap_Data' / f'{self.stem}.mat'}")
@@ -585,9 +582,13 @@ class HumanEvaDataset:
                  else sample_mocap(mocap, mocap_index[rows]))
         return per_camera[rows], truth
 
-    def _initial_pose(self, first_markers: np.ndarray, folder: Path) -> np.ndarray:
+    def _initial_pose(self, first_markers: np.ndarray, folder: Path, mocap) -> np.ndarray | None:
+        """``dataset.x0``, else the pose fitted to the first frame's markers; None without
+        mocap (trial 2: the automatic start finds it)."""
         if self.x0 is not None:
             return read_pose_file(self.x0)
+        if mocap is None:
+            return None
         if np.isnan(first_markers).any():
             missing = [n for n, row in zip(MARKER_NAMES, first_markers) if np.isnan(row).any()]
             raise DataError(f"{folder / 'Mocap_Data' / f'{self.stem}.mat'}: markers {', '.join(missing)} are "
