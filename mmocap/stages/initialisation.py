@@ -14,9 +14,9 @@ finds both from the foreground masks of the first frame:
    full turn, because people face any way; the ``candidates`` best headings go on.
 3. **Pose:** from each of them, the run's optimiser searches the full pose with
    ``evaluations`` (a box of ``rotation_radius`` and ``translation_radius_mm`` around the
-   current estimate); from the best, each step of the strategy but the root (torso and
-   head, each arm, each leg) is searched alone over its whole joint range
-   (``limb_evaluations`` each), then the full pose ``rounds`` times more.
+   current estimate); from the ``refined`` best, ``passes`` times: each step of the strategy but the
+   root (torso and head, each arm, each leg) searched alone over its whole joint range
+   (``limb_evaluations`` each), then the full pose ``rounds`` times.
 4. **Shape:** the body starts at girth 1 (the base mesh); each girth of ``girths`` (unless
    ``body.girth`` is given) and then each height offset of ``height_steps_mm`` (unless
    ``body.height_mm`` is given) is tried with a short search from the best pose; the body
@@ -139,7 +139,9 @@ class AutoStart:
         headings: yaw angles tried over a full turn (step 2 of the module docstring).
         candidates: best headings searched in full.
         evaluations: evaluations of each full-pose search.
-        rounds: full-pose searches in a row from each heading.
+        refined: best headings, after their full-pose search, refined as below.
+        rounds: full-pose searches after the limbs' searches, in each pass.
+        passes: limbs' searches and full-pose searches, this many times.
         rotation_radius: half-width of the search box of every rotation, rad.
         translation_radius_mm: half-width of the search box of the root position, mm.
         voxel_mm: voxel side of the fine visual hull, mm.
@@ -152,14 +154,16 @@ class AutoStart:
     """
 
     def __init__(self, mode: str = "auto", headings: int = 12, candidates: int = 4, evaluations: int = 2000,
-                 rounds: int = 6, rotation_radius: float = 0.6, translation_radius_mm: float = 200.0,
-                 voxel_mm: float = 15.0, girths=(0.9, 1.1),
-                 height_steps_mm=(-40.0, 40.0), shape_evaluations: int = 800, limb_evaluations: int = 2000):
+                 refined: int = 1, limb_evaluations: int = 2000, rounds: int = 3, passes: int = 2,
+                 rotation_radius: float = 0.6, translation_radius_mm: float = 200.0, voxel_mm: float = 15.0,
+                 girths=(0.9, 1.1), height_steps_mm=(-40.0, 40.0), shape_evaluations: int = 800):
         self.mode = check_choice("start.mode", mode, START_MODES)
         self.headings = check_number("start.headings", headings, 1, 360, integer=True)
         self.candidates = check_number("start.candidates", candidates, 1, self.headings, integer=True)
         self.evaluations = check_number("start.evaluations", evaluations, 2, 10**7, integer=True)
+        self.refined = check_number("start.refined", refined, 1, self.candidates, integer=True)
         self.rounds = check_number("start.rounds", rounds, 1, 100, integer=True)
+        self.passes = check_number("start.passes", passes, 1, 100, integer=True)
         self.rotation_radius = check_number("start.rotation_radius", rotation_radius, 0, np.pi, low_open=True)
         self.translation_radius_mm = check_number("start.translation_radius_mm", translation_radius_mm, 0, 5000,
                                                   low_open=True)
@@ -223,9 +227,12 @@ class AutoStart:
             used += n
             log.info("automatic start: heading %+.0f deg -> fitness %.4f", np.degrees(starts[k, ROOT_YAW]), f)
             scouted.append((f, k, x))
-        best_f, _, best_x = min(scouted, key=lambda s: s[:2])
-        best_x, best_f, n = self._refine(body, best_x, best_f, evaluator, optimizer, search, rng)
-        used += n
+        best_x, best_f = None, np.inf
+        for f, _, x in sorted(scouted, key=lambda s: s[:2])[:self.refined]:
+            x, f, n = self._refine(body, x, f, evaluator, optimizer, search, rng)
+            used += n
+            if f < best_f:
+                best_x, best_f = x, f
         changes = ([{"girth": g} for g in self.girths] if fit_girth else []) + (
             [{"height_mm": body.subject.height_mm + dh} for dh in self.height_steps_mm] if fit_height else [])
         for change in changes:
@@ -236,24 +243,24 @@ class AutoStart:
         return StartResult(best_x, float(best_f), body, used, time.perf_counter() - started, height, floor_y)
 
     def _refine(self, body, x, fitness, evaluator, optimizer, search, rng):
-        """From ``x``: each step but the root searched alone over its whole joint range
-        (``limb_evaluations`` each; arms raised to a boxer's guard lie far outside the box of
-        a tracking step), then ``rounds`` full-pose searches; returns (pose, fitness,
-        evaluations)."""
+        """``passes`` times from ``x``: each step but the root searched alone over its whole
+        joint range (``limb_evaluations`` each; arms raised to a boxer's guard lie far outside
+        the box of a tracking step), then ``rounds`` full-pose searches; returns (pose,
+        fitness, evaluations)."""
         used = 0
         whole_range = type(search)(rotation_radius=np.pi, translation_radius_mm=search.translation_radius_mm,
                                    steps=search.steps)
-        for parts in whole_range.step_groups(body)[1:]:
-            found, found_fitness, n = whole_range.search(body, x, parts, evaluator, optimizer,
-                                                         self.limb_evaluations, rng)
-            used += n
-            if found_fitness < fitness:
-                x, fitness = found, found_fitness
-        log.info("automatic start: each limb over its range -> fitness %.4f", fitness)
-        for _ in range(self.rounds):
-            x, fitness, n = search.estimate(body, x, evaluator, optimizer, self.evaluations, rng)
-            used += n
-        log.info("automatic start: refined -> fitness %.4f", fitness)
+        for _ in range(self.passes):
+            for parts in whole_range.step_groups(body)[1:]:
+                found, found_fitness, n = whole_range.search(body, x, parts, evaluator, optimizer,
+                                                             self.limb_evaluations, rng)
+                used += n
+                if found_fitness < fitness:
+                    x, fitness = found, found_fitness
+            for _ in range(self.rounds):
+                x, fitness, n = search.estimate(body, x, evaluator, optimizer, self.evaluations, rng)
+                used += n
+            log.info("automatic start: limbs over their ranges, then the full pose -> fitness %.4f", fitness)
         return x, fitness, used
 
     def _try_shape(self, body, change: dict, x, fitness, cameras, masks, evaluator, optimizer, search, rng):
