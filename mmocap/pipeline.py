@@ -40,6 +40,7 @@ from mmocap.evaluators.timed import TimedEvaluator
 from mmocap.io import LockBusy, exclusive, locked, write_image, write_json_atomic, writing
 from mmocap.preflight import check_config
 from mmocap.report.export import EXPORT_FOLDER, export_motion, exported_files, read_poses
+from mmocap.report.videos import run_video_files, write_run_videos
 from mmocap.stages.evaluation import FrameLog, marker_error
 from mmocap.stages.foreground import Foreground
 from mmocap.stages.tracking import track
@@ -104,7 +105,7 @@ def clear_outputs(output_dir: Path) -> None:
     with writing(output_dir):
         for path in [*(output_dir / name for name in RUN_OUTPUTS), *output_dir.glob(".*.tmp"),
                      *overlays.glob("frame_*.png"), *overlays.glob(".*.tmp"),
-                     *exported_files(output_dir / EXPORT_FOLDER)]:
+                     *exported_files(output_dir / EXPORT_FOLDER), *run_video_files(output_dir)]:
             path.unlink(missing_ok=True)
 
 
@@ -214,6 +215,8 @@ def _run(cfg: DictConfig, output_dir: Path, warning_messages: list[str]) -> dict
                              f"{strategy.name}, {body.dof} DOF, {cfg.tracking.evaluations} evaluations/frame")
     write_overlays(output_dir / "overlays", sequence, foreground, evaluator, body, results, truth,
                    int(cfg.overlays))
+    if cfg.video:
+        write_run_videos(output_dir, sequence, foreground, evaluator, body, results, truth, progress=cfg.progress)
     write_json_atomic(output_dir / "summary.json", summary)  # the last output: the run is complete
     evaluator.close()
     path = store.put(make_record(cfg, summary, frame_rows, wall, evaluator.seconds, started, output_dir))

@@ -38,6 +38,7 @@ def check_config(cfg: DictConfig) -> None:
     """ConfigError naming the key of the first bad value of the tracking config ``cfg``."""
     check_number("seed", cfg.seed, 0, 2**32 - 1, integer=True)
     check_flag("progress", cfg.progress)
+    check_flag("video", cfg.video)
     check_number("overlays", cfg.overlays, 0, 10_000, integer=True)
     check_formats(cfg.export, "export")
     evaluations = check_budget(cfg.tracking.evaluations)

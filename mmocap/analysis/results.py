@@ -40,7 +40,7 @@ from mmocap.validate import is_integer, is_real
 
 # Top-level config keys that do not change a run's result.
 NOT_IN_KEY = ("hydra", "progress", "overlays", "results", "scale", "foreground_cache", "run_dir_busy",
-              "evaluation", "export")
+              "evaluation", "export", "video")
 
 RUN_COLUMNS = ["run_id", "subject", "action", "sequence", "seed", "optimizer", "strategy",
                "algorithm", "dof", "evaluations", "vertices", "backend", "frames",

@@ -1,0 +1,75 @@
+"""Pictures of a tracking run that people look at: one video per camera and the 3-D skeleton.
+
+With ``video=true`` a run writes, besides its other outputs:
+
+- ``videos/<camera>.mp4``: every tracked frame of the camera, undistorted, with the pixels
+  of the foreground only, of the model only and of both in three colours (a legend in the
+  bottom corner), the skeleton and the true markers, and the camera, frame, fitness and
+  marker error written on it (:func:`mmocap.analysis.figures.comparison_overlay`);
+- ``skeleton.png``: stick figures of the tracked joints at evenly spaced frames;
+- ``skeleton.mp4``: the stick figure over the whole run.
+
+Videos are H.264 MP4 at the sequence's frame rate (:func:`mmocap.video.write_video`),
+written atomically and read back to check their frame count.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from mmocap.analysis.figures import comparison_overlay, plot_skeleton_strip, write_skeleton_animation
+from mmocap.body.skeleton import PARENT_INDEX
+from mmocap.video import write_video
+
+#: the files :func:`write_run_videos` writes into a run folder (besides ``videos/*.mp4``)
+SKELETON_FILES = ("skeleton.png", "skeleton.mp4")
+VIDEO_FOLDER = "videos"
+
+
+def camera_frames(sequence, foreground, evaluator, body, results, truth, camera_index: int):
+    """The comparison images ((H, W, 3) BGR uint8) of one camera, one per result, in order.
+
+    ``results`` are the run's FrameResults; ``truth`` (frames, M, 3) mm, NaN where missing.
+    The evaluator is set up on each frame's masks to render the model's silhouette."""
+    camera = sequence.cameras[camera_index]
+    ideal = foreground.cameras[camera_index]
+    mx, my = camera.undistort_maps()
+    for result in results:
+        masks = foreground.masks(result.frame)
+        evaluator.setup(body, foreground.cameras, masks)
+        image = cv2.remap(sequence.images(result.frame)[camera_index], mx, my, cv2.INTER_LINEAR)
+        joints = body.joint_positions(result.pose[None])[0]
+        markers = truth[result.frame]
+        error = np.linalg.norm(body.markers(result.pose[None])[0] - markers, axis=1)
+        scored = error[~np.isnan(error)]
+        lines = (f"{camera.name}  frame {result.frame}", f"fitness {result.fitness:.4f}",
+                 f"marker error {scored.mean():.1f} mm" if scored.size else "no ground truth")
+        yield comparison_overlay(image, ideal, masks[camera_index], evaluator.render(result.pose, camera_index),
+                                 joints, markers, lines)
+
+
+def write_run_videos(folder: Path, sequence, foreground, evaluator, body, results, truth,
+                     progress: bool = False) -> list[Path]:
+    """Write the videos and skeleton pictures of the module docstring into the run folder
+    ``folder``; returns their paths. ``results`` are the run's FrameResults (poses in mm, rad)."""
+    folder = Path(folder)
+    written = []
+    for c, camera in enumerate(sequence.cameras):
+        frames = camera_frames(sequence, foreground, evaluator, body, results, truth, c)
+        written.append(write_video(folder / VIDEO_FOLDER / f"{camera.name}.mp4", frames, sequence.fps,
+                                   count=len(results), progress=progress))
+    joints = body.joint_positions(np.stack([r.pose for r in results]))
+    title = f"{sequence.meta.get('action')}: tracked joints"
+    plot_skeleton_strip(joints, PARENT_INDEX, folder / SKELETON_FILES[0], title)
+    written.append(folder / SKELETON_FILES[0])
+    written.append(write_skeleton_animation(joints, PARENT_INDEX, folder / SKELETON_FILES[1], sequence.fps,
+                                            title=title, progress=progress))
+    return written
+
+
+def run_video_files(folder: Path) -> list[Path]:
+    """The files :func:`write_run_videos` may have written into the run folder ``folder``."""
+    folder = Path(folder)
+    return [*(folder / VIDEO_FOLDER).glob("*.mp4"), *(folder / name for name in SKELETON_FILES)]
