@@ -129,6 +129,7 @@ def _run(cfg: DictConfig, output_dir: Path, warning_messages: list[str]) -> dict
     body = instantiate(cfg.body)
     coverage = instantiate(cfg.coverage)
     auto_start = instantiate(cfg.start)
+    recovery = instantiate(cfg.recovery)
     missing_markers = str(cfg.evaluation.missing_markers)
     strategy.check(body, optimizer, int(cfg.tracking.evaluations))
     dataset = instantiate(cfg.dataset)
@@ -168,7 +169,8 @@ def _run(cfg: DictConfig, output_dir: Path, warning_messages: list[str]) -> dict
     try:
         results = track(sequence, body, foreground, evaluator, optimizer, strategy,
                         evaluations=int(cfg.tracking.evaluations), seed=int(cfg.seed),
-                        frames=cfg.tracking.frames, on_frame=on_frame, coverage=coverage, x0=x0, rng=rng)
+                        frames=cfg.tracking.frames, on_frame=on_frame, coverage=coverage, x0=x0, rng=rng,
+                        recovery=recovery)
     except BaseException:
         frame_log.close(complete=False)  # the frames tracked stay in frames.csv.partial
         raise
@@ -198,6 +200,7 @@ def _run(cfg: DictConfig, output_dir: Path, warning_messages: list[str]) -> dict
         "subject": sequence.subject or "unknown",  # a recording names nobody
         "body": {"preset": body.subject.name, "height_mm": body.subject.height_mm, "girth": body.subject.girth},
         "start": start_facts,
+        "recoveries": [event.summary() for event in recovery.events],
         "action": sequence.meta.get("action"),
         "cameras": [c.name for c in sequence.cameras],
         "sequence": str(sequence.root),

@@ -54,4 +54,5 @@ def check_config(cfg: DictConfig) -> None:
     strategy.check(SimpleNamespace(dof=dof, mask=dof_mask(dof)), optimizer, evaluations)  # needs the DOF only
     instantiate(cfg.coverage)
     instantiate(cfg.start)
+    instantiate(cfg.recovery)
     instantiate(cfg.dataset)

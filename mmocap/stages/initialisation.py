@@ -129,6 +129,23 @@ def visual_hull(cameras, masks, lower: np.ndarray, upper: np.ndarray, voxel_mm: 
     return points[inside & (seen >= min_views)]
 
 
+def search_each_limb(strategy, body, x, fitness: float, evaluator, optimizer, evaluations: int, rng):
+    """Each step of ``strategy`` but the root (torso and head, each arm, each leg) searched
+    alone over its whole joint range with ``evaluations``, from the pose ``x`` (51,) of
+    ``fitness``, keeping what improves; returns (pose, fitness, evaluations used). A limb far
+    from where it was (arms raised to a boxer's guard, a leg on the wrong side) lies outside
+    the box of a tracking step."""
+    whole_range = type(strategy)(rotation_radius=np.pi, translation_radius_mm=strategy.translation_radius_mm,
+                                 steps=strategy.steps)
+    used = 0
+    for parts in whole_range.step_groups(body)[1:]:
+        found, found_fitness, n = whole_range.search(body, x, parts, evaluator, optimizer, evaluations, rng)
+        used += n
+        if found_fitness < fitness:
+            x, fitness = found, found_fitness
+    return x, fitness, used
+
+
 class AutoStart:
     """Hydra component (``start:`` in ``conf/config.yaml``): finds the first frame's pose
     when the sequence gives none (``mode=auto``), or always (``mode=search``: the sequence's
@@ -248,15 +265,9 @@ class AutoStart:
         the box of a tracking step), then ``rounds`` full-pose searches; returns (pose,
         fitness, evaluations)."""
         used = 0
-        whole_range = type(search)(rotation_radius=np.pi, translation_radius_mm=search.translation_radius_mm,
-                                   steps=search.steps)
         for _ in range(self.passes):
-            for parts in whole_range.step_groups(body)[1:]:
-                found, found_fitness, n = whole_range.search(body, x, parts, evaluator, optimizer,
-                                                             self.limb_evaluations, rng)
-                used += n
-                if found_fitness < fitness:
-                    x, fitness = found, found_fitness
+            x, fitness, n = search_each_limb(search, body, x, fitness, evaluator, optimizer, self.limb_evaluations, rng)
+            used += n
             for _ in range(self.rounds):
                 x, fitness, n = search.estimate(body, x, evaluator, optimizer, self.evaluations, rng)
                 used += n

@@ -209,14 +209,16 @@ def check_budget(evaluations) -> int:
 
 def track(sequence, body, foreground, evaluator, optimizer, strategy, evaluations: int,
           seed: int, frames: int | None = None, on_frame=None, coverage=None, x0=None,
-          rng: np.random.Generator | None = None) -> list[FrameResult]:
+          rng: np.random.Generator | None = None, recovery=None) -> list[FrameResult]:
     """Track ``frames`` frames (default: all) of ``sequence`` from the first frame's pose
     ``x0`` ((51,) mm and rad; default: the sequence's).
 
     ``on_frame(result)`` is called after every frame (progress, incremental writing).
     ``coverage`` (a :class:`mmocap.stages.foreground.ForegroundCoverage`) stops the run
     at, or drops, a camera whose foreground is empty or nearly the whole image. The search
-    draws from ``rng`` (default: a generator seeded with ``seed``).
+    draws from ``rng`` (default: a generator seeded with ``seed``). ``recovery`` (a
+    :class:`mmocap.stages.recovery.Recovery`) searches a frame whose fitness says the track
+    is lost again; its evaluations are added to the frame's.
     """
     evaluations = check_budget(evaluations)
     n = sequence.n_frames if frames is None else int(frames)
@@ -238,6 +240,11 @@ def track(sequence, body, foreground, evaluator, optimizer, strategy, evaluation
         else:
             evaluator.setup(body, *coverage.select(frame, cameras, masks, last_frame=n - 1))
         x, f, used = strategy.estimate(body, x_prev, evaluator, optimizer, evaluations, rng)
+        if recovery is not None:
+            if recovery.lost(f):
+                x, f, event = recovery.recover(frame, body, x, f, evaluator, optimizer, strategy, rng)
+                used += event.evaluations
+            recovery.keep(f)
         result = FrameResult(frame, x, f, used, time.perf_counter() - start)
         results.append(result)
         if on_frame is not None:
