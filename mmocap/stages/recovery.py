@@ -6,9 +6,12 @@ later frames cannot bring it back, and the error grows over a long sequence. The
 shows it: after a slip, the best pose explains the foreground worse than it did.
 
 :class:`Recovery` calls a frame lost when its fitness (0 = perfect match) exceeds
-``jump`` times the median fitness of the last ``window`` frames that were not lost, or
-exceeds ``max_fitness``. A lost frame is searched again: each limb over its whole joint
-range (:func:`mmocap.stages.initialisation.search_each_limb`, ``limb_evaluations`` each),
+``jump`` times a reference, or exceeds ``max_fitness``. The reference is the lower of the
+median fitness of the last ``window`` frames and that of the run's first ``window`` frames:
+a sudden slip shows against the first, a slow drift against the second. At most one frame
+in ``window`` is searched again, which bounds the extra cost. A lost frame is searched
+again: each limb over its whole joint range
+(:func:`mmocap.stages.initialisation.search_each_limb`, ``limb_evaluations`` each),
 then the full pose in a box ``widen`` times the strategy's (``evaluations``); the better of
 the two poses is kept. These evaluations come on top of the frame's budget, and each
 recovery is logged and returned (frame, fitness before and after, evaluations) for the
@@ -47,7 +50,8 @@ class Recovery:
 
     Args:
         enabled: detect and recover (false: track as the papers do).
-        window: frames whose median fitness a frame is compared with.
+        window: frames whose median fitness a frame is compared with, and the fewest frames
+            between two recoveries.
         jump: a fitness above this multiple of that median is a lost frame.
         max_fitness: a fitness above this is a lost frame whatever the recent ones.
         limb_evaluations: evaluations of each limb's whole-range search.
@@ -65,19 +69,29 @@ class Recovery:
         self.evaluations = check_number("recovery.evaluations", evaluations, 2, 10**7, integer=True)
         self.widen = check_number("recovery.widen", widen, 1, 100)
         self.recent: deque[float] = deque(maxlen=self.window)
+        self.first: list[float] = []  # the fitness of the run's first frames
+        self.since_last = self.window  # frames tracked since the last recovery
         self.events: list[RecoveryEvent] = []  # the recoveries of the run, in order
 
+    def reference(self) -> float:
+        """The fitness a frame is compared with (module docstring); NaN before the first frame."""
+        if not self.recent:
+            return float("nan")
+        return min(float(np.median(self.recent)), float(np.median(self.first)))
+
     def lost(self, fitness: float) -> bool:
-        """Whether a frame of ``fitness`` lost the track (never before a first frame is kept)."""
-        if not self.enabled:
+        """Whether a frame of ``fitness`` lost the track and may be searched again (never on
+        the first frame, nor within ``window`` frames of the last recovery)."""
+        if not self.enabled or not self.recent or self.since_last < self.window:
             return False
-        if fitness > self.max_fitness:
-            return True
-        return bool(self.recent) and fitness > self.jump * float(np.median(self.recent))
+        return fitness > self.max_fitness or fitness > self.jump * self.reference()
 
     def keep(self, fitness: float) -> None:
-        """Remember the fitness of a frame tracked (or recovered) as the reference of the next."""
+        """Remember the fitness of a frame tracked (or recovered) as a reference of the next."""
         self.recent.append(float(fitness))
+        if len(self.first) < self.window:
+            self.first.append(float(fitness))
+        self.since_last += 1
 
     def recover(self, frame: int, body, x, fitness: float, evaluator, optimizer, strategy, rng
                 ) -> tuple[np.ndarray, float, RecoveryEvent]:
@@ -92,7 +106,8 @@ class Recovery:
         best_x, best_f = (wide_x, wide_f) if wide_f < limbs_f else (limbs_x, limbs_f)
         event = RecoveryEvent(frame, fitness, best_f, used)
         self.events.append(event)
-        log.info("frame %d: fitness %.4f, the track is lost (recent median %.4f): searched again with %d "
-                 "evaluations -> %.4f", frame, fitness, float(np.median(self.recent)) if self.recent else np.nan,
+        self.since_last = 0
+        log.info("frame %d: fitness %.4f, the track is lost (reference %.4f): searched again with %d "
+                 "evaluations -> %.4f", frame, fitness, self.reference(),
                  used, best_f)
         return best_x, best_f, event
