@@ -10,10 +10,10 @@ shows it: after a slip, the best pose explains the foreground worse than it did.
 median fitness of the last ``window`` frames and that of the run's first ``window`` frames:
 a sudden slip shows against the first, a slow drift against the second. At most one frame
 in ``window`` is searched again, which bounds the extra cost. A lost frame is searched
-again: each limb over its whole joint range
-(:func:`mmocap.stages.initialisation.search_each_limb`, ``limb_evaluations`` each),
-then the full pose in a box ``widen`` times the strategy's (``evaluations``); the better of
-the two poses is kept. These evaluations come on top of the frame's budget, and each
+again: optionally each limb over its whole joint range
+(:func:`mmocap.stages.initialisation.search_each_limb`, ``limb_evaluations`` each; 0 by
+default: on a 300-frame walk it cost more than it gained), then the full pose in a box
+``widen`` times the strategy's (``evaluations``); the better pose is kept. These evaluations come on top of the frame's budget, and each
 recovery is logged and returned (frame, fitness before and after, evaluations) for the
 run's ``summary.json``.
 """
@@ -25,6 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from mmocap.errors import ConfigError
 from mmocap.stages.initialisation import search_each_limb
 from mmocap.validate import check_flag, check_number
 
@@ -54,18 +55,20 @@ class Recovery:
             between two recoveries.
         jump: a fitness above this multiple of that median is a lost frame.
         max_fitness: a fitness above this is a lost frame whatever the recent ones.
-        limb_evaluations: evaluations of each limb's whole-range search.
+        limb_evaluations: evaluations of each limb's whole-range search (0: none).
         evaluations: evaluations of the wider full-pose search.
         widen: the wider search box as a multiple of the strategy's.
     """
 
     def __init__(self, enabled: bool = True, window: int = 10, jump: float = 1.3, max_fitness: float = 0.3,
-                 limb_evaluations: int = 600, evaluations: int = 1500, widen: float = 2.0):
+                 limb_evaluations: int = 0, evaluations: int = 1500, widen: float = 2.0):
         self.enabled = check_flag("recovery.enabled", enabled)
         self.window = check_number("recovery.window", window, 1, 10_000, integer=True)
         self.jump = check_number("recovery.jump", jump, 1, low_open=True)
         self.max_fitness = check_number("recovery.max_fitness", max_fitness, 0, 1, low_open=True)
-        self.limb_evaluations = check_number("recovery.limb_evaluations", limb_evaluations, 2, 10**7, integer=True)
+        self.limb_evaluations = check_number("recovery.limb_evaluations", limb_evaluations, 0, 10**7, integer=True)
+        if self.limb_evaluations == 1:
+            raise ConfigError("recovery.limb_evaluations must be 0 (no limb search) or at least 2, got 1")
         self.evaluations = check_number("recovery.evaluations", evaluations, 2, 10**7, integer=True)
         self.widen = check_number("recovery.widen", widen, 1, 100)
         self.recent: deque[float] = deque(maxlen=self.window)
@@ -97,8 +100,10 @@ class Recovery:
                 ) -> tuple[np.ndarray, float, RecoveryEvent]:
         """Search the lost ``frame`` again from its pose ``x`` (51,) of ``fitness``; returns
         (pose, fitness, the event, also appended to :attr:`events`)."""
-        limbs_x, limbs_f, used = search_each_limb(strategy, body, x, fitness, evaluator, optimizer,
-                                                  self.limb_evaluations, rng)
+        limbs_x, limbs_f, used = x, fitness, 0
+        if self.limb_evaluations:
+            limbs_x, limbs_f, used = search_each_limb(strategy, body, x, fitness, evaluator, optimizer,
+                                                      self.limb_evaluations, rng)
         wide = type(strategy)(rotation_radius=min(np.pi, strategy.rotation_radius * self.widen),
                               translation_radius_mm=strategy.translation_radius_mm * self.widen, steps=strategy.steps)
         wide_x, wide_f, n = wide.estimate(body, limbs_x, evaluator, optimizer, self.evaluations, rng)
