@@ -13,7 +13,8 @@ in ``window`` is searched again, which bounds the extra cost. A lost frame is se
 again: optionally each limb over its whole joint range
 (:func:`mmocap.stages.initialisation.search_each_limb`, ``limb_evaluations`` each; 0 by
 default: on a 300-frame walk it cost more than it gained), then the full pose in a box
-``widen`` times the strategy's (``evaluations``); the better pose is kept. These evaluations come on top of the frame's budget, and each
+``widen`` times the strategy's (``evaluations``); the better pose is kept. These
+evaluations come on top of the frame's budget (they count in its ``evaluations``), and each
 recovery is logged and returned (frame, fitness before and after, evaluations) for the
 run's ``summary.json``.
 """
