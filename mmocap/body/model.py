@@ -21,7 +21,6 @@ from mmocap.body.mesh import (
     subject_dimensions,
 )
 from mmocap.body.skeleton import JOINTS
-from mmocap.errors import ConfigError
 from mmocap.validate import check_number
 
 ARM_JOINTS = ("LShoulder", "LElbow", "LWrist", "RShoulder", "RElbow", "RWrist")
@@ -69,14 +68,21 @@ MARKER_RULES = (
 MARKER_NAMES = tuple(rule[0] for rule in MARKER_RULES)
 
 
+#: the least reach (mm) of a marker's search beyond the skin vertex nearest to its joint: a
+#: body far taller or thicker than the presets, whose skin lies further from its joints than
+#: a rule's radius, still has candidates (the presets have 19.7 mm or more to spare)
+MARKER_SEARCH_MARGIN_MM = 15.0
+
+
 def marker_vertices(mesh: SkinMesh) -> np.ndarray:
-    """(15,) indices into ``mesh.vertices`` of the marker points of :data:`MARKER_RULES`."""
+    """(15,) indices into ``mesh.vertices`` of the marker points of :data:`MARKER_RULES`: each
+    the vertex furthest along the rule's direction among those within its radius of the
+    joint's pivot, or within :data:`MARKER_SEARCH_MARGIN_MM` beyond the nearest vertex if
+    that reaches further."""
     out = []
-    for name, joint, direction, radius in MARKER_RULES:
-        pivot = mesh.pivots[JOINTS.index(joint)]
-        near = np.flatnonzero(np.linalg.norm(mesh.vertices - pivot, axis=1) < radius)
-        if near.size == 0:
-            raise ConfigError(f"no skin vertex within {radius} mm of {joint} for marker {name}")
+    for _, joint, direction, radius in MARKER_RULES:
+        distance = np.linalg.norm(mesh.vertices - mesh.pivots[JOINTS.index(joint)], axis=1)
+        near = np.flatnonzero(distance < max(radius, distance.min() + MARKER_SEARCH_MARGIN_MM))
         out.append(near[np.argmax(mesh.vertices[near] @ np.asarray(direction, float))])
     return np.asarray(out)
 

@@ -66,3 +66,11 @@ def test_body_model_markers_on_skin():
     assert np.all(m[:, 1] > 0)  # above the floor
     with pytest.raises(ConfigError, match="unknown subject"):
         BodyModel("S9")
+
+
+@pytest.mark.parametrize("height_mm, girth", [(1000, 0.6), (2300, 1.6), (2300, 0.6), (1000, 1.6)])
+def test_every_height_and_girth_allowed_builds_a_body_with_its_markers(height_mm, girth):
+    body = BodyModel("S1", vertices=1000, height_mm=height_mm, girth=girth)
+    markers = body.markers(body.rest_pose()[None])[0]
+    assert np.ptp(markers[:, 1]) > 0.6 * height_mm  # head to ankles
+    assert body.subject.height_mm == height_mm and body.subject.girth == girth
