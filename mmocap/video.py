@@ -17,6 +17,7 @@ Either way the file is written beside its target and renamed when complete
 from __future__ import annotations
 
 import importlib.util
+import itertools
 from collections.abc import Iterable
 from pathlib import Path
 
@@ -123,7 +124,7 @@ def write_video(path: str | Path, frames: Iterable[np.ndarray], fps: float, coun
         encoded = target.with_suffix(".mp4")  # the encoders pick the container from the suffix
         try:
             with _encoder(encoded, width, height, fps, crf) as write:
-                for frame in _chain(first, frames):
+                for frame in itertools.chain([first], frames):
                     if frame.shape[:2] != (height, width):
                         raise DataError(f"{path}: frame {written} is {frame.shape[1]}x{frame.shape[0]}, "
                                         f"the first was {width}x{height}")
@@ -138,11 +139,6 @@ def write_video(path: str | Path, frames: Iterable[np.ndarray], fps: float, coun
             bar.close()
             encoded.unlink(missing_ok=True)
     return path
-
-
-def _chain(first, rest):
-    yield first
-    yield from rest
 
 
 class _encoder:

@@ -30,6 +30,7 @@ path from a user's files to a tracked result is tested end to end on data with k
 """
 from __future__ import annotations
 
+import itertools
 import logging
 import math
 from dataclasses import dataclass, replace
@@ -382,13 +383,8 @@ def write_recording(sequence: Sequence, out: Path, offsets: dict | None = None, 
         empty = one.background(camera)
         early = [empty[k % len(empty)] for k in range(offsets.get(camera.name, 0))]
         frames = (one.images(k)[0] for k in range(sequence.n_frames))
-        write_video(out / "videos" / f"{camera.name}.mp4", _chain(early, frames), sequence.fps,
+        write_video(out / "videos" / f"{camera.name}.mp4", itertools.chain(early, frames), sequence.fps,
                     count=len(early) + sequence.n_frames, progress=progress, crf=crf)
         write_video(out / "background" / f"{camera.name}.mp4", iter(empty), sequence.fps, count=len(empty), crf=crf)
     write_markers(out / "markers_mm.csv", sequence.markers() @ world.T, sequence.meta["marker_names"])
     return out
-
-
-def _chain(first, rest):
-    yield from first
-    yield from rest
