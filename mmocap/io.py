@@ -124,32 +124,22 @@ def atomic_writer(path: str | Path, mode: str = "w", **open_kwargs) -> Iterator[
     error and removed when it does not. ``mode`` is ``"w"`` (text) or ``"wb"`` (bytes). The
     file gets the permissions of a newly created file (the umask's). A failure to write is
     a :class:`WriteError` naming ``path``."""
-    path = Path(path)
-    tmp = None
-    with writing(path):
-        try:
-            path.parent.mkdir(parents=True, exist_ok=True)
-            tmp = _temporary_beside(path)
-            fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
-            with os.fdopen(fd, mode, **open_kwargs) as f:
-                yield f
-                f.flush()
-                os.fsync(f.fileno())
-            os.replace(tmp, path)
-        except BaseException:
-            if tmp is not None:
-                with contextlib.suppress(OSError):
-                    tmp.unlink(missing_ok=True)
-            raise
+    with atomic_path(path) as tmp:
+        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
+        with os.fdopen(fd, mode, **open_kwargs) as f:
+            yield f
+            f.flush()
+            os.fsync(f.fileno())
 
 
 @contextlib.contextmanager
 def atomic_path(path: str | Path) -> Iterator[Path]:
-    """``with atomic_path(path) as tmp: ...``: :func:`atomic_writer` for writers that take a file
-    name rather than a file (an ffmpeg process). ``tmp`` is a path beside ``path`` (whose folder
-    is created) for the block to write; it is flushed to disk and renamed to ``path`` when the
-    block ends without an error, removed when it does not. A failure to write (the block wrote
-    no ``tmp`` included) is a :class:`WriteError` naming ``path``."""
+    """``with atomic_path(path) as tmp: ...``: the rename under :func:`atomic_writer`, also for
+    writers that take a file name rather than a file (an ffmpeg process). ``tmp`` is a path
+    beside ``path`` (whose folder is created) for the block to write; it is flushed to disk and
+    renamed to ``path`` when the block ends without an error, removed when it does not. A
+    failure to write (the block wrote no ``tmp`` included) is a :class:`WriteError` naming
+    ``path``."""
     path = Path(path)
     tmp = None
     with writing(path):
