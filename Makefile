@@ -28,7 +28,7 @@ install: $(STAMP) ## Create .venv; install mmocap, its test dependencies and the
 # The demo tracks afresh each time (a run's record would otherwise make it a no-op).
 demo: $(STAMP) ## Generate synthetic S1 walking, track it with CMA-ES, write outputs/demo/
 	rm -rf outputs/demo
-	$(MMOCAP) +experiment=demo
+	$(MMOCAP) +experiment=demo video=true
 
 # FOREGROUND_ARGS adds overrides, e.g. FOREGROUND_ARGS="dataset.subject=S2 dataset.action=gestures".
 FOREGROUND_ARGS ?=

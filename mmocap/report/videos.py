@@ -21,6 +21,7 @@ import numpy as np
 
 from mmocap.analysis.figures import comparison_overlay, plot_skeleton_strip, write_skeleton_animation
 from mmocap.body.skeleton import PARENT_INDEX
+from mmocap.stages.evaluation import marker_error
 from mmocap.video import write_video
 
 #: the files :func:`write_run_videos` writes into a run folder (besides ``videos/*.mp4``)
@@ -41,13 +42,17 @@ def camera_frames(sequence, foreground, evaluator, body, results, truth, camera_
         evaluator.setup(body, foreground.cameras, masks)
         image = cv2.remap(sequence.images(result.frame)[camera_index], mx, my, cv2.INTER_LINEAR)
         joints = body.joint_positions(result.pose[None])[0]
-        markers = truth[result.frame]
-        error = np.linalg.norm(body.markers(result.pose[None])[0] - markers, axis=1)
-        scored = error[~np.isnan(error)]
-        lines = (f"{camera.name}  frame {result.frame}", f"fitness {result.fitness:.4f}",
-                 f"marker error {scored.mean():.1f} mm" if scored.size else "no ground truth")
         yield comparison_overlay(image, ideal, masks[camera_index], evaluator.render(result.pose, camera_index),
-                                 joints, markers, lines)
+                                 joints, truth[result.frame], frame_caption(camera.name, result, body, truth))
+
+
+def frame_caption(camera_name: str, result, body, truth) -> tuple[str, str, str]:
+    """The lines written on a camera's video frame: the camera and frame, the frame's fitness,
+    and its marker error (mm, as in ``frames.csv``) or "no ground truth" where ``truth``
+    ((frames, M, 3) mm) has no marker of the frame."""
+    error = marker_error(body.markers(result.pose[None]), truth[result.frame][None])[0]
+    return (f"{camera_name}  frame {result.frame}", f"fitness {result.fitness:.4f}",
+            "no ground truth" if np.isnan(error) else f"marker error {error:.1f} mm")
 
 
 def write_run_videos(folder: Path, sequence, foreground, evaluator, body, results, truth,
@@ -70,6 +75,11 @@ def write_run_videos(folder: Path, sequence, foreground, evaluator, body, result
 
 
 def run_video_files(folder: Path) -> list[Path]:
-    """The files :func:`write_run_videos` may have written into the run folder ``folder``."""
+    """The files :func:`write_run_videos` may have written into the run folder ``folder``,
+    with the temporaries a stopped run leaves beside them (``.<name>.<random>.tmp`` and the
+    encoder's ``.<name>.<random>.mp4``)."""
     folder = Path(folder)
-    return [*(folder / VIDEO_FOLDER).glob("*.mp4"), *(folder / name for name in SKELETON_FILES)]
+    videos = folder / VIDEO_FOLDER
+    return [*videos.glob("*.mp4"), *videos.glob(".*.tmp"),  # "*.mp4" matches the hidden temporaries too
+            *(folder / name for name in SKELETON_FILES),
+            *(temporary for name in SKELETON_FILES for temporary in folder.glob(f".{name}.*"))]
