@@ -133,9 +133,11 @@ def turned(camera: Camera, world: np.ndarray) -> Camera:
 
 @dataclass
 class RecordingSequence(SequenceBase):
-    """An opened recording (see the module docstring); ``sources`` one per camera,
-    ``offsets`` the source frame of frame 0 per camera, ``start`` the first recording frame
-    tracked, ``markers_path`` the ground truth or None, ``world`` the turn applied."""
+    """An opened recording (see the module docstring): ``sources`` one FrameSource per
+    camera, ``offsets`` per camera the source frame of the synchronised frame 0 (frame ``k``
+    read is source frame ``meta["start"] + k + offset``), the background's sources and frame
+    indices per camera, ``markers_path`` the ground truth or None, ``world`` the (3, 3) turn
+    applied to the calibration's world."""
 
     sources: list = None
     offsets: list = None
@@ -150,7 +152,8 @@ class RecordingSequence(SequenceBase):
 
     def images(self, frame: int) -> list[np.ndarray]:
         self.check_frame(frame)
-        return [source.read(frame + offset) for source, offset in zip(self.sources, self.offsets)]
+        first = int(self.meta["start"])
+        return [source.read(first + frame + offset) for source, offset in zip(self.sources, self.offsets)]
 
     def background(self, camera: Camera) -> list[np.ndarray]:
         k = [c.name for c in self.cameras].index(camera.name)
@@ -294,7 +297,7 @@ class RecordingDataset:
                 "frames": n_frames, "recorded_frames": recorded, "start": self.start,
                 "cameras": [c.name for c in cameras], "marker_names": list(MARKER_NAMES), "x0": None,
                 "calibration": str(calibration.source), "units": calibration.units, "up": self.up}
-        return RecordingSequence(root, meta, cameras, sources=[_Shifted(s, self.start) for s in sources],
+        return RecordingSequence(root, meta, cameras, sources=sources,
                                  offsets=offsets, background_sources=background_sources,
                                  background_frames=background_frames,
                                  markers_path=markers if markers.is_file() else None, world=world)
@@ -342,16 +345,6 @@ class RecordingDataset:
                 out_sources.append(background)
             out_frames.append(frames.tolist())
         return out_sources, out_frames
-
-
-class _Shifted:
-    """A FrameSource read from ``start`` on: ``read(k)`` is the source's ``read(start + k)``."""
-
-    def __init__(self, source: FrameSource, start: int):
-        self.source, self.start = source, start
-
-    def read(self, index: int) -> np.ndarray:
-        return self.source.read(self.start + index)
 
 
 def write_recording(sequence: Sequence, out: Path, offsets: dict | None = None, yaw_deg: float = 0.0,

@@ -59,7 +59,7 @@ def check_recording(root: str, overrides: list[str], out=print) -> dict:
     out(f"recording {sequence.root}")
     out(f"  calibration {meta['calibration']}: translations in {meta['units']}, world up axis {meta['up']}")
     out(f"  {len(sequence.cameras)} camera(s):")
-    for camera, source, offset in zip(sequence.cameras, (s.source for s in sequence.sources), sequence.offsets):
+    for camera, source, offset in zip(sequence.cameras, sequence.sources, sequence.offsets):
         centre_m = camera.centre / 1000
         rate = f"{source.fps:g} fps" if source.fps else "no frame rate"
         out(f"    {camera.name}: {source.kind} {source.path} ({source.count} frames, {rate}, offset {offset}); "

@@ -84,7 +84,7 @@ def test_image_folders_and_a_background_range_read_as_videos_do(recording, recor
         (recording_copy / "videos" / f"{camera.name}.mp4").unlink()
         folder = recording_copy / "images" / camera.name
         folder.mkdir(parents=True)
-        source = videos.sources[videos.cameras.index(camera)].source
+        source = videos.sources[videos.cameras.index(camera)]
         for k in range(source.count):
             frame = source.read(k)
             cv2.imwrite(str(folder / f"img_{k:04d}.png"), frame)
