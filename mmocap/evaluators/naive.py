@@ -29,7 +29,7 @@ class NaiveEvaluator(SilhouetteEvaluator):
     name = "naive"
 
     def _prepare(self) -> None:
-        self._table = vertex_table(self.body)
+        self._table = vertex_table(self.body, self.patch_scale)
 
     def _counts(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         coefficients, side = view_geometry(self.body, self.cameras, X, self.patch_scale)

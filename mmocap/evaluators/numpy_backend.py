@@ -82,7 +82,7 @@ class NumpyEvaluator(SilhouetteEvaluator):
         order = np.argsort(joint, kind="stable")
         self._joint = joint[order]
         self._bounds = np.searchsorted(self._joint, np.arange(len(body.joint_rest_positions) + 1))
-        self._table = np.ascontiguousarray(vertex_table(body)[:, order])               # (7, N)
+        self._table = np.ascontiguousarray(vertex_table(body, self.patch_scale)[:, order])  # (7, N)
         self._hmax = max(cam.height for cam in self.cameras)
         self._wmax = max(cam.width for cam in self.cameras)
         pad = 2 * _MARGIN

@@ -190,7 +190,7 @@ class OpenCLEvaluator(SilhouetteEvaluator):
         # the body's arrays only when the body is another object than last frame's (about
         # 30 ms for 27 393 vertices); a body is not modified in place
         if self._body_uploaded is not self.body:
-            vertices, start = vertex_arrays(self.body)
+            vertices, start = vertex_arrays(self.body, self.patch_scale)
             cones = culling_cones(vertices)
             joints = joint_rows(self.body, self.patch_scale)
             for lane in self._lanes:

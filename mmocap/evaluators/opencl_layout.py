@@ -102,16 +102,17 @@ def normal_blocks(normals: np.ndarray, index: np.ndarray) -> list[np.ndarray]:
     return normal_blocks(normals, index[:half]) + normal_blocks(normals, index[half:])
 
 
-def vertex_arrays(body) -> tuple[np.ndarray, np.ndarray]:
+def vertex_arrays(body, patch_scale: float) -> tuple[np.ndarray, np.ndarray]:
     """The body's vertices for the kernel: (7, N4) float32
-    :func:`~mmocap.evaluators.silhouette.vertex_table` (rest x, y, z (mm), normal and n . v),
+    :func:`~mmocap.evaluators.silhouette.vertex_table` (x, y, z (mm) inset by half a patch of
+    ``patch_scale``, normal and n . v),
     sorted by joint, then in blocks of similar normals (see :func:`normal_blocks`, so that
     the blocks' culling cones are narrow); each joint's run padded to a multiple of BLOCK
     with zero-normal vertices (always culled); (J + 1,) int32 first vertex of each joint,
     then N4."""
     joint = np.asarray(body.vertex_joint)
     J = len(body.joint_rest_positions)
-    table = vertex_table(body)
+    table = vertex_table(body, patch_scale)
     normals = table[3:6].T
     order = np.concatenate([block for j in range(J)
                             for block in normal_blocks(normals, np.flatnonzero(joint == j))])

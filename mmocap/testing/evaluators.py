@@ -107,14 +107,17 @@ class PlateBody:
 
 
 class PointBody(PlateBody):
-    """One joint, one vertex at the origin facing -z; pose (3,) is its translation in mm."""
+    """One joint with its pivot at the origin and one vertex facing -z, whose patch is
+    centred on the origin for an evaluator of ``patch_scale`` (the skin vertex lies half a
+    patch in front of it: see :func:`mmocap.evaluators.silhouette.vertex_table`); pose (3,)
+    is its translation in mm."""
 
-    def __init__(self):
+    def __init__(self, patch_scale: float):
         super().__init__()
-        self.rest_vertices = np.zeros((1, 3))
+        self.patch_mm = np.array([2.0])
+        self.rest_vertices = np.array([[0.0, 0.0, -self.patch_mm[0] * patch_scale / 2]])
         self.rest_normals = np.array([[0.0, 0.0, -1.0]])
         self.vertex_joint = np.zeros(1, int)
-        self.patch_mm = np.array([2.0])
 
 
 def camera(name: str, eye, target=(0, 400, 0), focal: float = 400.0) -> Camera:
@@ -270,7 +273,7 @@ class EvaluatorConformance:
         """A lone vertex at (100.3, 50.7) covers cx-(s-1)//2 .. cx+s//2 around (100, 51)."""
         cam = Camera.look_at("point", (0, 0, -1000), (0, 0, 0), 500.0, 200, 120)
         ev = make(patch_scale=(side - 0.5) / (500.0 * 2.0 / 1000))  # patch side exactly `side`
-        ev.setup(PointBody(), [cam], empty_masks([cam]))
+        ev.setup(PointBody(ev.patch_scale), [cam], empty_masks([cam]))
         x = np.array([-1.6, 17.6, 0.0])
         image = ev.render(x, 0)
         rows, cols = np.nonzero(image)

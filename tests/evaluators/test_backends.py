@@ -111,10 +111,9 @@ def test_patch_covers_the_documented_pixels(backend, side):
     """A lone vertex projecting to (100.3, 50.7) covers cx-(s-1)//2 .. cx+s//2 around (100, 51)."""
     cam = Camera.look_at("point", (0, 0, -1000), (0, 0, 0), 500.0, 200, 120)
     assert cam.K[0, 2] == 99.5 and cam.K[1, 2] == 59.5
-    body = PointBody()
     # f * patch_mm * scale / z = side - 0.5, so the patch side is exactly `side`
     ev = backend(patch_scale=(side - 0.5) / (500.0 * 2.0 / 1000))
-    ev.setup(body, [cam], empty_masks([cam]))
+    ev.setup(PointBody(ev.patch_scale), [cam], empty_masks([cam]))
     x = np.array([-1.6, 17.6, 0.0])  # camera x, y = world -x, -y: u = 99.5 + 0.8, v = 59.5 - 8.8
     image = ev.render(x, 0)
     rows, cols = np.nonzero(image)

@@ -10,6 +10,7 @@ import pytest
 pytest.importorskip("pyopencl")
 from mmocap.errors import ConfigError  # noqa: E402
 from mmocap.evaluators import opencl, opencl_devices, opencl_layout  # noqa: E402
+from mmocap.evaluators.silhouette import PATCH_SCALE  # noqa: E402
 from mmocap.testing.evaluators import RIGS, BlobBody, masks, test_poses  # noqa: E402
 
 try:
@@ -95,7 +96,7 @@ def test_multidevice_split_and_work_group_sizes_give_one_devices_counts(local_si
 
 def test_culling_cones_skip_only_back_faces_and_pass_only_front_faces():
     from mmocap.body.model import BodyModel
-    vertices, _ = opencl_layout.vertex_arrays(BodyModel("S1", vertices=13695))
+    vertices, _ = opencl_layout.vertex_arrays(BodyModel("S1", vertices=13695), PATCH_SCALE)
     cones = opencl_layout.culling_cones(vertices)
     rng = np.random.default_rng(0)
     # b = R^T t for cameras in every direction, 0.5 to 5 m from the joint's origin
@@ -129,7 +130,7 @@ def test_body_arrays_are_uploaded_again_only_for_another_body(monkeypatch):
     from mmocap.testing.evaluators import FRONT, PlateBody, empty_masks
     calls = []
     original = opencl.vertex_arrays
-    monkeypatch.setattr(opencl, "vertex_arrays", lambda body: calls.append(body) or original(body))
+    monkeypatch.setattr(opencl, "vertex_arrays", lambda body, scale: calls.append(body) or original(body, scale))
     blob, plate = BlobBody(), PlateBody()
     ev, uploads = opencl.OpenCLEvaluator(), []
     for body in (blob, blob, plate, blob):
