@@ -9,19 +9,26 @@ finds both from the foreground masks of the first frame:
    first coarse, then fine inside the coarse hull's box. The hull's lowest voxel is the
    floor under the person, its height is the person's standing height (unless
    ``body.height_mm`` is given), and its centre gives the root's position on the floor
-   plane.
+   plane. A hull reaches below the soles (the cameras' cones under a foot meet lower
+   than the foot: 26-78 mm on the nine synthetic sequences), so steps 2-3 run for each
+   height of ``hull_height_offsets_mm`` added to the hull's, and the best fit goes on.
 2. **Heading:** the rest pose at that position is scored at ``headings`` yaw angles over a
    full turn, because people face any way; the ``candidates`` best headings go on.
 3. **Pose:** from each of them, the run's optimiser searches the full pose with
    ``evaluations`` (a box of ``rotation_radius`` and ``translation_radius_mm`` around the
    current estimate); from the ``refined`` best, ``passes`` times: each step of the strategy but the
    root (torso and head, each arm, each leg) searched alone over its whole joint range
-   (``limb_evaluations`` each), then the full pose ``rounds`` times.
-4. **Shape:** the body starts at girth 1 (the base mesh); each girth of ``girths`` (unless
-   ``body.girth`` is given) and then each height offset of ``height_steps_mm`` (unless
-   ``body.height_mm`` is given) is tried with a short search from the best pose; the body
-   with the lowest fitness is kept and tracks the whole sequence. The preset's dimensions
-   (``body.subject``) are never used for what is fitted: they are unknown for a recording.
+   (:func:`search_each_limb`: ``limb_samples`` random poses of the limb, then searches from
+   the current pose and the ``limb_restarts`` best samples, ``limb_evaluations`` in all),
+   then the full pose ``rounds`` times.
+4. **Shape:** the body starts at girth 1 (the base mesh); each girth offset of
+   ``girth_steps`` (unless ``body.girth`` is given) and then each height offset of
+   ``height_steps_mm`` (unless ``body.height_mm`` is given) is tried with a short search
+   from the best pose, and kept if its fitness is lower. This is done ``shape_passes``
+   times, the pose refined as in step 3 again before each pass after the first: a limb
+   posed to fit a wrong body keeps a body of the right size from fitting better. The body
+   kept tracks the whole sequence. The preset's dimensions (``body.subject``) are never
+   used for what is fitted: they are unknown for a recording.
 
 World axes are mmocap's (y up, mm). The cost (seconds, evaluations) is returned and
 recorded in the run's summary.
@@ -35,7 +42,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mmocap.body.mesh import GIRTH_RANGE, HEIGHT_RANGE_MM
-from mmocap.errors import DataError
+from mmocap.errors import ConfigError, DataError
 from mmocap.validate import check_choice, check_number
 
 log = logging.getLogger(__name__)
@@ -129,20 +136,36 @@ def visual_hull(cameras, masks, lower: np.ndarray, upper: np.ndarray, voxel_mm: 
     return points[inside & (seen >= min_views)]
 
 
-def search_each_limb(strategy, body, x, fitness: float, evaluator, optimizer, evaluations: int, rng):
+def search_each_limb(strategy, body, x, fitness: float, evaluator, optimizer, evaluations: int, rng,
+                     samples: int = 0, restarts: int = 0):
     """Each step of ``strategy`` but the root (torso and head, each arm, each leg) searched
-    alone over its whole joint range with ``evaluations``, from the pose ``x`` (51,) of
-    ``fitness``, keeping what improves; returns (pose, fitness, evaluations used). A limb far
-    from where it was (arms raised to a boxer's guard, a leg on the wrong side) lies outside
-    the box of a tracking step."""
+    alone over its whole joint range, from the pose ``x`` (51,) of ``fitness``, keeping what
+    improves; returns (pose, fitness, evaluations used). A limb far from where it was (arms
+    raised to a boxer's guard, a leg on the wrong side) lies outside the box of a tracking
+    step, and a local search from the wrong pose seldom reaches it.
+
+    Per limb: ``samples`` poses of the limb drawn uniformly over its joint range (the rest of
+    the body held) are scored in one batch; then ``optimizer`` searches the whole range from
+    ``x`` and from each of the ``restarts`` best samples, ``evaluations`` split evenly
+    between these searches."""
     whole_range = type(strategy)(rotation_radius=np.pi, translation_radius_mm=strategy.translation_radius_mm,
                                  steps=strategy.steps)
     used = 0
     for parts in whole_range.step_groups(body)[1:]:
-        found, found_fitness, n = whole_range.search(body, x, parts, evaluator, optimizer, evaluations, rng)
-        used += n
-        if found_fitness < fitness:
-            x, fitness = found, found_fitness
+        starts = [x]
+        if samples:
+            limb = np.concatenate(parts)
+            drawn = np.repeat(x[None], samples, axis=0)
+            drawn[:, limb] = rng.uniform(body.lower[limb], body.upper[limb], size=(samples, len(limb)))
+            scores = evaluator(drawn)
+            used += samples
+            starts += list(drawn[np.argsort(scores, kind="stable")[:restarts]])
+        for start in starts:
+            found, found_fitness, n = whole_range.search(body, start, parts, evaluator, optimizer,
+                                                         evaluations // len(starts), rng)
+            used += n
+            if found_fitness < fitness:
+                x, fitness = found, found_fitness
     return x, fitness, used
 
 
@@ -162,18 +185,27 @@ class AutoStart:
         rotation_radius: half-width of the search box of every rotation, rad.
         translation_radius_mm: half-width of the search box of the root position, mm.
         voxel_mm: voxel side of the fine visual hull, mm.
-        girths: girths tried once the pose is found ([] keeps girth 1).
-        height_steps_mm: offsets (mm) from the visual hull's height tried after the girths
-            ([] keeps the hull's height).
+        girth_steps: offsets from the current girth (1 at first) tried once the pose is
+            found ([] keeps girth 1).
+        height_steps_mm: offsets (mm) from the current height (the visual hull's at first)
+            tried after the girths ([] keeps the hull's height).
         shape_evaluations: evaluations of the search for each girth and height tried.
-        limb_evaluations: evaluations of the search of each step but the root (torso,
+        shape_passes: passes of the girth and height trials, the pose refined before each
+            pass after the first.
+        limb_evaluations: evaluations of the searches of each step but the root (torso,
             each arm, each leg) over its whole joint range.
+        limb_samples: random poses of each such step scored before its searches (0: none).
+        limb_restarts: best of those samples each searched too, besides the current pose.
+        hull_height_offsets_mm: offsets (mm) from the visual hull's height, each the body's
+            height for steps 2-3 (unless ``body.height_mm`` is given).
     """
 
     def __init__(self, mode: str = "auto", headings: int = 12, candidates: int = 4, evaluations: int = 2000,
-                 refined: int = 1, limb_evaluations: int = 2000, rounds: int = 3, passes: int = 2,
-                 rotation_radius: float = 0.6, translation_radius_mm: float = 200.0, voxel_mm: float = 15.0,
-                 girths=(0.9, 1.1), height_steps_mm=(-40.0, 40.0), shape_evaluations: int = 800):
+                 refined: int = 1, limb_evaluations: int = 2000, limb_samples: int = 2000, limb_restarts: int = 3,
+                 rounds: int = 3, passes: int = 2, rotation_radius: float = 0.6,
+                 translation_radius_mm: float = 200.0, voxel_mm: float = 15.0, girth_steps=(-0.1, 0.1),
+                 height_steps_mm=(-40.0, 40.0), shape_evaluations: int = 800, shape_passes: int = 2,
+                 hull_height_offsets_mm=(0.0, -40.0)):
         self.mode = check_choice("start.mode", mode, START_MODES)
         self.headings = check_number("start.headings", headings, 1, 360, integer=True)
         self.candidates = check_number("start.candidates", candidates, 1, self.headings, integer=True)
@@ -185,10 +217,19 @@ class AutoStart:
         self.translation_radius_mm = check_number("start.translation_radius_mm", translation_radius_mm, 0, 5000,
                                                   low_open=True)
         self.voxel_mm = check_number("start.voxel_mm", voxel_mm, 2, COARSE_VOXEL_MM)
-        self.girths = [check_number("start.girths", g, *GIRTH_RANGE) for g in girths]
+        girth_span = GIRTH_RANGE[1] - GIRTH_RANGE[0]
+        self.girth_steps = [check_number("start.girth_steps", g, -girth_span, girth_span) for g in girth_steps]
         self.height_steps_mm = [check_number("start.height_steps_mm", h, -500, 500) for h in height_steps_mm]
         self.limb_evaluations = check_number("start.limb_evaluations", limb_evaluations, 2, 10**7, integer=True)
         self.shape_evaluations = check_number("start.shape_evaluations", shape_evaluations, 2, 10**7, integer=True)
+        self.hull_height_offsets_mm = [check_number("start.hull_height_offsets_mm", h, -500, 500)
+                                       for h in hull_height_offsets_mm]
+        if not self.hull_height_offsets_mm:
+            raise ConfigError("start.hull_height_offsets_mm is empty: give at least one height offset (mm) "
+                              "from the visual hull's height, e.g. [0]")
+        self.shape_passes = check_number("start.shape_passes", shape_passes, 1, 100, integer=True)
+        self.limb_samples = check_number("start.limb_samples", limb_samples, 0, 10**6, integer=True)
+        self.limb_restarts = check_number("start.limb_restarts", limb_restarts, 0, self.limb_samples, integer=True)
 
     def wanted(self, has_x0: bool) -> bool:
         """Whether to search: always with ``mode=search``, else when there is no ``x0``."""
@@ -222,22 +263,41 @@ class AutoStart:
         centre, height, floor_y = self.measure(cameras, masks)
         log.info("automatic start: visual hull %.0f mm tall, centre (%.0f, %.0f, %.0f) mm, floor at y = %.0f mm",
                  height, *centre, floor_y)
-        body = body.reshaped(height_mm=float(np.clip(height, *HEIGHT_RANGE_MM)) if fit_height else None,
-                             girth=1.0 if fit_girth else None)
-        used = 0
         search = type(strategy)(rotation_radius=self.rotation_radius,
                                 translation_radius_mm=self.translation_radius_mm, steps=strategy.steps)
+        best_f, used = np.inf, 0
+        for offset in self.hull_height_offsets_mm if fit_height else [0.0]:
+            tried = body.reshaped(height_mm=float(np.clip(height + offset, *HEIGHT_RANGE_MM)) if fit_height else None,
+                                  girth=1.0 if fit_girth else None)
+            x, f, n = self._pose(tried, centre, floor_y, cameras, masks, evaluator, optimizer, search, rng)
+            used += n
+            log.info("automatic start: height %.0f mm -> fitness %.4f", tried.subject.height_mm, f)
+            if f < best_f:
+                best_x, best_f, chosen = x, f, tried
+        body = chosen
+        for shape_pass in range(self.shape_passes if fit_girth or fit_height else 0):
+            if shape_pass:
+                evaluator.setup(body, cameras, masks)
+                best_x, best_f, n = self._refine(body, best_x, best_f, evaluator, optimizer, search, rng)
+                used += n
+            for change in self._shape_changes(body, fit_girth, fit_height):
+                best_x, best_f, body, n = self._try_shape(body, change, best_x, best_f, cameras, masks, evaluator,
+                                                          optimizer, search, rng)
+                used += n
+        evaluator.setup(body, cameras, masks)  # leave the evaluator on the body that won
+        return StartResult(best_x, float(best_f), body, used, time.perf_counter() - started, height, floor_y)
 
-        def placed(body_) -> np.ndarray:
-            x = body_.rest_pose()
-            x[ROOT_TRANSLATION] = (centre[0], floor_y + body_.floor_offset_mm, centre[2])
-            return x
-
+    def _pose(self, body, centre, floor_y: float, cameras, masks, evaluator, optimizer, search, rng):
+        """Steps 2-3 for ``body``: the rest pose placed at the hull's ``centre`` (3,) mm
+        with its soles at ``floor_y`` mm, turned to each heading, the best searched and
+        refined; returns (pose (51,), fitness, evaluations)."""
         evaluator.setup(body, cameras, masks)
-        starts = np.repeat(placed(body)[None], self.headings, axis=0)
+        placed = body.rest_pose()
+        placed[ROOT_TRANSLATION] = (centre[0], floor_y + body.floor_offset_mm, centre[2])
+        starts = np.repeat(placed[None], self.headings, axis=0)
         starts[:, ROOT_YAW] = np.arange(self.headings) * (2 * np.pi / self.headings) - np.pi
         scores = evaluator(starts)
-        used += len(starts)
+        used = len(starts)
         scouted = []
         for k in np.argsort(scores, kind="stable")[:self.candidates]:
             x, f, n = search.estimate(body, starts[k], evaluator, optimizer, self.evaluations, rng)
@@ -250,14 +310,12 @@ class AutoStart:
             used += n
             if f < best_f:
                 best_x, best_f = x, f
-        changes = ([{"girth": g} for g in self.girths] if fit_girth else []) + (
+        return best_x, best_f, used
+
+    def _shape_changes(self, body, fit_girth: bool, fit_height: bool) -> list[dict]:
+        """The girths, then the heights, of one pass of shape trials around ``body``'s."""
+        return ([{"girth": body.subject.girth + g} for g in self.girth_steps] if fit_girth else []) + (
             [{"height_mm": body.subject.height_mm + dh} for dh in self.height_steps_mm] if fit_height else [])
-        for change in changes:
-            best_x, best_f, body, n = self._try_shape(body, change, best_x, best_f, cameras, masks, evaluator,
-                                                      optimizer, search, rng)
-            used += n
-        evaluator.setup(body, cameras, masks)  # leave the evaluator on the body that won
-        return StartResult(best_x, float(best_f), body, used, time.perf_counter() - started, height, floor_y)
 
     def _refine(self, body, x, fitness, evaluator, optimizer, search, rng):
         """``passes`` times from ``x``: each step but the root searched alone over its whole
@@ -266,7 +324,8 @@ class AutoStart:
         fitness, evaluations)."""
         used = 0
         for _ in range(self.passes):
-            x, fitness, n = search_each_limb(search, body, x, fitness, evaluator, optimizer, self.limb_evaluations, rng)
+            x, fitness, n = search_each_limb(search, body, x, fitness, evaluator, optimizer, self.limb_evaluations, rng,
+                                             self.limb_samples, self.limb_restarts)
             used += n
             for _ in range(self.rounds):
                 x, fitness, n = search.estimate(body, x, evaluator, optimizer, self.evaluations, rng)
