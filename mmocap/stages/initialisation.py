@@ -201,7 +201,7 @@ class AutoStart:
     """
 
     def __init__(self, mode: str = "auto", headings: int = 12, candidates: int = 4, evaluations: int = 2000,
-                 refined: int = 1, limb_evaluations: int = 2000, limb_samples: int = 2000, limb_restarts: int = 3,
+                 refined: int = 2, limb_evaluations: int = 2000, limb_samples: int = 2000, limb_restarts: int = 3,
                  rounds: int = 3, passes: int = 2, rotation_radius: float = 0.6,
                  translation_radius_mm: float = 200.0, voxel_mm: float = 15.0, girth_steps=(-0.1, 0.1),
                  height_steps_mm=(-40.0, 40.0), shape_evaluations: int = 800, shape_passes: int = 2,
@@ -275,7 +275,8 @@ class AutoStart:
             if f < best_f:
                 best_x, best_f, chosen = x, f, tried
         body = chosen
-        for shape_pass in range(self.shape_passes if fit_girth or fit_height else 0):
+        shaped = (fit_girth and self.girth_steps) or (fit_height and self.height_steps_mm)
+        for shape_pass in range(self.shape_passes if shaped else 0):
             if shape_pass:
                 evaluator.setup(body, cameras, masks)
                 best_x, best_f, n = self._refine(body, best_x, best_f, evaluator, optimizer, search, rng)

@@ -129,9 +129,9 @@ def test_a_recording_is_tracked_from_nothing_and_exported_without_extras(venv):
     mmocap(venv, "generate", *SMALL)
     mmocap(venv, "to-recording", "data/S1_walking", "rec", "--crf", "16", "--no-progress")
     assert "frames tracked: 2" in mmocap(venv, "check-recording", "rec").stdout
-    quick_start = ["start.headings=4", "start.candidates=1", "start.evaluations=60", "start.limb_evaluations=30",
-                   "start.limb_samples=20", "start.limb_restarts=1", "start.rounds=1", "start.girth_steps=[]",
-                   "start.height_steps_mm=[]", "start.hull_height_offsets_mm=[0]"]
+    quick_start = ["start.headings=4", "start.candidates=1", "start.refined=1", "start.evaluations=60",
+                   "start.limb_evaluations=30", "start.limb_samples=20", "start.limb_restarts=1", "start.rounds=1",
+                   "start.girth_steps=[]", "start.height_steps_mm=[]", "start.hull_height_offsets_mm=[0]"]
     mmocap(venv, "dataset=recording", "dataset.root=rec", "body.vertices=2000", "tracking.evaluations=150",
            "overlays=0", "progress=false", "hydra.run.dir=runs/rec", "export=[bvh,trc,csv]", *quick_start)
     summary = json.loads((venv["work"] / "runs" / "rec" / "summary.json").read_text())
