@@ -151,7 +151,7 @@ def search_each_limb(strategy, body, x, fitness: float, evaluator, optimizer, ev
     whole_range = type(strategy)(rotation_radius=np.pi, translation_radius_mm=strategy.translation_radius_mm,
                                  steps=strategy.steps)
     used = 0
-    for parts in whole_range.step_groups(body)[1:]:
+    for parts in whole_range.step_groups(body, skip_empty=True)[1:]:
         starts = [x]
         if samples:
             limb = np.concatenate(parts)

@@ -84,17 +84,21 @@ class Strategy(ABC):
         if any(not step for step in self.steps):
             raise ConfigError("strategy.steps has an empty step")
 
-    def step_groups(self, body) -> list[list[np.ndarray]]:
+    def step_groups(self, body, skip_empty: bool = False) -> list[list[np.ndarray]]:
         """Per step, per joint: indices of the body's active parameters in the 51-vector.
 
-        A step whose joints have no degree of freedom in this body is a ConfigError.
+        A step whose joints have no degree of freedom in this body is left out with
+        ``skip_empty``, else a ConfigError.
         """
         groups = []
         for k, step in enumerate(self.steps):
             per_joint = [joint_indices(joint, body.mask) for joint in step]
             if sum(len(g) for g in per_joint) == 0:
+                if skip_empty:
+                    continue
                 raise ConfigError(f"strategy step {k + 1} ({', '.join(step)}) has no degree of "
-                                  f"freedom in the {body.dof}-DOF body model")
+                                  f"freedom in the {body.dof}-DOF body model: join it to a step with "
+                                  "degrees of freedom, or use partition=six (or strategy=holistic)")
             groups.append([g for g in per_joint if len(g)])
         return groups
 
@@ -166,13 +170,15 @@ class Strategy(ABC):
 class Holistic(Strategy):
     """All active degrees of freedom searched at once with the whole frame budget.
 
-    The steps only become ``SearchSpace.partitions``, for partitioned-sampling optimisers.
+    The steps only become ``SearchSpace.partitions``, for partitioned-sampling optimisers;
+    a step without degrees of freedom in the body (``partition=twelve``'s UpperSpine in the
+    28-DOF body) is no partition.
     """
 
     name = "holistic"
 
     def plan(self, body, budget: int) -> list[tuple[list[np.ndarray], int]]:
-        return [([np.concatenate(step) for step in self.step_groups(body)], int(budget))]
+        return [([np.concatenate(step) for step in self.step_groups(body, skip_empty=True)], int(budget))]
 
 
 class Hierarchical(Strategy):

@@ -111,6 +111,9 @@ def test_bad_steps_are_config_errors(bodies):
     Hierarchical(steps=steps).step_groups(bodies[39])
     with pytest.raises(ConfigError, match="step 4 \\(LWrist, RWrist\\) has no degree of freedom in the 28-DOF"):
         Hierarchical(steps=steps).step_groups(bodies[28])
+    # holistic search uses the steps only as partitions: the wrists' step is no partition
+    (partitions, budget), = Holistic(steps=steps).plan(bodies[28], 100)
+    assert len(partitions) == 6 and sum(len(p) for p in partitions) == 28 and budget == 100
     assert set(JOINTS) == {j for s in DEFAULT_STEPS for j in s}
 
 
