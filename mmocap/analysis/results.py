@@ -11,7 +11,8 @@ without what does not change its result (output paths, progress bars, overlays, 
 
 - ``runs``: one row per run: run_id, subject, action, sequence, seed, optimizer, strategy,
   algorithm (``"<optimizer>-<strategy>"``), dof, evaluations (per frame), vertices,
-  backend, frames, mean_marker_error_mm, seconds_per_frame (wall time of tracking),
+  backend, frames, mean_marker_error_mm, seconds_per_frame (wall time of the search, the
+  foreground read apart),
   evaluation_seconds_per_frame (time inside the evaluator), git_commit, host;
 - ``frames``: one row per tracked frame: run_id, frame, marker_error_mm.
 
@@ -129,23 +130,28 @@ class ResultsStore:
         return [self.get(run_id) for run_id in self.run_ids()]
 
 
-def make_record(cfg: DictConfig, summary: dict, frames: list[dict], wall_seconds: float,
-                evaluation_seconds: float, started: str, output_dir: Path) -> dict:
+def make_record(cfg: DictConfig, summary: dict, frames: list[dict], search_seconds: float,
+                evaluation_seconds: float, foreground_seconds: float, started: str, output_dir: Path) -> dict:
     """The record of a finished run: identity, config, per-frame results, timings, and the
     provenance the summary carries (:mod:`mmocap.provenance`: versions, commit, host, and
     where the optimiser and evaluator come from).
 
     ``frames``: one dict per tracked frame with frame, marker_error_mm, fitness,
-    evaluations, seconds. Times in seconds.
+    evaluations, seconds (the search), foreground_seconds. Times in seconds: the frames'
+    searches (``search_seconds``; its per-frame mean is ``seconds_per_frame``), the part of
+    them inside the evaluator, and the reading of their foreground, timed apart from the
+    search (background subtraction on a mask-cache miss costs more than a search).
     """
     n = max(len(frames), 1)
     return {
         "run_id": run_key(cfg),
         "summary": {k: v for k, v in summary.items() if k not in ("config", "provenance")},
         "frames": frames,
-        "timings": {"wall_seconds": wall_seconds, "seconds_per_frame": wall_seconds / n,
+        "timings": {"search_seconds": search_seconds, "seconds_per_frame": search_seconds / n,
                     "evaluation_seconds": evaluation_seconds,
-                    "evaluation_seconds_per_frame": evaluation_seconds / n},
+                    "evaluation_seconds_per_frame": evaluation_seconds / n,
+                    "foreground_seconds": foreground_seconds,
+                    "foreground_seconds_per_frame": foreground_seconds / n},
         "seed": int(cfg.seed),
         "config": OmegaConf.to_container(cfg, resolve=True),
         "key_config": key_config(cfg),

@@ -39,13 +39,17 @@ DEFAULT_STEPS = (
 
 @dataclass
 class FrameResult:
-    """Outcome of one frame: pose (51,) in mm/rad, its fitness, evaluations, wall time."""
+    """Outcome of one frame: pose (51,) in mm/rad, its fitness, evaluations, ``seconds`` of
+    wall time spent searching (the evaluator's setup on the frame's masks, the strategy's
+    searches, a recovery), and ``foreground_seconds`` spent reading the frame's foreground
+    (the images and their background subtraction on a mask-cache miss, a file on a hit)."""
 
     frame: int
     pose: np.ndarray
     fitness: float
     evaluations: int
     seconds: float
+    foreground_seconds: float = 0.0
 
 
 def joint_indices(joint: str, mask: np.ndarray) -> np.ndarray:
@@ -239,8 +243,9 @@ def track(sequence, body, foreground, evaluator, optimizer, strategy, evaluation
     x_prev = body.clip(np.asarray(x0, dtype=np.float64)[None])[0]
     results = []
     for frame in range(n):
-        start = time.perf_counter()
+        read = time.perf_counter()
         masks = foreground.masks(frame)
+        start = time.perf_counter()
         if coverage is None:
             evaluator.setup(body, cameras, masks)
         else:
@@ -251,7 +256,7 @@ def track(sequence, body, foreground, evaluator, optimizer, strategy, evaluation
                 x, f, event = recovery.recover(frame, body, x, f, evaluator, optimizer, strategy, rng)
                 used += event.evaluations
             recovery.keep(f)
-        result = FrameResult(frame, x, f, used, time.perf_counter() - start)
+        result = FrameResult(frame, x, f, used, time.perf_counter() - start, start - read)
         results.append(result)
         if on_frame is not None:
             on_frame(result)

@@ -41,10 +41,11 @@ def summary_of(cfg, errors):
                 {"optimizer": cfg.optimizer.name, "evaluator": cfg.evaluator.name})}}
 
 
-def record_of(cfg, errors, wall=2.0, evaluation=1.5):
-    frames = [{"frame": k, "marker_error_mm": e, "fitness": 0.1, "evaluations": 10, "seconds": 0.5}
-              for k, e in enumerate(errors)]
-    return make_record(cfg, summary_of(cfg, errors), frames, wall, evaluation, provenance.now(), Path("run"))
+def record_of(cfg, errors, search=2.0, evaluation=1.5, foreground=0.3):
+    frames = [{"frame": k, "marker_error_mm": e, "fitness": 0.1, "evaluations": 10, "seconds": 0.5,
+               "foreground_seconds": 0.1} for k, e in enumerate(errors)]
+    return make_record(cfg, summary_of(cfg, errors), frames, search, evaluation, foreground, provenance.now(),
+                       Path("run"))
 
 
 def test_run_key_ignores_outputs_and_presentation_only():

@@ -126,3 +126,37 @@ def test_budget_below_one_population_is_a_config_error(bodies):
     with pytest.raises(ConfigError, match="gives the frame 13 evaluations.*at least 14 for 39"):
         Holistic().check(body, CMAES(), 14)  # one of the 14 goes to the start pose
     Holistic().check(body, CMAES(), 15)
+
+
+def test_the_frame_clock_times_the_search_and_the_foreground_apart(bodies, monkeypatch):
+    """On a clock that only moves when the foreground is read (5 s, a mask-cache miss) and
+    when the evaluator scores a batch (1 ms), a frame's seconds are its search's alone."""
+    from types import SimpleNamespace
+
+    from mmocap.stages import tracking
+
+    body = bodies[39]
+    clock = [0.0]
+    monkeypatch.setattr(tracking.time, "perf_counter", lambda: clock[0])
+
+    class Foreground:
+        cameras = []
+
+        def masks(self, frame):
+            clock[0] += 5.0
+            return []
+
+    class Evaluator(Recorder):
+        def setup(self, body, cameras, masks):
+            pass
+
+        def __call__(self, X):
+            clock[0] += 0.001
+            return super().__call__(X)
+
+    evaluator = Evaluator(body.rest_pose())
+    sequence = SimpleNamespace(n_frames=2, x0=body.rest_pose())
+    results = tracking.track(sequence, body, Foreground(), evaluator, CMAES(), Holistic(), evaluations=100, seed=0)
+    for result in results:
+        assert result.foreground_seconds == pytest.approx(5.0)
+        assert result.seconds == pytest.approx(0.001 * len(evaluator.batches) / 2)
