@@ -58,6 +58,7 @@ from mmocap.camera import Camera
 from mmocap.data.sequence import Sequence, SequenceBase, listed, read_image
 from mmocap.errors import ConfigError, DataError
 from mmocap.io import incomplete_write, write_image, writing
+from mmocap.video import VideoReader
 
 SUBJECTS = ("S1", "S2", "S3", "S4")
 ACTIONS = ("Walking", "Jog", "ThrowCatch", "Gestures", "Box", "Combo")
@@ -125,7 +126,8 @@ class SyncOffsets:
 # --- images --------------------------------------------------------------------------------
 
 class FrameSource:
-    """The images of one camera: a video read with OpenCV, or a folder of numbered images
+    """The images of one camera: a video decoded in order (:class:`mmocap.video.VideoReader`;
+    reading backwards decodes from the start again), or a folder of numbered images
     (the k-th file in numerical order being image k, the numbers consecutive).  Indices
     are 1-based.
 
@@ -139,8 +141,7 @@ class FrameSource:
 
     def __init__(self, path: Path, camera: str, colour: bool):
         self.path, self.camera, self.colour = Path(path), camera, colour
-        self._capture = None
-        self._next = None
+        self._video = None
         self.width = self.height = None
         if self.path.is_dir():
             files = [p for p in self.path.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES]
@@ -151,11 +152,13 @@ class FrameSource:
             self.count = len(self.files)
         else:
             self.files = None
-            self._capture = cv2.VideoCapture(str(self.path))
-            self.count = int(self._capture.get(cv2.CAP_PROP_FRAME_COUNT))
-            if not self._capture.isOpened() or self.count < 1:
+            capture = cv2.VideoCapture(str(self.path))
+            self.count = int(capture.get(cv2.CAP_PROP_FRAME_COUNT))
+            opened = capture.isOpened()
+            capture.release()
+            if not opened or self.count < 1:
                 raise DataError(f"camera {camera}: cannot read video {self.path}")
-            self._next = 1
+            self._video = VideoReader(self.path)
         self.height, self.width = self.read(1).shape[:2]
 
     def read(self, index: int) -> np.ndarray:
@@ -166,11 +169,11 @@ class FrameSource:
         if self.files is not None:
             where = self.files[index - 1]
             image = cv2.imread(str(where), cv2.IMREAD_UNCHANGED)
-        else:
-            if index != self._next:
-                self._capture.set(cv2.CAP_PROP_POS_FRAMES, index - 1)
-            ok, image = self._capture.read()
-            self._next = index + 1 if ok else None
+        else:  # decoded in order: a seek in an XviD file with B-frames can return another frame
+            try:
+                image = self._video.read(index - 1)
+            except DataError as exc:
+                raise DataError(f"camera {self.camera}: {exc}") from None
             where = f"{self.path} (image {index})"
         if image is None:
             raise DataError(f"camera {self.camera}: cannot read {where} (damaged, or not an image)")

@@ -299,6 +299,33 @@ def test_a_gap_in_the_image_numbers_is_refused(tmp_path, names, message):
         he.FrameSource(folder, "C1", True)
 
 
+def test_an_xvid_video_with_b_frames_gives_every_image_in_any_order(tmp_path):
+    """HumanEva-I's videos are XviD (MPEG-4 part 2) with B-frames, in which a seek may
+    land on another frame; the images come out as a decode from the start gives them,
+    whatever the order they are asked in."""
+    imageio_ffmpeg = pytest.importorskip("imageio_ffmpeg")
+    base = np.random.default_rng(0).integers(0, 256, (48, 64, 3), dtype=np.uint8)
+    frames = [np.ascontiguousarray(np.roll(base, 3 * k, axis=1)) for k in range(30)]
+    path = tmp_path / "Walking_1_(C1).avi"
+    writer = imageio_ffmpeg.write_frames(str(path), (64, 48), fps=60, codec="mpeg4", pix_fmt_in="bgr24",
+                                         output_params=["-bf", "2", "-g", "12", "-vtag", "XVID", "-q:v", "3"],
+                                         macro_block_size=1)
+    writer.send(None)
+    for frame in frames:
+        writer.send(frame)
+    writer.close()
+    capture, decoded = cv2.VideoCapture(str(path)), []
+    while (image := capture.read()[1]) is not None:
+        decoded.append(image)
+    capture.release()
+    assert len(decoded) == 30
+    nearest = [int(np.argmin([np.abs(d.astype(int) - f).mean() for f in frames])) for d in decoded]
+    assert nearest == list(range(30))  # the video holds every frame, in order
+    source = he.FrameSource(path, "C1", True)
+    for index in (6, 18, 4, 30, 12, 26, 9, 1, 30):
+        np.testing.assert_array_equal(source.read(index), decoded[index - 1])
+
+
 def test_a_damaged_frame_names_camera_and_file(tmp_path):
     folder = image_folder(tmp_path, [np.zeros((12, 16, 3), np.uint8)] * 2)
     (folder / "000002.png").write_bytes(b"\x89PNG\r\n\x1a\n damaged")
