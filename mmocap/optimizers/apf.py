@@ -31,7 +31,7 @@ First layer. No particle set is carried over between frames (only the previous e
 ``x0``), so layer 1 samples ``z ~ N(0, init_spread^2 I)`` around the start point.
 
 Budget. ``N = budget // L`` particles per layer; the remainder adds one particle to each of
-the first layers, so the budget is used exactly. A search needs ``MIN_PARTICLES`` (6)
+the first layers, so the budget is used exactly. A search needs :data:`MIN_PARTICLES`
 particles per layer.
 
 Result. ``result.xbest`` is the best particle evaluated (base class), not the APF's
@@ -43,7 +43,7 @@ order; None = one partition, i.e. the APF). Every particle is a full pose; the L
 partition k diffuse only its coordinates (its first layer adds the ``init_spread`` noise to
 them), and the first layer of partition k+1 is resampled from the weighted last layer of
 partition k (the weighted resampling between partitions of partitioned sampling).
-Budget split: each of the K partitions gets ``6 L`` evaluations plus a share of the rest
+Budget split: each of the K partitions gets ``MIN_PARTICLES L`` evaluations plus a share of the rest
 proportional to its number of coordinates (floor; the remainder one each to the first
 partitions), then split over its L layers as above.
 
@@ -157,7 +157,7 @@ class AnnealedParticleFilter(PopulationOptimizer):
         self.diffusion_std: list[float] = []
 
     def _split_budget(self, dims: list[int]) -> list[tuple[int, int, int]]:
-        """(partition, layer, particles) of every round: per partition ``6 L`` plus a share of
+        """(partition, layer, particles) of every round: per partition ``MIN_PARTICLES L`` plus a share of
         the rest proportional to its dimension, per layer an equal share; remainders one
         each to the first partitions and layers."""
         L = self.layers
@@ -195,7 +195,7 @@ class AnnealedParticleFilter(PopulationOptimizer):
 class PartitionedAnnealedParticleFilter(AnnealedParticleFilter):
     """Partitioned-sampling APF (Bandouch et al.): the APF on each of ``space.partitions`` in
     hierarchical order, weighted resampling between them; same arguments as
-    :class:`AnnealedParticleFilter`, ``layers`` per partition. A search needs ``6 L K``
+    :class:`AnnealedParticleFilter`, ``layers`` per partition. A search needs ``MIN_PARTICLES L K``
     evaluations for K partitions."""
 
     name = "psapf"
