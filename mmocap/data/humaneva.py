@@ -19,6 +19,14 @@ nearest mocap frames (NaN if either is missing).  The first selected camera is t
 reference: frame k of the opened sequence is its image ``start + k``; every other camera
 shows its image nearest the same mocap time, through its own ``.ofs``.
 
+Toolbox frames: the toolbox numbers a trial's synchronised 60 Hz frames from 1, frame 1
+being the later of the earliest camera's first image and the first mocap frame
+(:func:`toolbox_frame_offsets`), and starts every sequence with video at frame
+:data:`TOOLBOX_FIRST_FRAME` (6).  Its Train, Validation and Test partitions
+(:data:`PARTITIONS`) are ranges of these frames; ``split`` selects one, else the sequence
+runs from the first image at or after toolbox frame 6 at which every mapped marker is
+present to the end of the videos.
+
 Ground truth: the ``.mat`` file holds ``Markers`` (mocap frames, labels, 3) in mm, missing
 markers being stored as zeros (read as NaN), and the labels under ``ParameterGroup``
 POINT/LABELS.  ``marker_map`` (data in ``conf/dataset/humaneva.yaml``) gives, for each of the
@@ -72,6 +80,57 @@ SYNTHETIC_ACTIONS = {"walking": "Walking", "gestures": "Gestures", "boxing": "Bo
 TORSO_MARKERS = ("head", "neck", "pelvis", "l_shoulder", "r_shoulder", "l_hip", "r_hip")
 # Pull of every joint angle towards the rest pose in the x0 fit: residual mm per rad.
 REST_PULL_MM_PER_RAD = 20.0
+# The toolbox's first frame of every sequence with video (1-based toolbox frame): its XviD
+# videos repeat their first image, so frames 1-5 are not used (toolbox read-me, v0.8).
+TOOLBOX_FIRST_FRAME = 6
+SPLITS = ("train", "validation", "test")
+# The partitions of HumanEva-I in the dataset's MATLAB toolbox (Sigal, Balan and Black, support
+# code v1.1, @he_dataset/he_dataset.m, where validation is called "Validate"; the trial 1 ranges
+# agree with facebookresearch/VideoPose3D, data/prepare_data_humaneva.py): (subject, action,
+# trial) -> split -> (first, last) toolbox frame, both included (1-based 60 Hz frames, numbered
+# as :func:`toolbox_frame_offsets` describes).  The toolbox also puts trial 3 (mocap only, no
+# video) into Train as a whole; having no images to read, it is not listed.
+PARTITIONS = {
+    ("S1", "Walking", 1): {"validation": (6, 590), "train": (591, 1203)},
+    ("S1", "Walking", 2): {"test": (6, 1004)},
+    ("S1", "Jog", 1): {"validation": (6, 367), "train": (368, 740)},
+    ("S1", "Jog", 2): {"test": (6, 874)},
+    ("S1", "ThrowCatch", 1): {"validation": (6, 473), "train": (474, 945)},
+    ("S1", "ThrowCatch", 2): {"test": (6, 951)},
+    ("S1", "Gestures", 1): {"validation": (6, 395), "train": (396, 801)},
+    ("S1", "Gestures", 2): {"test": (6, 1070)},
+    ("S1", "Box", 1): {"validation": (6, 385), "train": (386, 789)},
+    ("S1", "Box", 2): {"test": (6, 606)},
+    ("S1", "Combo", 2): {"test": (6, 2602)},
+    ("S2", "Walking", 1): {"validation": (6, 438), "train": (439, 876)},
+    ("S2", "Walking", 2): {"test": (6, 1093)},
+    ("S2", "Jog", 1): {"validation": (6, 398), "train": (399, 795)},
+    ("S2", "Jog", 2): {"test": (6, 727)},
+    ("S2", "ThrowCatch", 1): {"validation": (6, 550), "train": (551, 1128)},
+    ("S2", "ThrowCatch", 2): {"test": (6, 1399)},
+    ("S2", "Gestures", 1): {"validation": (6, 500), "train": (501, 901)},
+    ("S2", "Gestures", 2): {"test": (6, 1062)},
+    ("S2", "Box", 1): {"validation": (6, 382), "train": (383, 734)},
+    ("S2", "Box", 2): {"test": (6, 989)},
+    ("S2", "Combo", 2): {"test": (6, 2054)},
+    ("S3", "Walking", 1): {"validation": (6, 448), "train": (449, 939)},
+    ("S3", "Walking", 2): {"test": (6, 805)},
+    ("S3", "Jog", 1): {"validation": (6, 401), "train": (402, 842)},
+    ("S3", "Jog", 2): {"test": (6, 864)},
+    ("S3", "ThrowCatch", 1): {"validation": (6, 493), "train": (494, 1027)},
+    ("S3", "ThrowCatch", 2): {"test": (6, 1000)},
+    ("S3", "Gestures", 1): {"validation": (6, 533), "train": (534, 1102)},
+    ("S3", "Gestures", 2): {"test": (6, 553)},
+    ("S3", "Box", 1): {"validation": (6, 512), "train": (513, 1021)},
+    ("S3", "Box", 2): {"test": (6, 753)},
+    ("S3", "Combo", 2): {"test": (6, 1798)},
+    ("S4", "Walking", 2): {"test": (6, 667)},
+    ("S4", "Jog", 2): {"test": (6, 590)},
+    ("S4", "ThrowCatch", 2): {"test": (6, 773)},
+    ("S4", "Gestures", 2): {"test": (6, 459)},
+    ("S4", "Box", 2): {"test": (6, 574)},
+    ("S4", "Combo", 2): {"test": (6, 1102)},
+}
 
 
 def is_colour(camera: str) -> bool:
@@ -121,6 +180,26 @@ class SyncOffsets:
 
     def save(self, path: Path) -> None:
         Path(path).write_text(f"{self.image_start:.17g}\n{self.mocap_start:.17g}\n{self.mocap_scale:.17g}\n")
+
+
+def toolbox_frame_offsets(syncs: list[SyncOffsets]) -> np.ndarray:
+    """Each camera's 1-based image at toolbox frame 1, numbering a trial's frames as the
+    dataset's MATLAB toolbox does (@sync_stream): toolbox frame F (1-based) shows image
+    ``offsets[c] + F - 1`` of camera c.  ``syncs``: the trial's ``.ofs`` of its cameras in the
+    toolbox's order (C1, C2, C3, BW1..BW4).
+
+    Each camera's (fractional) image at the first camera's MC_ST is shifted so that the
+    earliest is image 1, then on to the first mocap frame if that comes later (mocap time
+    running at the mean MC_SC), and rounded half up, as MATLAB's ``round``.
+    """
+    scale = np.mean([s.mocap_scale for s in syncs])
+    time = syncs[0].mocap_start
+    first = np.array([s.image_index(time) for s in syncs])
+    time -= scale * (first.min() - 1)
+    first -= first.min() - 1
+    if time < 1:
+        first += (1 - time) / scale
+    return np.floor(first + 0.5).astype(int)
 
 
 # --- images --------------------------------------------------------------------------------
@@ -468,9 +547,14 @@ class HumanEvaDataset:
         subject, action, trial: e.g. ``"S1"``, ``"Walking"``, 1.
         cameras: camera names; the first is the timing reference.
         marker_map: body-model marker name -> mocap labels (their centroid is the marker).
-        start_frame: 1-based image of the first camera to start at; None = the first image
-            at which every mapped marker is present (the first synchronised one without mocap).
-        frames: frames to read at most; None = up to the end of the shortest video.
+        split: None, or the toolbox partition to read (:data:`SPLITS`): exactly its frames of
+            :data:`PARTITIONS` for this subject, action and trial.
+        start_frame: 1-based image of the first camera to start at, within ``split`` if one is
+            given; None = the split's first frame, or without a split the first image from
+            toolbox frame :data:`TOOLBOX_FIRST_FRAME` on at which every mapped marker is
+            present (the first synchronised one without mocap).
+        frames: frames to read at most; None = up to the end of the split, else of the
+            shortest video.
         fps: video frame rate (HumanEva-I: 60).
         background_frames: frames taken, evenly spaced, from each camera's background videos.
         min_background_frames: fewer background frames than this is an error.
@@ -481,8 +565,9 @@ class HumanEvaDataset:
 
     def __init__(self, root=None, subject: str = "S1", action: str = "Walking", trial: int = 1,
                  cameras=("C1", "C2", "C3", "BW1"), marker_map: dict | None = None,
-                 start_frame: int | None = None, frames: int | None = None, fps: float = 60.0,
-                 background_frames: int = 50, min_background_frames: int = 2, x0=None, x0_dof: int = 39):
+                 split: str | None = None, start_frame: int | None = None, frames: int | None = None,
+                 fps: float = 60.0, background_frames: int = 50, min_background_frames: int = 2, x0=None,
+                 x0_dof: int = 39):
         if root is None:
             raise ConfigError("dataset.root must be set to the HumanEva-I folder (the one holding S1..S4)")
         checks = (("subject", subject, SUBJECTS), ("action", action, ACTIONS), ("trial", trial, TRIALS))
@@ -494,6 +579,13 @@ class HumanEvaDataset:
         if unknown or not cameras:
             raise ConfigError(f"dataset.cameras must name HumanEva-I cameras ({', '.join(CAMERAS)}), "
                               f"got {cameras}")
+        if split is not None and split not in SPLITS:
+            raise ConfigError(f"dataset.split must be null or one of {', '.join(SPLITS)}, got {split!r}")
+        partitions = PARTITIONS.get((subject, action, int(trial)), {})
+        if split is not None and split not in partitions:
+            raise ConfigError(f"dataset.split {split!r} has no frames of {subject} {action}_{trial}: the HumanEva-I "
+                              f"toolbox's partitions of its video are {', '.join(partitions) or 'none'}; set "
+                              "dataset.split to one of them or to null")
         if start_frame is not None and start_frame < 1:
             raise ConfigError(f"dataset.start_frame must be >= 1 (1-based), got {start_frame}")
         if frames is not None and frames < 1:
@@ -504,7 +596,7 @@ class HumanEvaDataset:
         self.root, self.subject, self.action, self.trial = Path(root), subject, action, int(trial)
         self.cameras = cameras
         self.marker_map = check_marker_map(default_marker_map() if marker_map is None else marker_map)
-        self.start_frame, self.frames, self.fps = start_frame, frames, float(fps)
+        self.split, self.start_frame, self.frames, self.fps = split, start_frame, frames, float(fps)
         self.background_frames, self.min_background_frames = int(background_frames), int(min_background_frames)
         self.x0, self.x0_mask = x0, dof_mask(int(x0_dof))
 
@@ -535,6 +627,7 @@ class HumanEvaDataset:
         backgrounds = {c.name: self._background_sources(c.name) for c in cams}
         meta = {
             "format": "humaneva-i", "subject": self.subject, "action": self.action, "trial": self.trial,
+            "split": self.split,
             "fps": self.fps, "frames": len(index), "cameras": self.cameras,
             "marker_names": list(MARKER_NAMES), "x0": None if x0 is None else x0.tolist(),
             "first_image": int(index[0, 0]), "marker_map": self.marker_map,
@@ -563,20 +656,37 @@ class HumanEvaDataset:
             if not np.any((per_camera[:, c] >= 1) & (per_camera[:, c] <= counts[c])):
                 raise DataError(f"sync file {folder / 'Sync_Data' / f'{self.stem}_({name}).ofs'}: no image "
                                 f"of {sources[c].path} falls within the reference camera's video")
+        offset = self._toolbox_offset(folder) - 1  # toolbox frame F is image F + offset of the reference
+        if self.split is None:
+            first, last = TOOLBOX_FIRST_FRAME + offset, ref.count
+        else:
+            span = PARTITIONS[(self.subject, self.action, self.trial)][self.split]
+            first, last = (f + offset for f in span)
+            if last > ref.count or not in_videos[first - 1:last].all():
+                raise DataError(f"dataset.split {self.split!r} is images {first}..{last} of {ref.path} (toolbox "
+                                f"frames {span[0]}..{span[1]}), not all of them in every camera's video")
         if self.start_frame is not None:
             start = self.start_frame
+            if self.split is not None and not first <= start <= last:
+                raise ConfigError(f"dataset.start_frame {start} is outside dataset.split {self.split!r} of "
+                                  f"{self.subject} {self.stem}, images {first}..{last} of {self.cameras[0]}; "
+                                  "give a start_frame in that range, or null")
             if start > ref.count or not in_videos[start - 1]:
                 raise DataError(f"dataset.start_frame {start} is not an image of every camera "
                                 f"(the {self.cameras[0]} video {ref.path} has {ref.count})")
+        elif self.split is not None:
+            start = first
         else:
-            usable = in_videos.copy()
+            usable = in_videos & (candidates >= first)
             if mocap is not None:  # else (trial 2) the first image of every camera
                 usable &= ~np.isnan(sample_mocap(mocap, mocap_index)).any(axis=(1, 2))
             if not usable.any():
-                raise DataError(f"no image of {ref.path} has every mapped marker present in "
-                                f"{folder / 'Mocap_Data' / f'{self.stem}.mat'}")
+                markers = ("" if mocap is None else " with every mapped marker present in "
+                           f"{folder / 'Mocap_Data' / f'{self.stem}.mat'}")
+                raise DataError(f"no image of {ref.path} from image {first} (toolbox frame {TOOLBOX_FIRST_FRAME}) "
+                                f"on is in every camera's video{markers}")
             start = int(candidates[np.argmax(usable)])
-        run = in_videos[start - 1:]
+        run = in_videos[start - 1:last]
         n = int(np.argmin(run)) if not run.all() else len(run)
         if self.frames is not None:
             n = min(n, self.frames)
@@ -584,6 +694,14 @@ class HumanEvaDataset:
         truth = (np.full((n, len(MARKER_NAMES), 3), np.nan) if mocap is None
                  else sample_mocap(mocap, mocap_index[rows]))
         return per_camera[rows], truth
+
+    def _toolbox_offset(self, folder: Path) -> int:
+        """The reference camera's image at toolbox frame 1, from the ``.ofs`` files of every
+        HumanEva-I camera in ``Sync_Data`` (:func:`toolbox_frame_offsets`)."""
+        paths = {c: folder / "Sync_Data" / f"{self.stem}_({c}).ofs" for c in CAMERAS}
+        present = [c for c, path in paths.items() if path.is_file()]
+        offsets = toolbox_frame_offsets([SyncOffsets.load(paths[c]) for c in present])
+        return int(offsets[present.index(self.cameras[0])])
 
     def _initial_pose(self, first_markers: np.ndarray, folder: Path, mocap) -> np.ndarray | None:
         """``dataset.x0``, else the pose fitted to the first frame's markers; None without
@@ -627,10 +745,13 @@ def export(sequence_root, out, marker_map: dict | None = None, trial: int = 1, i
     """Write a synthetic sequence folder (:mod:`mmocap.data.sequence`) in the HumanEva-I layout.
 
     Under ``out``: ``<subject>/Calibration_Data``, ``Image_Data`` (lossless FFV1 .avi, or PNG
-    folders for ``images="png"``), ``Sync_Data`` (IM_ST = 1, MC_ST = 1 + mocap_lead,
-    MC_SC = 2), ``Mocap_Data/<Action>_<trial>.mat`` (markers at 120 Hz, interpolated from the
-    video rate, after ``mocap_lead`` frames with every marker missing; each label of
-    ``marker_map`` at its marker's position) and ``Background/Background_1_(<cam>).avi``.
+    folders for ``images="png"``: ``TOOLBOX_FIRST_FRAME - 1`` copies of the first frame, as
+    the dataset's videos repeat theirs, then the sequence, which thus starts at the toolbox's
+    first frame), ``Sync_Data`` (IM_ST = 1, MC_ST = 1 + mocap_lead, MC_SC = 2),
+    ``Mocap_Data/<Action>_<trial>.mat`` (markers at 120 Hz, interpolated from the video rate,
+    after ``mocap_lead`` frames with every marker missing and the first frame's markers held
+    over the copies; each label of ``marker_map`` at its marker's position) and
+    ``Background/Background_1_(<cam>).avi``.
     Returns ``out``. The export completes or leaves ``out`` as it was: a failure to write (a
     :class:`~mmocap.io.WriteError` naming ``out``: a full disk, a read-only folder, a file
     where ``out`` should be) leaves no part of it.
@@ -653,12 +774,14 @@ def export(sequence_root, out, marker_map: dict | None = None, trial: int = 1, i
     out = Path(out)
     stem = f"{action}_{trial}"
     sync = SyncOffsets(1.0, 1.0 + mocap_lead, 2.0)
+    lead_in = TOOLBOX_FIRST_FRAME - 1
     subject = Path(seq.subject)
     with _staged_export(out) as staging:
         for cam in tqdm(seq.cameras, desc=f"export {seq.subject} {stem}", unit="camera", disable=not progress):
             cam.save_cal(staging.place(subject / "Calibration_Data" / f"{cam.name}.cal"))
             sync.save(staging.place(subject / "Sync_Data" / f"{stem}_({cam.name}).ofs"))
-            frames = (read_image(seq.root / "images" / cam.name / f"{f:06d}.png", cam) for f in range(seq.n_frames))
+            frames = (read_image(seq.root / "images" / cam.name / f"{f:06d}.png", cam)
+                      for f in [0] * lead_in + list(range(seq.n_frames)))
             video = subject / "Image_Data" / f"{stem}_({cam.name}).avi"
             folder = video.with_suffix("")  # the same images as PNG files; a reader takes the video first
             if images == "avi":
@@ -670,7 +793,8 @@ def export(sequence_root, out, marker_map: dict | None = None, trial: int = 1, i
             write_video(staging.place(Path("Background") / f"Background_1_({cam.name}).avi"),
                         seq.background(cam), seq.fps)
         truth = upsample(seq.markers(), int(sync.mocap_scale))
-        truth = np.concatenate([np.full((mocap_lead,) + truth.shape[1:], np.nan), truth])
+        truth = np.concatenate([np.full((mocap_lead,) + truth.shape[1:], np.nan),
+                                np.repeat(truth[:1], lead_in * int(sync.mocap_scale), axis=0), truth])
         labels = [label for name in MARKER_NAMES for label in marker_map[name]]
         columns = [m for m, name in enumerate(MARKER_NAMES) for _ in marker_map[name]]
         write_mocap(staging.place(subject / "Mocap_Data" / f"{stem}.mat"), labels, truth[:, columns])

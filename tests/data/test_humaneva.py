@@ -1,5 +1,6 @@
 """HumanEva-I layout: a tiny synthetic sequence exported to it and read back, bad input, and
 the pipeline run on the exported folder."""
+import os
 import shutil
 import subprocess
 import sys
@@ -23,6 +24,8 @@ from mmocap.stages.evaluation import marker_error
 CAMERAS = ["C1", "BW1"]
 FRAMES = 3
 LEAD = 4  # the exporter's default mocap lead
+LEAD_IN = he.TOOLBOX_FIRST_FRAME - 1  # images before the sequence in an exported video
+FIRST = LEAD + 2 * LEAD_IN  # 0-based mocap frame of the sequence's first frame
 
 
 @pytest.fixture(scope="module")
@@ -79,10 +82,10 @@ def test_sync_offsets_arithmetic(tmp_path):
 
 
 def test_other_cameras_follow_their_own_ofs(synthetic, damaged):
-    """BW1 starting one image later: sequence frame k shows its image k + 2 (1-based)."""
+    """BW1 starting one image later: sequence frame k shows its image k + 2 + LEAD_IN (1-based)."""
     he.SyncOffsets(2, 1 + LEAD, 2.0).save(damaged / "S1/Sync_Data/Walking_1_(BW1).ofs")
     seq = open_he(damaged)
-    assert seq.image_index.tolist() == [[1, 2], [2, 3]] and seq.n_frames == 2
+    assert seq.image_index.tolist() == [[6, 7], [7, 8]] and seq.n_frames == 2
     original = Sequence.open(synthetic)
     np.testing.assert_array_equal(seq.images(0)[1], original.images(1)[1])
     np.testing.assert_array_equal(seq.images(1)[0], original.images(1)[0])
@@ -93,7 +96,8 @@ def test_images_background_and_markers_round_trip(synthetic, tmp_path, images):
     root = he.export(synthetic, tmp_path / "he", images=images, progress=False)
     seq = open_he(root)
     original = Sequence.open(synthetic)
-    assert seq.n_frames == FRAMES and seq.subject == "S1" and seq.meta["first_image"] == 1
+    # the sequence after the lead-in copies, at the toolbox's first frame (image 6)
+    assert seq.n_frames == FRAMES and seq.subject == "S1" and seq.meta["first_image"] == 6
     for f in range(FRAMES):
         for mine, theirs in zip(seq.images(f), original.images(f)):
             np.testing.assert_array_equal(mine, theirs)  # lossless video
@@ -111,30 +115,33 @@ def test_mocap_file_has_the_real_structure(synthetic, exported):
     labels = [str(x[0]) for x in params[0, names.index("LABELS")]["data"][0]]
     rate = float(np.squeeze(params[0, names.index("RATE")]["data"]))
     assert {"LFHD", "C7", "LSHO", "RANK"} <= set(labels) and rate == 120.0
-    # 120 Hz: (frames - 1) * 2 + 1 samples after the lead, which is stored as zeros (missing)
-    assert mat["Markers"].shape == (LEAD + 2 * (FRAMES - 1) + 1, len(labels), 3)
+    # 120 Hz: the lead, stored as zeros (missing), the first frame held over the lead-in
+    # images, then (frames - 1) * 2 + 1 samples
+    assert mat["Markers"].shape == (FIRST + 2 * (FRAMES - 1) + 1, len(labels), 3)
     assert np.all(mat["Markers"][:LEAD] == 0)
+    held = mat["Markers"][LEAD:FIRST + 1]
+    np.testing.assert_array_equal(held, np.repeat(mat["Markers"][FIRST:FIRST + 1], 2 * LEAD_IN + 1, axis=0))
     truth = Sequence.open(synthetic).markers()
     ankle = labels.index("RANK")
-    np.testing.assert_allclose(mat["Markers"][LEAD + 1, ankle], truth[:2, MARKER_NAMES.index("r_ankle")].mean(0))
+    np.testing.assert_allclose(mat["Markers"][FIRST + 1, ankle], truth[:2, MARKER_NAMES.index("r_ankle")].mean(0))
 
 
 def test_missing_markers_are_nan_and_the_start_skips_them(damaged):
     path = damaged / "S1/Mocap_Data/Walking_1.mat"
     labels, markers = he.read_mocap(path)
     assert np.isnan(markers[:LEAD]).all() and not np.isnan(markers[LEAD:]).any()
-    markers[LEAD, labels.index("LKNE")] = np.nan   # image 1: the left knee marker drops out
-    markers[LEAD + 4, labels.index("C7")] = np.nan  # image 3: the neck marker
+    markers[FIRST, labels.index("LKNE")] = np.nan   # image 6: the left knee marker drops out
+    markers[FIRST + 4, labels.index("C7")] = np.nan  # image 8: the neck marker
     he.write_mocap(path, labels, markers)
     seq = open_he(damaged)
-    # the sequence starts at image 2, the first with every marker
-    assert seq.meta["first_image"] == 2 and seq.n_frames == 2
+    # the sequence starts at image 7, the first with every marker from the toolbox's first frame on
+    assert seq.meta["first_image"] == 7 and seq.n_frames == 2
     truth = seq.markers()
     neck = MARKER_NAMES.index("neck")
     assert np.isnan(truth[1, neck]).all() and not np.isnan(np.delete(truth, neck, axis=1)).any()
     assert not np.isnan(truth[0]).any()
     with pytest.raises(DataError, match="markers neck are missing at the first frame"):
-        open_he(damaged, start_frame=3)
+        open_he(damaged, start_frame=8)
 
 
 def test_x0_is_fitted_to_the_first_frame_markers(synthetic, exported, tmp_path):
@@ -170,7 +177,7 @@ def test_fit_pose_recovers_a_turned_pose():
     (lambda r: (r / "S1/Calibration_Data/C1.cal").write_text("600 610 320\n240 0 0"), r"C1.cal holds 6 numbers"),
     (lambda r: (r / "S1/Calibration_Data/BW1.cal").write_text("x " * 22), r"BW1.cal: non-numeric"),
     (lambda r: he.SyncOffsets(50, 1, 2).save(r / "S1/Sync_Data/Walking_1_(C1).ofs"),
-     r"Walking_1_\(C1\).ofs starts at image 50, past the end of .*Walking_1_\(C1\).avi \(3 images\)"),
+     r"Walking_1_\(C1\).ofs starts at image 50, past the end of .*Walking_1_\(C1\).avi \(8 images\)"),
     (lambda r: he.SyncOffsets(-40, 1, 2).save(r / "S1/Sync_Data/Walking_1_(BW1).ofs"),
      r"Walking_1_\(BW1\).ofs: no image of .* falls within"),
     (lambda r: (r / "S1/Sync_Data/Walking_1_(C1).ofs").write_text("1 2"), r"\(C1\).ofs must hold 3"),
@@ -220,11 +227,82 @@ def test_a_trial_without_mocap_opens_without_a_first_pose_or_takes_the_one_given
     (dict(root=None), "dataset.root must be set"),
     (dict(marker_map={"head": ["LFHD"]}), "marker_map must give labels"),
     (dict(marker_map={**he.default_marker_map(), "neck": ["LFHD"]}), "label for two markers"),
+    (dict(split="val"), r"^dataset.split must be null or one of train, validation, test, got 'val'$"),
+    (dict(split="validation", trial=2), r"^dataset.split 'validation' has no frames of S1 Walking_2: the HumanEva-I "
+                                        r"toolbox's partitions of its video are test; set dataset.split to one of "
+                                        r"them or to null$"),
+    (dict(split="train", subject="S4"), r"^dataset.split 'train' has no frames of S4 Walking_1: .* are none; "),
+    (dict(split="train", action="Combo"), r"^dataset.split 'train' has no frames of S1 Combo_1: "),
 ])
 def test_bad_config_values(exported, kwargs, message):
     args = dict(root=exported, cameras=CAMERAS) | kwargs
     with pytest.raises(ConfigError, match=message):
         he.HumanEvaDataset(**args)
+
+
+# --- the toolbox's frames and partitions ---------------------------------------------------
+
+LONG = 1212  # images per camera: to the end of S1 Walking_1's Train partition in the layout below
+
+
+@pytest.fixture(scope="module")
+def long_layout(exported, tmp_path_factory) -> Path:
+    """The exported folder with LONG images per camera (one image, hard-linked), every marker
+    present at every mocap frame, and mocap frame 1 at C1's image 10 and BW1's image 9, as in
+    the dataset, whose mocap starts after its videos: toolbox frame F is C1's image F + 9."""
+    root = Path(shutil.copytree(exported, tmp_path_factory.mktemp("long") / "HumanEva"))
+    for cam, image_start in (("C1", 10), ("BW1", 9)):
+        video = root / f"S1/Image_Data/Walking_1_({cam}).avi"
+        image = he.FrameSource(video, cam, he.is_colour(cam)).read(1)
+        video.unlink()
+        folder = video.with_suffix("")
+        folder.mkdir()
+        cv2.imwrite(str(folder / "000001.png"), image)
+        for k in range(2, LONG + 1):
+            os.link(folder / "000001.png", folder / f"{k:06d}.png")
+        he.SyncOffsets(image_start, 1, 2.0).save(root / f"S1/Sync_Data/Walking_1_({cam}).ofs")
+    path = root / "S1/Mocap_Data/Walking_1.mat"
+    labels, markers = he.read_mocap(path)
+    he.write_mocap(path, labels, np.repeat(markers[FIRST:FIRST + 1], 2 * LONG, axis=0))
+    return root
+
+
+def test_toolbox_frame_numbering():
+    # mocap starting after the videos: toolbox frame 1 is mocap frame 1
+    assert he.toolbox_frame_offsets([he.SyncOffsets(10, 1, 2.0), he.SyncOffsets(9, 1, 2.0)]).tolist() == [10, 9]
+    # mocap starting first: toolbox frame 1 is the earliest camera's first image
+    assert he.toolbox_frame_offsets([he.SyncOffsets(2, 5, 2.0), he.SyncOffsets(1, 5, 2.0)]).tolist() == [2, 1]
+    # the second camera's image 1 at mocap 6: the first's image 2.5 at that time, rounded up as in MATLAB
+    assert he.toolbox_frame_offsets([he.SyncOffsets(2, 5, 2.0), he.SyncOffsets(1, 6, 2.0)]).tolist() == [3, 1]
+
+
+def test_the_default_start_is_not_before_the_toolbox_first_frame(long_layout):
+    """Every marker is present from toolbox frame 1 (C1's image 10) on; the toolbox starts at its frame 6."""
+    seq = open_he(long_layout, frames=2)
+    assert seq.image_index.tolist() == [[15, 14], [16, 15]] and seq.meta["first_image"] == 15
+
+
+@pytest.mark.parametrize("split, first, last", [("validation", 6, 590), ("train", 591, 1203)])
+def test_a_split_selects_exactly_the_toolbox_range(long_layout, split, first, last):
+    seq = open_he(long_layout, split=split)
+    np.testing.assert_array_equal(seq.image_index, np.arange(first, last + 1)[:, None] + [9, 8])
+    assert seq.meta["split"] == split and not np.isnan(seq.markers()).any()
+    later = open_he(long_layout, split=split, start_frame=first + 9 + 100)  # C1's image of toolbox frame first + 100
+    assert later.image_index[0, 0] == first + 109 and later.image_index[-1, 0] == last + 9
+
+
+@pytest.mark.parametrize("start_frame", [14, 600])
+def test_a_start_frame_outside_the_split_is_refused(long_layout, start_frame):
+    with pytest.raises(ConfigError, match=rf"^dataset.start_frame {start_frame} is outside dataset.split 'validation' "
+                                          r"of S1 Walking_1, images 15..599 of C1; give a start_frame in that range, "
+                                          r"or null$"):
+        open_he(long_layout, split="validation", start_frame=start_frame)
+
+
+def test_a_split_past_the_end_of_the_videos(exported):
+    with pytest.raises(DataError, match=r"dataset.split 'validation' is images 6..590 of .*Walking_1_\(C1\).avi "
+                                        r"\(toolbox frames 6..590\), not all of them in every camera's video"):
+        open_he(exported, split="validation")
 
 
 def test_pipeline_runs_on_the_exported_folder(exported, tmp_path):
@@ -248,7 +326,7 @@ def test_export_command(synthetic, tmp_path):
 
     out = mmocap(synthetic, tmp_path / "he", "--images", "png", "--trial", "3")
     assert out.returncode == 0, out.stderr
-    assert len(list((tmp_path / "he/S1/Image_Data/Walking_3_(BW1)").glob("*.png"))) == FRAMES
+    assert len(list((tmp_path / "he/S1/Image_Data/Walking_3_(BW1)").glob("*.png"))) == LEAD_IN + FRAMES
     bad = mmocap(tmp_path / "nothing", tmp_path / "he2")
     assert bad.returncode == 2 and "not a sequence folder" in bad.stderr and "Traceback" not in bad.stderr
 
