@@ -24,8 +24,10 @@ from mmocap.body.mesh import SkinMesh, fit_subject, load_makehuman, subject_dime
 from mmocap.body.model import MARKER_NAMES, marker_vertices, rest_frames
 from mmocap.body.skeleton import JOINTS
 from mmocap.camera import Camera
+from mmocap.data import realism as realism_draws
 from mmocap.data import render
 from mmocap.data.motion import generate_motion
+from mmocap.data.realism import EXACT, Realism
 from mmocap.data.sequence import FORMAT, Sequence, write_markers
 from mmocap.errors import ConfigError
 from mmocap.io import write_image, write_text_atomic, writing
@@ -128,7 +130,7 @@ def generate(root, subject: str = "S1", action: str = "walking", frames: int = 6
              height: int = 480, fps: float = 60.0, seed: int = 0, background_frames: int = 10,
              noise_sigma: float = 2.0, shot_noise: float = 0.02, flicker: float = 0.02,
              shadow_strength: float = 0.4, shadow_softness: float = 0.15,
-             distortion: float = 1.0, progress: bool = True) -> Path:
+             distortion: float = 1.0, realism: Realism = EXACT, progress: bool = True) -> Path:
     """Render one sequence into ``root`` (replacing what is there) and return its path.
 
     ``sequence.json`` is written last, so a folder without it is an interrupted generation; a
@@ -140,6 +142,9 @@ def generate(root, subject: str = "S1", action: str = "walking", frames: int = 6
     deviation of the light's gain from frame to frame (background frames included; every
     camera sees the same light), ``shadow_strength`` fraction of the light the person's floor
     shadow removes at its core, ``shadow_softness`` angular radius of the area light (rad).
+    ``realism``: the departures from the tracker's assumptions (:mod:`mmocap.data.realism`);
+    the calibration written is then the calibrated cameras', the images are rendered with
+    the true ones.
     """
     check_settings(subject=subject, action=action, frames=frames, cameras=cameras, width=width, height=height,
                    fps=fps, seed=seed, background_frames=background_frames, noise_sigma=noise_sigma,
@@ -149,16 +154,21 @@ def generate(root, subject: str = "S1", action: str = "walking", frames: int = 6
                     width=width, height=height, fps=fps, seed=seed,
                     background_frames=background_frames, noise_sigma=noise_sigma,
                     shot_noise=shot_noise, flicker=flicker, shadow_strength=shadow_strength,
-                    shadow_softness=shadow_softness, distortion=distortion)
-    dims = subject_dimensions(subject)
+                    shadow_softness=shadow_softness, distortion=distortion,
+                    realism=realism.as_dict())
+    drawn = realism_draws.draw_rng(seed, subject, action)
+    dims = realism_draws.true_dimensions(subject_dimensions(subject), realism, drawn)
     rng = np.random.default_rng([seed, sum(map(ord, subject)), sum(map(ord, action))])
     mesh = fit_subject(load_makehuman(), dims)
     frames_of = rest_frames(mesh)
     cams = camera_rig(list(cameras), width, height, rng, distortion=distortion)
+    calibrations = [realism_draws.calibrated(cam, realism, drawn) for cam in cams]
+    offsets_frames = realism_draws.time_offsets(len(cams), realism, drawn)
     floor = float(-mesh.vertices[:, 1].min())
     poses = generate_motion(action, frames, fps, floor, seed=int(rng.integers(2**31)))
     colours = face_colours(mesh, rng)
     markers_idx = marker_vertices(mesh)
+    marker_offsets = realism_draws.marker_offsets(mesh, markers_idx, realism, drawn)
     background_gains = 1 + flicker * rng.standard_normal(background_frames)
     frame_gains = 1 + flicker * rng.standard_normal(frames)
     sensor = dict(noise_sigma=noise_sigma, shot_noise=shot_noise)
@@ -171,8 +181,8 @@ def generate(root, subject: str = "S1", action: str = "walking", frames: int = 6
             for sub in ("calibration", "background", "images", "silhouettes"):
                 (root / sub).mkdir(parents=True)
             backgrounds = {}
-            for cam in cams:
-                cam.save(root / "calibration" / f"{cam.name}.json")
+            for cam, (seen, _) in zip(cams, calibrations):
+                seen.save(root / "calibration" / f"{cam.name}.json")
                 backgrounds[cam.name] = render.make_background(cam, rng)
                 folder = root / "background" / cam.name
                 folder.mkdir()
@@ -182,13 +192,19 @@ def generate(root, subject: str = "S1", action: str = "walking", frames: int = 6
                 (root / "images" / cam.name).mkdir()
                 (root / "silhouettes" / cam.name).mkdir()
 
-            markers = np.zeros((frames, len(markers_idx), 3))
-            G = global_transforms(poses, mesh.pivots, frames_of)
-            S = skinning_transforms(G, mesh.pivots)
+            colours = realism_draws.camouflaged(colours, list(backgrounds.values()), realism.camouflage)
+
+            def skinning(offset_frames: float) -> np.ndarray:
+                """(frames, 16, 4, 4) skinning transforms at the frame times + the offset."""
+                posed = realism_draws.poses_at(poses, offset_frames)
+                return skinning_transforms(global_transforms(posed, mesh.pivots, frames_of), mesh.pivots)
+
+            S = skinning(0.0)
+            markers = realism_draws.posed_markers(mesh, markers_idx, marker_offsets, S)
+            S_of = [S if offset == 0 else skinning(offset) for offset in offsets_frames]
             for f in tqdm(range(frames), desc=f"render {subject} {action}", unit="frame", disable=not progress):
-                vertices = mesh.posed(S[f])
-                markers[f] = vertices[markers_idx]
-                for cam in cams:
+                for cam, S_cam in zip(cams, S_of):
+                    vertices = mesh.posed(S_cam[f])
                     shadow = render.floor_shadow(cam, vertices, mesh.faces, render.LIGHT_DIR,
                                                  shadow_strength, shadow_softness)
                     image, silhouette = render.render_view(cam, vertices, mesh.faces, colours,
@@ -206,6 +222,10 @@ def generate(root, subject: str = "S1", action: str = "walking", frames: int = 6
                 "dimensions": {"height_mm": dims.height_mm, "girth": dims.girth},
                 "x0": poses[0].tolist(), "units": {"length": "mm", "angle": "rad"},
                 "generator": {**settings, "digest": settings_digest(settings)},
+                "realism": {
+                    "cameras": {cam.name: {**errors, "time_offset_frames": float(offset)}
+                                for cam, (_, errors), offset in zip(cams, calibrations, offsets_frames)},
+                },
             }
             # Written last: a folder without it is an interrupted generation and is redone.
             write_text_atomic(root / "sequence.json", json.dumps(meta, indent=1))
@@ -218,8 +238,10 @@ def generate(root, subject: str = "S1", action: str = "walking", frames: int = 6
 class SyntheticDataset:
     """Hydra component: a synthetic sequence, generated on first use and then reused.
 
-    The folder is ``<root>/<subject>_<action>``; it is regenerated when the generation
-    settings differ from those recorded in its ``sequence.json``.
+    The folder is ``<root>/<subject>_<action>`` (``_<realism name>`` appended unless
+    ``exact``); it is regenerated when the generation
+    settings (``realism`` included: the ``realism`` config node, see
+    :class:`mmocap.data.realism.Realism`) differ from those recorded in its ``sequence.json``.
     """
 
     def __init__(self, root: str = "outputs/data", subject: str = "S1", action: str = "walking",
@@ -228,7 +250,8 @@ class SyntheticDataset:
                  height: int = 480, fps: float = 60.0, seed: int = 0, background_frames: int = 10,
                  noise_sigma: float = 2.0, shot_noise: float = 0.02, flicker: float = 0.02,
                  shadow_strength: float = 0.4, shadow_softness: float = 0.15,
-                 distortion: float = 1.0):
+                 distortion: float = 1.0, realism=None):
+        self.realism = Realism.from_config(realism)
         check_settings(subject=subject, action=action, frames=frames, cameras=list(all_cameras), width=width,
                        height=height, fps=fps, seed=seed, background_frames=background_frames,
                        noise_sigma=noise_sigma, shot_noise=shot_noise, flicker=flicker,
@@ -237,7 +260,8 @@ class SyntheticDataset:
         if missing:
             raise ConfigError(f"dataset.cameras: {', '.join(map(str, missing))} not in dataset.all_cameras "
                               f"({', '.join(all_cameras)}); add them there")
-        self.path = Path(root) / f"{subject}_{action}"
+        level = "" if self.realism.name == "exact" else f"_{self.realism.name}"
+        self.path = Path(root) / f"{subject}_{action}{level}"
         self.cameras = list(cameras)
         self.settings = dict(subject=subject, action=action, frames=frames, cameras=list(all_cameras),
                              width=width, height=height, fps=fps, seed=seed,
@@ -253,6 +277,6 @@ class SyntheticDataset:
                 current = json.loads(meta_path.read_text())["generator"]["digest"]
             except (ValueError, TypeError, KeyError) as exc:  # this class's own output, damaged: render again
                 log.warning("%s is unreadable (%s); rendering the sequence again", meta_path, exc)
-        if current != settings_digest(self.settings):
-            generate(self.path, progress=progress, **self.settings)
+        if current != settings_digest({**self.settings, "realism": self.realism.as_dict()}):
+            generate(self.path, progress=progress, realism=self.realism, **self.settings)
         return Sequence.open(self.path, self.cameras)
