@@ -5,21 +5,26 @@ A record is written once, atomically (temporary file then ``os.replace``), when 
 finishes: a run killed midway leaves no record and is run again by the next sweep, a
 finished run is never run twice. ``run_id`` is a digest of the run's resolved config
 without what does not change its result (output paths, progress bars, overlays, the
-``scale`` presets, ``run_dir_busy``, Hydra's own settings).
+``scale`` presets, the name of the ``settings`` preset (its optimiser values stay in the
+key), ``run_dir_busy``, Hydra's own settings).
 
 ``load_runs(folder)`` gives the two tables the statistics and reports read:
 
 - ``runs``: one row per run: run_id, subject, action, sequence, seed, optimizer, strategy,
-  algorithm (``"<optimizer>-<strategy>"``), dof, evaluations (per frame), vertices,
-  backend, frames, mean_marker_error_mm, seconds_per_frame (wall time of the search, the
-  foreground read apart),
-  evaluation_seconds_per_frame (time inside the evaluator), git_commit, host;
-- ``frames``: one row per tracked frame: run_id, frame, marker_error_mm.
+  algorithm (``"<optimizer>-<strategy>"``), settings (the optimiser settings preset the run
+  named, ``paper`` or ``tuned`` (``conf/settings/``), empty if none), dof, evaluations (per
+  frame), vertices, backend, frames, mean_marker_error_mm, mean_best_fitness (the mean over
+  the frames of each frame's best silhouette fitness, Yeguas Eq. 5: in [0, 1], 0 = the model
+  covers the foreground exactly), seconds_per_frame (wall time of the search, the foreground
+  read apart), evaluation_seconds_per_frame (time inside the evaluator), git_commit, host;
+- ``frames``: one row per tracked frame: run_id, frame, marker_error_mm, fitness.
 
 Errors are empty (NaN) where there is no ground truth: ``mean_marker_error_mm`` of a run
-with no scored frame (a warning names those runs) and ``marker_error_mm`` of an unscored
-frame. A record missing an entry, or holding one of the wrong kind, is a DataError naming
-the record file and the entry.
+with no scored frame and ``marker_error_mm`` of an unscored frame. A frame's fitness is NaN
+where the record holds null; a run with a frame whose fitness is not finite has an empty
+``mean_best_fitness`` rather than a mean over its other frames. A warning names the runs
+left empty either way, and the statistics refuse them. A record missing an entry,
+or holding one of the wrong kind, is a DataError naming the record file and the entry.
 
 ``mmocap collect FOLDER`` writes them as ``runs.csv`` and ``frames.csv``.
 """
@@ -40,14 +45,14 @@ from mmocap.io import write_json_atomic, write_text_atomic
 from mmocap.validate import is_integer, is_real
 
 # Top-level config keys that do not change a run's result.
-NOT_IN_KEY = ("hydra", "progress", "overlays", "results", "scale", "foreground_cache", "run_dir_busy",
-              "evaluation", "export", "video")
+NOT_IN_KEY = ("hydra", "progress", "overlays", "results", "scale", "settings", "foreground_cache",
+              "run_dir_busy", "evaluation", "export", "video")
 
 RUN_COLUMNS = ["run_id", "subject", "action", "sequence", "seed", "optimizer", "strategy",
-               "algorithm", "dof", "evaluations", "vertices", "backend", "frames",
-               "mean_marker_error_mm", "seconds_per_frame", "evaluation_seconds_per_frame",
-               "start", "start_seconds", "git_commit", "host"]
-FRAME_COLUMNS = ["run_id", "frame", "marker_error_mm"]
+               "algorithm", "settings", "dof", "evaluations", "vertices", "backend", "frames",
+               "mean_marker_error_mm", "mean_best_fitness", "seconds_per_frame",
+               "evaluation_seconds_per_frame", "start", "start_seconds", "git_commit", "host"]
+FRAME_COLUMNS = ["run_id", "frame", "marker_error_mm", "fitness"]
 
 
 def key_config(cfg: DictConfig) -> dict:
@@ -173,7 +178,7 @@ RECORD_ENTRIES = {
     "provenance": {},
 }
 #: what every entry of a record's ``frames`` holds
-FRAME_ENTRIES = {"frame": "integer", "marker_error_mm": "number?"}
+FRAME_ENTRIES = {"frame": "integer", "marker_error_mm": "number?", "fitness": "number?"}
 KIND_NAMES = {"text": "text", "integer": "an integer", "number": "a number", "list": "a list",
               "object": "a JSON object"}
 DAMAGED = "delete it to run that job again"
@@ -216,23 +221,36 @@ def _number(value) -> float:
     return np.nan if value is None else float(value)
 
 
+def mean_best_fitness(fitness) -> float:
+    """The mean of the frames' best fitness (n,), NaN if any of them is NaN or infinite, or
+    there is no frame: a mean over the other frames would compare the run with the runs of
+    the same sequence on fewer frames than theirs."""
+    fitness = np.asarray(fitness, dtype=float)
+    return float(np.mean(fitness)) if len(fitness) and np.isfinite(fitness).all() else np.nan
+
+
 def run_row(record: dict, source: str = "record") -> dict:
     """One row of the ``runs`` table from a record; ``mean_marker_error_mm`` is NaN for a run
-    without ground truth. A record missing an entry, or with one of the wrong kind, is a
+    without ground truth, ``mean_best_fitness`` for one with a frame without a finite fitness
+    (:func:`mean_best_fitness`). A record missing an entry, or with one of the wrong kind, is a
     DataError naming ``source`` and the entry."""
     record = _checked(record, RECORD_ENTRIES["record"], "", source)
     s, t, p = (_checked(record[part], RECORD_ENTRIES[part], f"{part}.", source)
                for part in ("summary", "timings", "provenance"))
     evaluation = t.get("evaluation_seconds_per_frame")
     start = s.get("start") if isinstance(s.get("start"), dict) else {}  # records before the automatic start
+    config = record.get("config")
+    settings = config.get("settings") if isinstance(config, dict) else None
     return {
         "run_id": record["run_id"], "subject": s["subject"], "action": s["action"],
         "sequence": f"{s['subject']}_{s['action']}", "seed": int(record["seed"]),
         "optimizer": s["optimizer"], "strategy": s["strategy"],
-        "algorithm": f"{s['optimizer']}-{s['strategy']}", "dof": int(s["dof"]),
+        "algorithm": f"{s['optimizer']}-{s['strategy']}",
+        "settings": settings.get("name") if isinstance(settings, dict) else None, "dof": int(s["dof"]),
         "evaluations": int(s["evaluations_per_frame"]), "vertices": int(s["vertices"]),
         "backend": s["backend"], "frames": int(s["frames"]),
         "mean_marker_error_mm": _number(s["mean_marker_error_mm"]),
+        "mean_best_fitness": mean_best_fitness([row[3] for row in frame_rows(record, source)]),
         "seconds_per_frame": float(t["seconds_per_frame"]),
         "evaluation_seconds_per_frame": float(evaluation) if is_real(evaluation) else np.nan,
         "start": start.get("method", "given"), "start_seconds": _number(start.get("seconds")),
@@ -240,35 +258,43 @@ def run_row(record: dict, source: str = "record") -> dict:
     }
 
 
-def frame_rows(record: dict, source: str = "record") -> list[tuple[str, int, float]]:
+def frame_rows(record: dict, source: str = "record") -> list[tuple[str, int, float, float]]:
     """The rows of the ``frames`` table from a checked record (:func:`run_row`): run_id, frame,
-    marker_error_mm (NaN for a frame without ground truth)."""
+    marker_error_mm (NaN for a frame without ground truth), fitness (the frame's best, in
+    [0, 1]; NaN for null)."""
     rows = []
     for k, frame in enumerate(record["frames"]):
         frame = _checked(frame, FRAME_ENTRIES, f"frames[{k}].", source)
-        rows.append((record["run_id"], int(frame["frame"]), _number(frame["marker_error_mm"])))
+        rows.append((record["run_id"], int(frame["frame"]), _number(frame["marker_error_mm"]),
+                     _number(frame["fitness"])))
     return rows
+
+
+#: the runs table's columns that a run may leave empty -> why, as the warning says it
+EMPTY_MEANS = {"mean_marker_error_mm": "have no ground truth",
+               "mean_best_fitness": "have no frame, or one without a finite fitness (null, NaN or infinite)"}
 
 
 def load_runs(folder) -> tuple[pd.DataFrame, pd.DataFrame]:
     """``(runs, frames)`` tables of every record in the store ``folder`` (see module doc). Runs
-    without ground truth keep an empty ``mean_marker_error_mm``, with a warning naming them."""
+    without ground truth keep an empty ``mean_marker_error_mm``, runs with a frame without a
+    finite fitness an empty ``mean_best_fitness``, each with a warning naming them."""
     store = ResultsStore(folder)
     run_ids = store.run_ids()
     if not run_ids:
         raise DataError(f"no run records in {store.records_dir}: has a sweep run into {store.folder}?")
-    rows, frames, unscored = [], [], []
+    rows, frames, files = [], [], []
     for run_id in run_ids:
         record, source = store.get(run_id), store.path(run_id)
         rows.append(run_row(record, str(source)))
         frames += frame_rows(record, str(source))
-        if np.isnan(rows[-1]["mean_marker_error_mm"]):
-            unscored.append(source.name)
-    if unscored:
-        warnings.warn(f"{len(unscored)} of {len(rows)} run(s) in {store.records_dir} have no ground truth "
-                      f"(mean_marker_error_mm null: {', '.join(unscored[:3])}{', ...' if len(unscored) > 3 else ''}"
-                      "): their mean_marker_error_mm is left empty, and the statistics refuse such runs",
-                      MmocapWarning, stacklevel=2)
+        files.append(source.name)
+    for column, why in EMPTY_MEANS.items():
+        empty = [name for name, row in zip(files, rows) if np.isnan(row[column])]
+        if empty:
+            warnings.warn(f"{len(empty)} of {len(rows)} run(s) in {store.records_dir} {why} "
+                          f"({', '.join(empty[:3])}{', ...' if len(empty) > 3 else ''}): their {column} is "
+                          "left empty, and the statistics refuse such runs", MmocapWarning, stacklevel=2)
     return pd.DataFrame(rows, columns=RUN_COLUMNS), pd.DataFrame(frames, columns=FRAME_COLUMNS)
 
 

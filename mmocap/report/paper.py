@@ -24,7 +24,15 @@ Algorithms are written as in the Yeguas paper: ``H-`` for a hierarchical search,
 ``ALG(DOF,EVAL)``. A Friedman block is a (sequence, seed) pair by default, each run its own
 measurement; ``--block sequence`` averages the seeds of a sequence first, as the paper's
 tables do (9 blocks). Tables 4-7 mark with ``*`` the p-values that Holm's procedure finds
-significant, and write every statistic in ``NAME_data.csv``. Errors in mm, times in s.
+significant, and write every statistic in ``<table>_data.csv``. Errors in mm, times in s.
+
+Tables 4-7 rank what the paper ranks (Sec. 5.4: "the averaged position of its best
+solutions' fitness"): ``mean_best_fitness``, each frame's best silhouette fitness (Eq. 5, in
+[0, 1], 0 = perfect) averaged over the run's frames, in ``NAME.*``; the ranking of the mean
+marker error follows in ``NAME_marker_error.*`` (:data:`RANKINGS`). The runs of each
+optimiser settings preset (column ``settings``: ``paper``, Yeguas Table 3, and ``tuned``,
+mmocap's defaults; ``conf/settings/``) are ranked apart, their files named
+``NAME_<settings>``, e.g. ``table4_paper.md`` and ``table4_tuned_marker_error.md``.
 """
 from __future__ import annotations
 
@@ -53,6 +61,11 @@ from mmocap.errors import DataError, MmocapWarning
 from mmocap.validate import check_number
 
 ERROR = "mean_marker_error_mm"
+FITNESS = "mean_best_fitness"
+#: what Tables 4-7 rank, the main table first: column -> (file-name suffix, words of the title).
+#: The paper ranks "the averaged position of its best solutions' fitness" (Yeguas Sec. 5.4).
+RANKINGS = {FITNESS: ("", "mean best fitness (Eq. 5, 0 = perfect), as the paper ranks"),
+            ERROR: ("_marker_error", "mean marker error (mm)")}
 OPTIMIZER_ORDER = ["cmaes", "de", "pso", "apf", "psapf"]
 DEFAULT_BLOCK = ("sequence", "seed")
 #: columns of runs.csv that are whole numbers (they name, group and label runs)
@@ -103,10 +116,29 @@ def describe_runs(runs: pd.DataFrame, source: str) -> str:
 def checked(runs: pd.DataFrame, columns: list[str], source: str) -> pd.DataFrame:
     """``runs`` after checking the ``columns`` a table or figure needs: present, without empty
     cells, and those of :data:`WHOLE_NUMBER_COLUMNS` whole numbers (returned as int). The
-    error column is left to the statistics, which name its bad values."""
+    measured columns (:data:`RANKINGS`) are left to the statistics, which name their bad values."""
     require_columns(runs, columns, source)
-    no_empty_cells(runs, [c for c in columns if c != ERROR], source)
+    no_empty_cells(runs, [c for c in columns if c not in RANKINGS], source)
     return runs.assign(**{c: whole_numbers(runs, c, source) for c in columns if c in WHOLE_NUMBER_COLUMNS})
+
+
+def settings_variants(runs: pd.DataFrame) -> list[tuple[str | None, pd.DataFrame]]:
+    """The runs of each optimiser settings preset (column ``settings``), ``paper`` (Yeguas
+    Table 3) first, then the others by name, then the runs that name none (None: empty cells,
+    or a runs.csv without the column)."""
+    if "settings" not in runs:
+        return [(None, runs)]
+    empty = runs["settings"].isna()
+    names = runs["settings"].astype(str)
+    named = sorted(set(names[~empty]), key=lambda name: (name != "paper", name))
+    variants = [(name, runs[~empty & (names == name)]) for name in named]
+    return variants + ([(None, runs[empty])] if empty.any() else [])
+
+
+def table_stem(name: str, settings: str | None, value: str) -> str:
+    """The file name of a ranking table: 'table4', 'paper', FITNESS -> 'table4_paper';
+    'table4', 'tuned', ERROR -> 'table4_tuned_marker_error'."""
+    return name + (f"_{settings}" if settings else "") + RANKINGS[value][0]
 
 
 def _mark(p: float, significant: bool) -> str:
@@ -148,84 +180,104 @@ def _long_statistics(tests: list[tuple[dict, FriedmanHolm]], compared: str = "al
     return table[front + [c for c in table.columns if c not in front]]
 
 
-def _test(runs: pd.DataFrame, labels, block, alpha: float, source: str, what: str,
+def _test(runs: pd.DataFrame, labels, value: str, block, alpha: float, source: str, what: str,
           compared: str = "algorithm") -> FriedmanHolm:
-    """Friedman and Holm on ``runs`` with ``labels`` as the compared column, named ``compared``
-    in messages, which start with '<source>, <what>: '."""
-    return friedman_holm(runs.assign(**{compared: list(labels)}), list(block), compared, ERROR,
+    """Friedman and Holm of the column ``value`` on ``runs`` with ``labels`` as the compared
+    column, named ``compared`` in messages, which start with '<source>, <what>: '."""
+    return friedman_holm(runs.assign(**{compared: list(labels)}), list(block), compared, value,
                          alpha=alpha, source=f"{source}, {what}")
 
 
-def _write_rankings(runs: pd.DataFrame, out: Path, name: str, caption: str,
-                    tests: list[tuple[dict, FriedmanHolm]], headers: list[str], compared: str,
-                    block, alpha: float, source: str) -> Outputs:
-    """Write a Yeguas-shaped table of ``tests`` (one group per header) and its data CSV."""
+def _write_rankings(runs: pd.DataFrame, out: Path, name: str, settings: str | None, value: str,
+                    caption: str, tests: list[tuple[dict, FriedmanHolm]], headers: list[str],
+                    compared: str, block, alpha: float, source: str) -> Outputs:
+    """Write a Yeguas-shaped table of ``tests`` (one group per header) and its data CSV, named
+    by :func:`table_stem`."""
     n = sorted({t.n_blocks for _, t in tests})
-    title = (f"Yeguas Table {name[-1]}: {caption}. Friedman ranks over {'/'.join(map(str, n))} "
-             f"blocks ({' x '.join(block)}), lower error ranked first; p: Holm vs the best-ranked, "
+    title = (f"Yeguas Table {name[-1]}" + (f" (settings={settings})" if settings else "")
+             + f": {caption}, ranked by {RANKINGS[value][1]}. Friedman ranks over {'/'.join(map(str, n))} "
+             f"blocks ({' x '.join(block)}), the lowest ranked first; p: Holm vs the best-ranked, "
              f"* significant at alpha = {alpha:g}")
     display = _ranking_groups([(h, t) for h, (_, t) in zip(headers, tests)], alpha)
+    data = _long_statistics(tests, compared)
+    data.insert(0, "ranked_by", value)
+    data.insert(0, "settings", settings)
     origin = describe_runs(runs, source)
-    return write_table(display, out / "tables" / name, title=title, source=origin) + [
-        write_csv(_long_statistics(tests, compared), out / "tables" / f"{name}_data.csv", origin)]
+    stem = out / "tables" / table_stem(name, settings, value)
+    return write_table(display, stem, title=title, source=origin) + [
+        write_csv(data, stem.with_name(f"{stem.name}_data.csv"), origin)]
 
 
-def yeguas_rankings(runs: pd.DataFrame, out: Path, *, name: str, dof: int, block=DEFAULT_BLOCK,
-                    alpha: float = 0.05, source: str = "runs") -> Outputs:
-    """Yeguas Table 4 (dof 39) or 5 (dof 28): the algorithms ranked at each budget."""
-    runs = checked(runs, ["optimizer", "strategy", "dof", "evaluations", ERROR, *block], source)
+def _each_variant(build: Callable[..., Outputs], runs: pd.DataFrame, out: Path, **options) -> Outputs:
+    """``build`` on the runs of each settings preset (:func:`settings_variants`), once for
+    each ranking of :data:`RANKINGS`."""
+    return [path for settings, group in settings_variants(runs) for value in RANKINGS
+            for path in build(group, out, settings=settings, value=value, **options)]
+
+
+def yeguas_rankings(runs: pd.DataFrame, out: Path, *, name: str, dof: int, value: str, settings: str | None,
+                    block=DEFAULT_BLOCK, alpha: float = 0.05, source: str = "runs") -> Outputs:
+    """Yeguas Table 4 (dof 39) or 5 (dof 28) of the runs of one settings preset (None: runs
+    that name none): the algorithms ranked by the column ``value`` (one of :data:`RANKINGS`)
+    at each budget."""
+    runs = checked(runs, ["optimizer", "strategy", "dof", "evaluations", value, *block], source)
+    stem = table_stem(name, settings, value)
     runs = runs[runs["dof"] == dof]
     if runs.empty:
-        raise DataError(f"{source}: no runs with dof = {dof} for {name}")
+        raise DataError(f"{source}: no runs with dof = {dof} for {stem}")
     tests = []
     for evaluations, group in runs.groupby("evaluations"):
         labels = [paper_label(o, s, dof, evaluations) for o, s in zip(group.optimizer, group.strategy)]
         tests.append(({"dof": dof, "evaluations": evaluations},
-                      _test(group, labels, block, alpha, source,
-                            f"{name} at {dof} DOF and {evaluations} evaluations")))
-    return _write_rankings(runs, out, name, f"{dof}-DOF model, the algorithms ranked per budget",
+                      _test(group, labels, value, block, alpha, source,
+                            f"{stem} at {dof} DOF and {evaluations} evaluations")))
+    return _write_rankings(runs, out, name, settings, value, f"{dof}-DOF model, the algorithms per budget",
                            tests, [f"{k['evaluations']} ev." for k, _ in tests], "algorithm",
                            block, alpha, source)
 
 
 def table4(runs, frames, out, **options) -> Outputs:
-    """Yeguas Table 4: the algorithms at 39 DOF."""
-    return yeguas_rankings(runs, out, name="table4", dof=39, **options)
+    """Yeguas Table 4: the algorithms at 39 DOF, per settings preset and ranking."""
+    return _each_variant(yeguas_rankings, runs, out, name="table4", dof=39, **options)
 
 
 def table5(runs, frames, out, **options) -> Outputs:
-    """Yeguas Table 5: the algorithms at 28 DOF."""
-    return yeguas_rankings(runs, out, name="table5", dof=28, **options)
+    """Yeguas Table 5: the algorithms at 28 DOF, per settings preset and ranking."""
+    return _each_variant(yeguas_rankings, runs, out, name="table5", dof=28, **options)
 
 
-def strategy_variants(runs: pd.DataFrame, out: Path, *, name: str, hierarchical: bool,
-                      block=DEFAULT_BLOCK, alpha: float = 0.05, source: str = "runs") -> Outputs:
-    """Yeguas Table 6 (hierarchical) or 7 (holistic): each algorithm's DOF x budget variants."""
-    runs = checked(runs, ["optimizer", "strategy", "dof", "evaluations", ERROR, *block], source)
+def strategy_variants(runs: pd.DataFrame, out: Path, *, name: str, hierarchical: bool, value: str,
+                      settings: str | None, block=DEFAULT_BLOCK, alpha: float = 0.05,
+                      source: str = "runs") -> Outputs:
+    """Yeguas Table 6 (hierarchical) or 7 (holistic) of the runs of one settings preset (None:
+    runs that name none): each algorithm's DOF x budget variants ranked by the column
+    ``value`` (one of :data:`RANKINGS`)."""
+    runs = checked(runs, ["optimizer", "strategy", "dof", "evaluations", value, *block], source)
+    stem = table_stem(name, settings, value)
     runs = runs[is_hierarchical(runs) == hierarchical]
     kind = "hierarchical" if hierarchical else "holistic"
     if runs.empty:
-        raise DataError(f"{source}: no {kind} runs for {name}")
+        raise DataError(f"{source}: no {kind} runs for {stem}")
     tests = []
     for optimizer, strategy in by_optimizer(zip(runs.optimizer, runs.strategy)):
         group = runs[(runs.optimizer == optimizer) & (runs.strategy == strategy)]
         labels = [paper_label(optimizer, strategy, d, e) for d, e in zip(group.dof, group.evaluations)]
         tests.append(({"algorithm": short_name(optimizer, strategy)},
-                      _test(group, labels, block, alpha, source,
-                            f"{name} for {short_name(optimizer, strategy)}", "variant")))
-    return _write_rankings(runs, out, name,
-                           f"{kind} approaches, each algorithm's DOF x evaluations variants ranked",
+                      _test(group, labels, value, block, alpha, source,
+                            f"{stem} for {short_name(optimizer, strategy)}", "variant")))
+    return _write_rankings(runs, out, name, settings, value,
+                           f"{kind} approaches, each algorithm's DOF x evaluations variants",
                            tests, [k["algorithm"] for k, _ in tests], "variant", block, alpha, source)
 
 
 def table6(runs, frames, out, **options) -> Outputs:
-    """Yeguas Table 6: hierarchical algorithms across DOF and budgets."""
-    return strategy_variants(runs, out, name="table6", hierarchical=True, **options)
+    """Yeguas Table 6: hierarchical algorithms across DOF and budgets, per settings preset and ranking."""
+    return _each_variant(strategy_variants, runs, out, name="table6", hierarchical=True, **options)
 
 
 def table7(runs, frames, out, **options) -> Outputs:
-    """Yeguas Table 7: holistic algorithms across DOF and budgets."""
-    return strategy_variants(runs, out, name="table7", hierarchical=False, **options)
+    """Yeguas Table 7: holistic algorithms across DOF and budgets, per settings preset and ranking."""
+    return _each_variant(strategy_variants, runs, out, name="table7", hierarchical=False, **options)
 
 
 def frame_errors(runs: pd.DataFrame, frames: pd.DataFrame | None, source: str) -> pd.DataFrame:
@@ -331,7 +383,7 @@ def cano_table3(runs, frames, out, *, block=DEFAULT_BLOCK, source: str = "runs",
     columns = [_configuration_label(v, e) for v, e in configurations.itertuples(index=False)]
     runs = runs.assign(configuration=[_configuration_label(v, e) for v, e in
                                       zip(runs.vertices, runs.evaluations)])
-    test = _test(runs, runs.configuration, block, 0.05, source, "cano_table3", "configuration")
+    test = _test(runs, runs.configuration, ERROR, block, 0.05, source, "cano_table3", "configuration")
     per_sequence = runs.pivot_table(index="sequence", columns="configuration", values=ERROR,
                                     aggfunc=overflow_free_mean)[columns]
     ranks = test.comparisons.set_index("algorithm")["rank"]

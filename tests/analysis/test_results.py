@@ -41,9 +41,11 @@ def summary_of(cfg, errors):
                 {"optimizer": cfg.optimizer.name, "evaluator": cfg.evaluator.name})}}
 
 
-def record_of(cfg, errors, search=2.0, evaluation=1.5, foreground=0.3):
-    frames = [{"frame": k, "marker_error_mm": e, "fitness": 0.1, "evaluations": 10, "seconds": 0.5,
-               "foreground_seconds": 0.1} for k, e in enumerate(errors)]
+def record_of(cfg, errors, search=2.0, evaluation=1.5, foreground=0.3, fitness=None):
+    """``fitness``: each frame's best fitness (0.1 each unless given)."""
+    fitness = [0.1] * len(errors) if fitness is None else fitness
+    frames = [{"frame": k, "marker_error_mm": e, "fitness": f, "evaluations": 10, "seconds": 0.5,
+               "foreground_seconds": 0.1} for k, (e, f) in enumerate(zip(errors, fitness))]
     return make_record(cfg, summary_of(cfg, errors), frames, search, evaluation, foreground, provenance.now(),
                        Path("run"))
 
@@ -58,6 +60,12 @@ def test_run_key_ignores_outputs_and_presentation_only():
     changed = {run_key(config(o)) for o in ("seed=1", "tracking.evaluations=500", "body.dof=28",
                                              "optimizer=pso", "dataset.action=boxing", "body.vertices=20544")}
     assert base not in changed and len(changed) == 6
+
+
+def test_the_settings_presets_name_does_not_enter_the_key_but_its_values_do():
+    # Fig. 7 names no preset and runs the optimisers' own values: it finds the tuned runs of Table 4
+    assert run_key(config("+experiment=table4", "settings=tuned")) == run_key(config("+experiment=fig7"))
+    assert run_key(config("+experiment=table4", "settings=paper")) != run_key(config("+experiment=fig7"))
 
 
 def test_scale_presets_do_not_enter_the_key_but_their_values_do():
@@ -167,22 +175,51 @@ def test_a_run_without_ground_truth_is_kept_empty_with_a_warning(tmp_path):
 
 def test_load_runs_gives_the_contract_tables(tmp_path):
     store = ResultsStore(tmp_path)
-    store.put(record_of(config("seed=0", "algorithm=cmaes-hierarchical", "+experiment=fig10"), [10.0, 30.0]))
-    store.put(record_of(config("seed=1", "body.dof=28", "evaluator=opencl"), [5.0, 7.0, 9.0]))
+    store.put(record_of(config("seed=0", "algorithm=cmaes-hierarchical", "+experiment=fig10"), [10.0, 30.0],
+                        fitness=[0.2, 0.4]))
+    store.put(record_of(config("seed=1", "body.dof=28", "evaluator=opencl", "+experiment=table4", "settings=paper"),
+                        [5.0, 7.0, 9.0], fitness=[0.1, 0.1, 0.4]))
     runs, frames = load_runs(tmp_path)
-    assert list(runs.columns[:16]) == [
-        "run_id", "subject", "action", "sequence", "seed", "optimizer", "strategy", "algorithm", "dof",
-        "evaluations", "vertices", "backend", "frames", "mean_marker_error_mm", "seconds_per_frame",
-        "evaluation_seconds_per_frame"]
+    assert list(runs.columns[:18]) == [
+        "run_id", "subject", "action", "sequence", "seed", "optimizer", "strategy", "algorithm", "settings", "dof",
+        "evaluations", "vertices", "backend", "frames", "mean_marker_error_mm", "mean_best_fitness",
+        "seconds_per_frame", "evaluation_seconds_per_frame"]
     assert runs["run_id"].is_unique and len(runs) == 2
-    first = runs.set_index("seed").loc[0]
+    first, second = runs.set_index("seed").loc[0], runs.set_index("seed").loc[1]
     assert first["algorithm"] == "cmaes-hierarchical" and first["sequence"] == "S1_walking"
     assert first["mean_marker_error_mm"] == 20.0 and first["frames"] == 2
-    assert runs.set_index("seed").loc[1, "backend"] == "opencl"
+    assert first["mean_best_fitness"] == pytest.approx(0.3) and second["mean_best_fitness"] == pytest.approx(0.2)
+    assert pd.isna(first["settings"]) and second["settings"] == "paper"  # fig10 names no preset
+    assert second["backend"] == "opencl"
     assert runs["dof"].dtype.kind == "i" and runs["seconds_per_frame"].dtype.kind == "f"
-    assert list(frames.columns) == ["run_id", "frame", "marker_error_mm"] and len(frames) == 5
+    assert list(frames.columns) == ["run_id", "frame", "marker_error_mm", "fitness"] and len(frames) == 5
     assert frames.groupby("run_id")["marker_error_mm"].mean().to_dict() == \
         runs.set_index("run_id")["mean_marker_error_mm"].to_dict()
+    assert frames.groupby("run_id")["fitness"].mean().to_dict() == \
+        pytest.approx(runs.set_index("run_id")["mean_best_fitness"].to_dict())
+
+
+@pytest.mark.parametrize("bad", [None, float("nan"), float("inf")])
+def test_a_frame_without_a_finite_fitness_empties_its_runs_mean_with_a_warning(tmp_path, bad):
+    store = ResultsStore(tmp_path)
+    gap = record_of(config("seed=1"), [4.0, 6.0], fitness=[0.1, bad])
+    store.put(gap)
+    store.put(record_of(config("seed=2"), [6.0], fitness=[0.3]))
+    with pytest.warns(MmocapWarning, match=rf"1 of 2 run\(s\) .* without a finite fitness .*{gap['run_id']}.json"):
+        runs, frames = load_runs(tmp_path)
+    by_seed = runs.set_index("seed")
+    assert np.isnan(by_seed.loc[1, "mean_best_fitness"])  # not 0.1, the mean of the frame that has one
+    assert by_seed.loc[1, "mean_marker_error_mm"] == 5.0 and by_seed.loc[2, "mean_best_fitness"] == 0.3
+    kept = frames[frames.run_id == gap["run_id"]]["fitness"].tolist()
+    assert kept[0] == 0.1 and not np.isfinite(kept[1])
+
+
+def test_a_frame_without_its_fitness_entry_is_named(tmp_path):
+    record = record_of(config(), [4.0, 6.0])
+    del record["frames"][1]["fitness"]
+    path = ResultsStore(tmp_path).put(record)
+    with pytest.raises(DataError, match=rf"{path} lacks frames\[1\].fitness; delete it"):
+        load_runs(tmp_path)
 
 
 def test_export_writes_csv_and_an_empty_store_is_an_error(tmp_path, capsys):
@@ -193,14 +230,15 @@ def test_export_writes_csv_and_an_empty_store_is_an_error(tmp_path, capsys):
     ResultsStore(tmp_path).put(record_of(config(), [4.0]))
     runs_csv, frames_csv = export(tmp_path)
     assert pd.read_csv(runs_csv)["mean_marker_error_mm"].tolist() == [4.0]
-    assert pd.read_csv(frames_csv).shape == (1, 3)
+    assert pd.read_csv(frames_csv).shape == (1, 4)
     assert run_cli("collect", *[str(tmp_path)]) == 0
 
 
 # Jobs per experiment and scale: the product of the sweep's value counts.
+# Tables 4-7 run each with both settings presets.
 JOBS = {
-    ("table4", "smoke"): 8 * 3 * 2, ("table4", "paper"): 8 * 3 * 9 * 30,
-    ("table6", "default"): 4 * 2 * 3 * 3 * 2, ("fig10", "paper"): 4,
+    ("table4", "smoke"): 2 * 8 * 3 * 2, ("table4", "paper"): 2 * 8 * 3 * 9 * 30,
+    ("table6", "default"): 2 * 4 * 2 * 3 * 3 * 2, ("fig10", "paper"): 4,
     ("cano_table3", "paper"): 3 * 4 * 6 * 10, ("fig4", "smoke"): 2 * 3 * 2 * 2,
 }
 

@@ -164,7 +164,8 @@ def good_record(**changes) -> dict:
                           "frames": 2, "mean_marker_error_mm": 15.0},
               "timings": {"seconds_per_frame": 0.5, "evaluation_seconds_per_frame": 0.4},
               "provenance": {"git_commit": "0" * 40, "host": "here"},
-              "frames": [{"frame": 0, "marker_error_mm": 10.0}, {"frame": 1, "marker_error_mm": 20.0}]}
+              "frames": [{"frame": 0, "marker_error_mm": 10.0, "fitness": 0.1},
+                         {"frame": 1, "marker_error_mm": 20.0, "fitness": 0.2}]}
     return {**record, **changes}
 
 
@@ -191,7 +192,7 @@ def test_collect_names_a_broken_record(tmp_path, case):
 
 def test_collect_keeps_a_run_without_ground_truth_empty_and_says_so(tmp_path):
     record = good_record(summary={**good_record()["summary"], "mean_marker_error_mm": None},
-                         frames=[{"frame": 0, "marker_error_mm": None}])
+                         frames=[{"frame": 0, "marker_error_mm": None, "fitness": 0.1}])
     store = store_with(tmp_path, record)
     outcome = mmocap("collect", store)
     assert outcome.code == 0, outcome
@@ -235,6 +236,7 @@ def sweep_with(tmp_path, change=lambda runs: runs, scale: float = 1.0, name: str
                                          strategy="holistic", algorithm=f"{optimizer}-holistic", dof=39,
                                          evaluations=150, vertices=vertices, backend=backend,
                                          mean_marker_error_mm=scale * (10 + k + seed / 10 + vertices / 1e4),
+                                         mean_best_fitness=0.1 + k / 100,
                                          seconds_per_frame=scale * (speed * vertices / 1000)))
     folder = tmp_path / name
     folder.mkdir()

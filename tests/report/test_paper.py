@@ -1,5 +1,6 @@
 """The papers' tables and figures from small hand-made runs/frames tables (the contract's
-columns), with errors chosen so that every rank is known in advance."""
+columns), with errors and fitness chosen so that every rank is known in advance, and so that
+the two rank the algorithms differently."""
 import numpy as np
 import pandas as pd
 import pytest
@@ -15,6 +16,9 @@ SEEDS = [0, 1]
 ALGORITHMS = {("cmaes", "hierarchical"): 10.0, ("cmaes", "holistic"): 12.0, ("de", "holistic"): 15.0,
               ("apf", "holistic"): 30.0, ("psapf", "holistic"): 35.0}
 SWAPPED_BLOCK = ("S1_boxing", 1)  # there holistic CMA-ES beats hierarchical CMA-ES
+# base mean best fitness per algorithm: every block ranks them in this order, not the errors'
+FITNESS = {("de", "holistic"): 0.10, ("cmaes", "holistic"): 0.12, ("cmaes", "hierarchical"): 0.14,
+           ("psapf", "holistic"): 0.20, ("apf", "holistic"): 0.25}
 
 
 def run_error(optimizer, strategy, dof, evaluations, sequence, seed):
@@ -25,7 +29,15 @@ def run_error(optimizer, strategy, dof, evaluations, sequence, seed):
     return error + 0.1 * seed
 
 
-def make_sweep(vertices=(3000,), backends=("numpy",), algorithms=ALGORITHMS, dofs=(39, 28)):
+def run_fitness(optimizer, strategy, dof, evaluations, seed, fitness=FITNESS):
+    """Base fitness, -0.01 at 28 DOF (unlike the error), -0.02 at 450 evaluations, +0.001 per seed."""
+    return fitness[optimizer, strategy] - (0.01 if dof == 28 else 0.0) - (0.02 if evaluations == 450 else 0.0) \
+        + 0.001 * seed
+
+
+def make_sweep(vertices=(3000,), backends=("numpy",), algorithms=ALGORITHMS, dofs=(39, 28), settings=None,
+               fitness=FITNESS):
+    """Runs and frames tables; ``settings``: the preset every run names (None: no such column)."""
     runs, frames = [], []
     for (optimizer, strategy) in algorithms:
         for dof in dofs:
@@ -36,18 +48,21 @@ def make_sweep(vertices=(3000,), backends=("numpy",), algorithms=ALGORITHMS, dof
                             for seed in SEEDS:
                                 error = run_error(optimizer, strategy, dof, evaluations, sequence, seed)
                                 error += 5.0 * (v == 2000)
-                                run_id = f"r{len(runs):03d}"
+                                best = run_fitness(optimizer, strategy, dof, evaluations, seed, fitness)
+                                run_id = f"{settings or 'r'}{len(runs):03d}"
                                 per_frame = error + np.array([-1.0, 0.0, 1.0])
                                 runs.append(dict(
                                     run_id=run_id, subject=sequence[:2], action=sequence[3:],
                                     sequence=sequence, seed=seed, optimizer=optimizer, strategy=strategy,
                                     algorithm=f"{optimizer}-{strategy}", dof=dof, evaluations=evaluations,
                                     vertices=v, backend=backend, frames=3, mean_marker_error_mm=error,
+                                    mean_best_fitness=best,
                                     seconds_per_frame=evaluations * v / 1e6 * (0.1 if backend == "opencl" else 1.0),
                                     evaluation_seconds_per_frame=np.nan))
-                                frames += [dict(run_id=run_id, frame=f, marker_error_mm=e)
+                                frames += [dict(run_id=run_id, frame=f, marker_error_mm=e, fitness=best)
                                            for f, e in enumerate(per_frame)]
-    return pd.DataFrame(runs), pd.DataFrame(frames)
+    runs = pd.DataFrame(runs)
+    return (runs if settings is None else runs.assign(settings=settings)), pd.DataFrame(frames)
 
 
 @pytest.fixture
@@ -64,14 +79,33 @@ def read(path):
     return pd.read_csv(path, comment="#")
 
 
-def test_table4_ranks_and_holm(sweep, tmp_path):
+def test_table4_ranks_by_fitness_as_the_paper(sweep, tmp_path):
     out = tmp_path / "out"
     assert run_cli("paper", *["table4", str(sweep), "--out", str(out)]) == 0
     tables = out / "tables"
     assert (tables / "table4.csv").read_text().startswith("# mmocap ")  # provenance
     assert (tables / "table4.tex").read_text().startswith("% mmocap ")
-    assert (tables / "table4.md").read_text().splitlines()[2].startswith("_mmocap ")
-    data = read(out / "tables" / "table4_data.csv")
+    markdown = (tables / "table4.md").read_text()
+    assert "ranked by mean best fitness" in markdown.splitlines()[0] and markdown.splitlines()[2].startswith("_mmocap ")
+    data = read(tables / "table4_data.csv")
+    assert set(data.ranked_by) == {"mean_best_fitness"} and data.settings.isna().all()
+    # every block: DE, CMAES, H-CMAES, PSAPF, APF (the errors rank H-CMAES first, DE third)
+    for evaluations in (150, 450):
+        ranks = data[data.evaluations == evaluations].set_index("algorithm")["rank"]
+        assert ranks.to_dict() == {f"{a}(39,{evaluations})": float(r) for r, a in
+                                   enumerate(["DE", "CMAES", "H-CMAES", "PSAPF", "APF"], 1)}
+    display = read(tables / "table4.csv")
+    assert display["Algorithm (150 ev.)"].tolist()[:5] == [
+        "DE(39,150)", "CMAES(39,150)", "H-CMAES(39,150)", "PSAPF(39,150)", "APF(39,150)"]
+
+
+def test_table4_ranks_the_marker_error_second(sweep, tmp_path):
+    out = tmp_path / "out"
+    assert run_cli("paper", *["table4", str(sweep), "--out", str(out)]) == 0
+    tables = out / "tables"
+    assert "ranked by mean marker error (mm)" in (tables / "table4_marker_error.md").read_text().splitlines()[0]
+    data = read(out / "tables" / "table4_marker_error_data.csv")
+    assert set(data.ranked_by) == {"mean_marker_error_mm"}
     assert set(data.dof) == {39} and set(data.evaluations) == {150, 450}
     at150 = data[data.evaluations == 150].set_index("algorithm")
     # 4 blocks; H-CMAES first in 3, second in 1; CMAES the reverse; then DE, APF, PSAPF
@@ -83,7 +117,7 @@ def test_table4_ranks_and_holm(sweep, tmp_path):
     se = np.sqrt(5 * 6 / (6 * 4))
     assert at150.loc["PSAPF(39,150)", "z"] == pytest.approx(3.75 / se)
     assert at150["holm_alpha"].dropna().tolist() == pytest.approx([0.05, 0.025, 0.05 / 3, 0.0125])
-    display = read(out / "tables" / "table4.csv")
+    display = read(out / "tables" / "table4_marker_error.csv")
     assert display.columns[:3].tolist() == ["Algorithm (150 ev.)", "Rank (150 ev.)", "p-value (150 ev.)"]
     assert display["Algorithm (150 ev.)"].tolist()[-1] == "Fried. Stat."
     assert display["Holm"].tolist()[1:5] == [0.05, 0.025, 0.017, 0.013]
@@ -92,13 +126,13 @@ def test_table4_ranks_and_holm(sweep, tmp_path):
     for label, row in significant.iterrows():  # the display marks exactly Holm's rejections
         shown = display.loc[display["Algorithm (150 ev.)"] == label, "p-value (150 ev.)"].item()
         assert shown.endswith("*") == row.significant
-    assert r"\toprule" in (out / "tables" / "table4.tex").read_text()
+    assert r"\toprule" in (out / "tables" / "table4_marker_error.tex").read_text()
 
 
 def test_table5_uses_28_dof_and_block_sequence_averages_seeds(sweep, tmp_path):
     out = tmp_path / "out"
     assert run_cli("paper", *["table5", str(sweep), "--out", str(out), "--block", "sequence"]) == 0
-    data = read(out / "tables" / "table5_data.csv")
+    data = read(out / "tables" / "table5_marker_error_data.csv")
     assert set(data.dof) == {28} and (data.n_blocks == 2).all()
     at450 = data[data.evaluations == 450].set_index("algorithm")["rank"]
     # the seeds' means: H-CMAES 9.05 mm and CMAES 11.05 in S1_walking, but 10.55 and 9.55 in
@@ -110,16 +144,45 @@ def test_tables6_and_7_group_hierarchical_and_holistic(sweep, tmp_path):
     out = tmp_path / "out"
     assert run_cli("paper", *["table6", str(sweep), "--out", str(out)]) == 0
     assert run_cli("paper", *["table7", str(sweep), "--out", str(out)]) == 0
-    six = read(out / "tables" / "table6_data.csv")
-    seven = read(out / "tables" / "table7_data.csv")
+    six = read(out / "tables" / "table6_marker_error_data.csv")
+    seven = read(out / "tables" / "table7_marker_error_data.csv")
     assert list(six.algorithm.unique()) == ["H-CMAES", "PSAPF"]  # PSAPF searches by parts
     assert list(seven.algorithm.unique()) == ["CMAES", "DE", "APF"]
     de = seven[seven.algorithm == "DE"]
-    # every block: (39,450) < (28,450) < (39,150) < (28,150)
+    # every block's error: (39,450) < (28,450) < (39,150) < (28,150)
     assert de["rank"].tolist() == [1.0, 2.0, 3.0, 4.0]
     assert de["variant"].tolist() == ["DE(39,450)", "DE(28,450)", "DE(39,150)", "DE(28,150)"]
+    # and its fitness: (28,450) < (39,450) < (28,150) < (39,150)
+    de = read(out / "tables" / "table7_data.csv").query("algorithm == 'DE'")
+    assert de["variant"].tolist() == ["DE(28,450)", "DE(39,450)", "DE(28,150)", "DE(39,150)"]
+    assert de["rank"].tolist() == [1.0, 2.0, 3.0, 4.0]
     display = read(out / "tables" / "table7.csv")
     assert display.columns.tolist()[:3] == ["Algorithm (CMAES)", "Rank (CMAES)", "p-value (CMAES)"]
+    assert (out / "tables" / "table6.md").is_file()
+
+
+def test_each_settings_preset_is_ranked_apart_and_labelled(tmp_path):
+    # the paper's settings rank DE first by fitness; mmocap's tuned ones APF (its fitness the lowest)
+    tuned_fitness = {**FITNESS, ("apf", "holistic"): 0.05}
+    paper_runs, paper_frames = make_sweep(settings="paper")
+    tuned_runs, tuned_frames = make_sweep(settings="tuned", fitness=tuned_fitness)
+    unnamed_runs, _ = make_sweep()
+    folder = tmp_path / "sweep"
+    folder.mkdir()
+    pd.concat([tuned_runs, paper_runs, unnamed_runs]).to_csv(folder / "runs.csv", index=False)
+    written, _ = paper.make(["table4"], folder, tmp_path / "out")
+    tables = tmp_path / "out" / "tables"
+    stems = ["table4_paper", "table4_paper_marker_error", "table4_tuned", "table4_tuned_marker_error",
+             "table4", "table4_marker_error"]  # the paper's first, the runs that name no preset last
+    assert [p.name for p in written if p.suffix == ".md"] == [f"{stem}.md" for stem in stems]
+    assert "Yeguas Table 4 (settings=paper): " in (tables / "table4_paper.md").read_text()
+    assert "Yeguas Table 4 (settings=tuned): " in (tables / "table4_tuned_marker_error.md").read_text()
+    first = {stem: read(tables / f"{stem}.csv")["Algorithm (150 ev.)"].iloc[0] for stem in stems}
+    assert first == {"table4_paper": "DE(39,150)", "table4_tuned": "APF(39,150)", "table4": "DE(39,150)",
+                     **{f"{stem}_marker_error": "H-CMAES(39,150)" for stem in ("table4_paper", "table4_tuned",
+                                                                                "table4")}}
+    data = read(tables / "table4_tuned_data.csv")
+    assert set(data.settings) == {"tuned"} and (data.n_blocks == 4).all()  # the other presets' runs left out
 
 
 def test_cano_table3_values_and_ranks(tmp_path):
@@ -190,6 +253,7 @@ def test_all_makes_what_it_can_and_names_the_rest(sweep, tmp_path, capsys):
     assert "skipped cano_table3: " in out
     for name in ("table4", "table5", "table6", "table7"):
         assert (tmp_path / "out" / "tables" / f"{name}.md").is_file()
+        assert (tmp_path / "out" / "tables" / f"{name}_marker_error.md").is_file()
 
 
 @pytest.mark.parametrize("damage, message", [
@@ -199,7 +263,10 @@ def test_all_makes_what_it_can_and_names_the_rest(sweep, tmp_path, capsys):
      "table4 at 39 DOF and 150 evaluations: the Friedman test needs at least 3 values of 'algorithm', "
      "got 2: CMAES(39,150), H-CMAES(39,150)"),
     (lambda runs: runs.assign(mean_marker_error_mm=runs.mean_marker_error_mm.where(runs.index != 0, np.nan)),
-     "NaN or infinite"),
+     "table4_marker_error at 39 DOF and 150 evaluations: column 'mean_marker_error_mm' holds 1 NaN or infinite"),
+    (lambda runs: runs.assign(mean_best_fitness=runs.mean_best_fitness.where(runs.index != 0, np.nan)),
+     "table4 at 39 DOF and 150 evaluations: column 'mean_best_fitness' holds 1 NaN or infinite"),
+    (lambda runs: runs.drop(columns="mean_best_fitness"), "missing column(s) 'mean_best_fitness'"),
 ])
 def test_bad_runs_exit_2_with_one_line(sweep, tmp_path, capsys, damage, message):
     runs = damage(read(sweep / "runs.csv"))
