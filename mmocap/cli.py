@@ -156,6 +156,7 @@ SUBCOMMANDS = {
                      "write a sequence folder as a user's recording (OpenCV YAML calibration, MP4 videos)"),
     "export": (_main_of("mmocap.report.export"), "a finished run's motion as TRC, C3D, BVH and CSV files"),
     "collect": (_main_of("mmocap.analysis.results"), "write runs.csv and frames.csv of a sweep folder"),
+    "ioh": (_main_of("mmocap.report.ioh"), "the runs' per-frame convergence traces for IOHanalyzer"),
     "summaries": (_main_of("mmocap.report.summaries"), "table of the run summaries below a folder"),
     "stats": (_main_of("mmocap.report.stats"), "Friedman test and Holm's comparisons on a table of results"),
     "paper": (_main_of("mmocap.report.paper"), "make a paper table or figure from a sweep's runs.csv"),

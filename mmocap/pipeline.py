@@ -1,7 +1,8 @@
 """The main job: build every stage from the config, track a sequence, write the results.
 
 Outputs in ``output_dir``: ``frames.csv`` (one row per frame, written as it goes),
-``error_per_frame.png``, ``overlays/*.png`` and ``summary.json``; and the run's record in
+``traces.csv`` (each frame's convergence: :mod:`mmocap.report.ioh`), ``error_per_frame.png``,
+``overlays/*.png`` and ``summary.json``; and the run's record in
 the results store (:mod:`mmocap.analysis.results`). A run whose record is already in the
 store, or in one of ``results.reuse``, is not run again.
 
@@ -39,6 +40,7 @@ from mmocap.evaluators.timed import TimedEvaluator
 from mmocap.io import LockBusy, exclusive, locked, write_image, write_json_atomic, writing
 from mmocap.preflight import check_config
 from mmocap.report.export import EXPORT_FOLDER, export_motion, exported_files, read_poses
+from mmocap.report.ioh import TRACES, write_traces
 from mmocap.report.videos import run_video_files, write_run_videos
 from mmocap.stages.evaluation import FrameLog, marker_error
 from mmocap.stages.foreground import Foreground
@@ -49,7 +51,7 @@ log = logging.getLogger(__name__)
 #: the lock file a run holds in its folder
 RUN_LOCK = ".run.lock"
 #: the files a run writes into its folder (besides ``overlays/*.png``)
-RUN_OUTPUTS = ("frames.csv", "frames.csv.partial", "error_per_frame.png", "summary.json")
+RUN_OUTPUTS = ("frames.csv", "frames.csv.partial", TRACES, "error_per_frame.png", "summary.json")
 
 
 @contextmanager
@@ -176,6 +178,7 @@ def _run(cfg: DictConfig, output_dir: Path, warning_messages: list[str]) -> dict
     finally:
         bar.close()
     frame_log.close()
+    write_traces(output_dir / TRACES, results)
     search_seconds = sum(r.seconds for r in results)
     foreground_seconds = sum(r.foreground_seconds for r in results)
     export_motion(output_dir / EXPORT_FOLDER, cfg.export, body, read_poses(output_dir / "frames.csv"), sequence.fps)

@@ -12,7 +12,8 @@ key), ``run_dir_busy``, Hydra's own settings).
 
 - ``runs``: one row per run: run_id, subject, action, sequence, seed, optimizer, strategy,
   algorithm (``"<optimizer>-<strategy>"``), settings (the optimiser settings preset the run
-  named, ``paper`` or ``tuned`` (``conf/settings/``), empty if none), dof, evaluations (per
+  named, ``paper`` or ``tuned`` (``conf/settings/``), empty if none), realism (the synthetic
+  data's ``realism`` level, ``conf/realism/``; empty for other datasets), dof, evaluations (per
   frame), vertices, backend, frames, mean_marker_error_mm, mean_best_fitness (the mean over
   the frames of each frame's best silhouette fitness, Yeguas Eq. 5: in [0, 1], 0 = the model
   covers the foreground exactly), seconds_per_frame (wall time of the search, the foreground
@@ -49,7 +50,7 @@ NOT_IN_KEY = ("hydra", "progress", "overlays", "results", "scale", "settings", "
               "run_dir_busy", "evaluation", "export", "video")
 
 RUN_COLUMNS = ["run_id", "subject", "action", "sequence", "seed", "optimizer", "strategy",
-               "algorithm", "settings", "dof", "evaluations", "vertices", "backend", "frames",
+               "algorithm", "settings", "realism", "dof", "evaluations", "vertices", "backend", "frames",
                "mean_marker_error_mm", "mean_best_fitness", "seconds_per_frame",
                "evaluation_seconds_per_frame", "start", "start_seconds", "git_commit", "host"]
 FRAME_COLUMNS = ["run_id", "frame", "marker_error_mm", "fitness"]
@@ -241,12 +242,15 @@ def run_row(record: dict, source: str = "record") -> dict:
     start = s.get("start") if isinstance(s.get("start"), dict) else {}  # records before the automatic start
     config = record.get("config")
     settings = config.get("settings") if isinstance(config, dict) else None
+    dataset = config.get("dataset") if isinstance(config, dict) else None
+    realism = dataset.get("realism") if isinstance(dataset, dict) else None
     return {
         "run_id": record["run_id"], "subject": s["subject"], "action": s["action"],
         "sequence": f"{s['subject']}_{s['action']}", "seed": int(record["seed"]),
         "optimizer": s["optimizer"], "strategy": s["strategy"],
         "algorithm": f"{s['optimizer']}-{s['strategy']}",
-        "settings": settings.get("name") if isinstance(settings, dict) else None, "dof": int(s["dof"]),
+        "settings": settings.get("name") if isinstance(settings, dict) else None,
+        "realism": realism.get("name") if isinstance(realism, dict) else None, "dof": int(s["dof"]),
         "evaluations": int(s["evaluations_per_frame"]), "vertices": int(s["vertices"]),
         "backend": s["backend"], "frames": int(s["frames"]),
         "mean_marker_error_mm": _number(s["mean_marker_error_mm"]),

@@ -162,6 +162,13 @@ def calibrated(camera: Camera, realism: Realism, rng: np.random.Generator) -> tu
     return seen, errors
 
 
+def reprojection_px(true: Camera, seen: Camera, points_mm: np.ndarray) -> float:
+    """RMS distance, pixels, between the projections of world points (n, 3) mm through the
+    true camera and through the calibrated one: what a calibration's reprojection check
+    would show at the person."""
+    return float(np.sqrt(np.mean(np.sum((true.project(points_mm) - seen.project(points_mm)) ** 2, axis=1))))
+
+
 def time_offsets(cameras: int, realism: Realism, rng: np.random.Generator) -> np.ndarray:
     """(cameras,) each camera's shutter offset from the mocap clock, frames."""
     return rng.uniform(-realism.sync_frames, realism.sync_frames, cameras)

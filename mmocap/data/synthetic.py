@@ -223,8 +223,9 @@ def generate(root, subject: str = "S1", action: str = "walking", frames: int = 6
                 "x0": poses[0].tolist(), "units": {"length": "mm", "angle": "rad"},
                 "generator": {**settings, "digest": settings_digest(settings)},
                 "realism": {
-                    "cameras": {cam.name: {**errors, "time_offset_frames": float(offset)}
-                                for cam, (_, errors), offset in zip(cams, calibrations, offsets_frames)},
+                    "cameras": {cam.name: {**errors, "time_offset_frames": float(offset),
+                                           "reprojection_px": realism_draws.reprojection_px(cam, seen, markers[0])}
+                                for cam, (seen, errors), offset in zip(cams, calibrations, offsets_frames)},
                 },
             }
             # Written last: a folder without it is an interrupted generation and is redone.

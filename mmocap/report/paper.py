@@ -30,9 +30,11 @@ Tables 4-7 rank what the paper ranks (Sec. 5.4: "the averaged position of its be
 solutions' fitness"): ``mean_best_fitness``, each frame's best silhouette fitness (Eq. 5, in
 [0, 1], 0 = perfect) averaged over the run's frames, in ``NAME.*``; the ranking of the mean
 marker error follows in ``NAME_marker_error.*`` (:data:`RANKINGS`). The runs of each
-optimiser settings preset (column ``settings``: ``paper``, Yeguas Table 3, and ``tuned``,
-mmocap's defaults; ``conf/settings/``) are ranked apart, their files named
-``NAME_<settings>``, e.g. ``table4_paper.md`` and ``table4_tuned_marker_error.md``.
+variant are ranked apart: the data's realism (column ``realism``: ``realistic`` or ``exact``,
+``conf/realism/``) and the optimiser settings preset (column ``settings``: ``paper``, Yeguas
+Table 3, and ``tuned``, mmocap's defaults; ``conf/settings/``), their files named
+``NAME_<realism>_<settings>``, e.g. ``table4_realistic_paper.md`` and
+``table4_exact_tuned_marker_error.md``.
 """
 from __future__ import annotations
 
@@ -122,23 +124,44 @@ def checked(runs: pd.DataFrame, columns: list[str], source: str) -> pd.DataFrame
     return runs.assign(**{c: whole_numbers(runs, c, source) for c in columns if c in WHOLE_NUMBER_COLUMNS})
 
 
-def settings_variants(runs: pd.DataFrame) -> list[tuple[str | None, pd.DataFrame]]:
-    """The runs of each optimiser settings preset (column ``settings``), ``paper`` (Yeguas
-    Table 3) first, then the others by name, then the runs that name none (None: empty cells,
-    or a runs.csv without the column)."""
-    if "settings" not in runs:
-        return [(None, runs)]
-    empty = runs["settings"].isna()
-    names = runs["settings"].astype(str)
-    named = sorted(set(names[~empty]), key=lambda name: (name != "paper", name))
-    variants = [(name, runs[~empty & (names == name)]) for name in named]
-    return variants + ([(None, runs[empty])] if empty.any() else [])
+#: the columns of runs.csv whose values are ranked apart (a run's variant), in file-name order,
+#: each with the value that comes first: the realism of the data, then the optimiser settings
+VARIANT_COLUMNS = {"realism": "realistic", "settings": "paper"}
 
 
-def table_stem(name: str, settings: str | None, value: str) -> str:
-    """The file name of a ranking table: 'table4', 'paper', FITNESS -> 'table4_paper';
-    'table4', 'tuned', ERROR -> 'table4_tuned_marker_error'."""
-    return name + (f"_{settings}" if settings else "") + RANKINGS[value][0]
+def variants(runs: pd.DataFrame) -> list[tuple[dict, pd.DataFrame]]:
+    """The runs of each variant: each combination of the :data:`VARIANT_COLUMNS` values
+    present (``realistic`` data before the others, ``paper`` settings before the others, then
+    by name), as ``({column: value}, runs)``; a column missing from runs.csv, or an empty cell,
+    is left out of the variant (runs that name no settings preset, a real dataset)."""
+    present = [c for c in VARIANT_COLUMNS if c in runs]
+    if not present:
+        return [({}, runs)]
+    cells = runs[present].astype(object).where(runs[present].notna(), None)
+    keys = {tuple(row) for row in cells.itertuples(index=False)}
+
+    def order(key):
+        return [(value is None, value != VARIANT_COLUMNS[c], str(value)) for c, value in zip(present, key)]
+
+    out = []
+    for key in sorted(keys, key=order):
+        chosen = np.ones(len(runs), bool)
+        for column, value in zip(present, key):
+            chosen &= (cells[column] == value).to_numpy() if value is not None else cells[column].isna().to_numpy()
+        out.append(({c: v for c, v in zip(present, key) if v is not None}, runs[chosen]))
+    return out
+
+
+def table_stem(name: str, variant: dict, value: str) -> str:
+    """The file name of a ranking table: 'table4', {'realism': 'realistic', 'settings':
+    'paper'}, FITNESS -> 'table4_realistic_paper'; 'table4', {'settings': 'tuned'}, ERROR ->
+    'table4_tuned_marker_error'."""
+    return "_".join([name, *variant.values()]) + RANKINGS[value][0]
+
+
+def variant_words(variant: dict) -> str:
+    """' (realism=realistic, settings=paper)', or '' for no variant."""
+    return f" ({', '.join(f'{k}={v}' for k, v in variant.items())})" if variant else ""
 
 
 def _mark(p: float, significant: bool) -> str:
@@ -188,40 +211,40 @@ def _test(runs: pd.DataFrame, labels, value: str, block, alpha: float, source: s
                          alpha=alpha, source=f"{source}, {what}")
 
 
-def _write_rankings(runs: pd.DataFrame, out: Path, name: str, settings: str | None, value: str,
+def _write_rankings(runs: pd.DataFrame, out: Path, name: str, variant: dict, value: str,
                     caption: str, tests: list[tuple[dict, FriedmanHolm]], headers: list[str],
                     compared: str, block, alpha: float, source: str) -> Outputs:
     """Write a Yeguas-shaped table of ``tests`` (one group per header) and its data CSV, named
     by :func:`table_stem`."""
     n = sorted({t.n_blocks for _, t in tests})
-    title = (f"Yeguas Table {name[-1]}" + (f" (settings={settings})" if settings else "")
+    title = (f"Yeguas Table {name[-1]}" + variant_words(variant)
              + f": {caption}, ranked by {RANKINGS[value][1]}. Friedman ranks over {'/'.join(map(str, n))} "
              f"blocks ({' x '.join(block)}), the lowest ranked first; p: Holm vs the best-ranked, "
              f"* significant at alpha = {alpha:g}")
     display = _ranking_groups([(h, t) for h, (_, t) in zip(headers, tests)], alpha)
     data = _long_statistics(tests, compared)
     data.insert(0, "ranked_by", value)
-    data.insert(0, "settings", settings)
+    for column in reversed(VARIANT_COLUMNS):
+        data.insert(0, column, variant.get(column))
     origin = describe_runs(runs, source)
-    stem = out / "tables" / table_stem(name, settings, value)
+    stem = out / "tables" / table_stem(name, variant, value)
     return write_table(display, stem, title=title, source=origin) + [
         write_csv(data, stem.with_name(f"{stem.name}_data.csv"), origin)]
 
 
 def _each_variant(build: Callable[..., Outputs], runs: pd.DataFrame, out: Path, **options) -> Outputs:
-    """``build`` on the runs of each settings preset (:func:`settings_variants`), once for
-    each ranking of :data:`RANKINGS`."""
-    return [path for settings, group in settings_variants(runs) for value in RANKINGS
-            for path in build(group, out, settings=settings, value=value, **options)]
+    """``build`` on the runs of each variant (:func:`variants`), once for each ranking of
+    :data:`RANKINGS`."""
+    return [path for variant, group in variants(runs) for value in RANKINGS
+            for path in build(group, out, variant=variant, value=value, **options)]
 
 
-def yeguas_rankings(runs: pd.DataFrame, out: Path, *, name: str, dof: int, value: str, settings: str | None,
+def yeguas_rankings(runs: pd.DataFrame, out: Path, *, name: str, dof: int, value: str, variant: dict,
                     block=DEFAULT_BLOCK, alpha: float = 0.05, source: str = "runs") -> Outputs:
-    """Yeguas Table 4 (dof 39) or 5 (dof 28) of the runs of one settings preset (None: runs
-    that name none): the algorithms ranked by the column ``value`` (one of :data:`RANKINGS`)
-    at each budget."""
+    """Yeguas Table 4 (dof 39) or 5 (dof 28) of the runs of one variant (:func:`variants`):
+    the algorithms ranked by the column ``value`` (one of :data:`RANKINGS`) at each budget."""
     runs = checked(runs, ["optimizer", "strategy", "dof", "evaluations", value, *block], source)
-    stem = table_stem(name, settings, value)
+    stem = table_stem(name, variant, value)
     runs = runs[runs["dof"] == dof]
     if runs.empty:
         raise DataError(f"{source}: no runs with dof = {dof} for {stem}")
@@ -231,29 +254,29 @@ def yeguas_rankings(runs: pd.DataFrame, out: Path, *, name: str, dof: int, value
         tests.append(({"dof": dof, "evaluations": evaluations},
                       _test(group, labels, value, block, alpha, source,
                             f"{stem} at {dof} DOF and {evaluations} evaluations")))
-    return _write_rankings(runs, out, name, settings, value, f"{dof}-DOF model, the algorithms per budget",
+    return _write_rankings(runs, out, name, variant, value, f"{dof}-DOF model, the algorithms per budget",
                            tests, [f"{k['evaluations']} ev." for k, _ in tests], "algorithm",
                            block, alpha, source)
 
 
 def table4(runs, frames, out, **options) -> Outputs:
-    """Yeguas Table 4: the algorithms at 39 DOF, per settings preset and ranking."""
+    """Yeguas Table 4: the algorithms at 39 DOF, per variant and ranking."""
     return _each_variant(yeguas_rankings, runs, out, name="table4", dof=39, **options)
 
 
 def table5(runs, frames, out, **options) -> Outputs:
-    """Yeguas Table 5: the algorithms at 28 DOF, per settings preset and ranking."""
+    """Yeguas Table 5: the algorithms at 28 DOF, per variant and ranking."""
     return _each_variant(yeguas_rankings, runs, out, name="table5", dof=28, **options)
 
 
 def strategy_variants(runs: pd.DataFrame, out: Path, *, name: str, hierarchical: bool, value: str,
-                      settings: str | None, block=DEFAULT_BLOCK, alpha: float = 0.05,
+                      variant: dict, block=DEFAULT_BLOCK, alpha: float = 0.05,
                       source: str = "runs") -> Outputs:
-    """Yeguas Table 6 (hierarchical) or 7 (holistic) of the runs of one settings preset (None:
-    runs that name none): each algorithm's DOF x budget variants ranked by the column
-    ``value`` (one of :data:`RANKINGS`)."""
+    """Yeguas Table 6 (hierarchical) or 7 (holistic) of the runs of one variant
+    (:func:`variants`): each algorithm's DOF x budget variants ranked by the column ``value``
+    (one of :data:`RANKINGS`)."""
     runs = checked(runs, ["optimizer", "strategy", "dof", "evaluations", value, *block], source)
-    stem = table_stem(name, settings, value)
+    stem = table_stem(name, variant, value)
     runs = runs[is_hierarchical(runs) == hierarchical]
     kind = "hierarchical" if hierarchical else "holistic"
     if runs.empty:
@@ -265,18 +288,18 @@ def strategy_variants(runs: pd.DataFrame, out: Path, *, name: str, hierarchical:
         tests.append(({"algorithm": short_name(optimizer, strategy)},
                       _test(group, labels, value, block, alpha, source,
                             f"{stem} for {short_name(optimizer, strategy)}", "variant")))
-    return _write_rankings(runs, out, name, settings, value,
+    return _write_rankings(runs, out, name, variant, value,
                            f"{kind} approaches, each algorithm's DOF x evaluations variants",
                            tests, [k["algorithm"] for k, _ in tests], "variant", block, alpha, source)
 
 
 def table6(runs, frames, out, **options) -> Outputs:
-    """Yeguas Table 6: hierarchical algorithms across DOF and budgets, per settings preset and ranking."""
+    """Yeguas Table 6: hierarchical algorithms across DOF and budgets, per variant and ranking."""
     return _each_variant(strategy_variants, runs, out, name="table6", hierarchical=True, **options)
 
 
 def table7(runs, frames, out, **options) -> Outputs:
-    """Yeguas Table 7: holistic algorithms across DOF and budgets, per settings preset and ranking."""
+    """Yeguas Table 7: holistic algorithms across DOF and budgets, per variant and ranking."""
     return _each_variant(strategy_variants, runs, out, name="table7", hierarchical=False, **options)
 
 

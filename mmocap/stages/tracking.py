@@ -13,9 +13,10 @@ joint names that together name each of the 16 joints once ("Root" includes the t
 """
 from __future__ import annotations
 
+import math
 import time
 from abc import ABC, abstractmethod
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -42,7 +43,11 @@ class FrameResult:
     """Outcome of one frame: pose (51,) in mm/rad, its fitness, evaluations, ``seconds`` of
     wall time spent searching (the evaluator's setup on the frame's masks, the strategy's
     searches, a recovery), and ``foreground_seconds`` spent reading the frame's foreground
-    (the images and their background subtraction on a mask-cache miss, a file on a hit)."""
+    (the images and their background subtraction on a mask-cache miss, a file on a hit).
+
+    ``trace`` (k, 2) float64 is the frame's convergence (:meth:`Trace.rows`): rows
+    (evaluations, best fitness so far), the last at ``evaluations`` and, since every built-in
+    optimiser reports the best candidate it evaluated, at ``fitness``."""
 
     frame: int
     pose: np.ndarray
@@ -50,6 +55,41 @@ class FrameResult:
     evaluations: int
     seconds: float
     foreground_seconds: float = 0.0
+    trace: np.ndarray = field(default_factory=lambda: np.empty((0, 2)))
+
+
+class Trace:
+    """An evaluator wrapper that records one frame's convergence: the best fitness so far
+    against the evaluations spent, counted from 1 in the order the candidates are evaluated
+    (the rows of a batch in order), at every candidate better than all before it.
+
+    ``evaluate`` maps candidates (n, 51) to their fitness (n,); only calls are passed on.
+    """
+
+    def __init__(self, evaluate):
+        self.evaluate = evaluate
+        self.evaluations = 0
+        self.best = math.inf
+        self._improvements: list[np.ndarray] = []  # (m, 2) blocks of (evaluation, fitness)
+
+    def __call__(self, X: np.ndarray) -> np.ndarray:
+        fitness = self.evaluate(X)
+        values = np.asarray(fitness, dtype=np.float64)  # (n,)
+        if values.size and values.min() < self.best:
+            best = np.minimum.accumulate(np.r_[self.best, values])  # (n + 1,)
+            better = np.flatnonzero(best[1:] < best[:-1])
+            self._improvements.append(np.column_stack([self.evaluations + 1 + better, best[1 + better]]))
+            self.best = float(best[-1])
+        self.evaluations += values.size
+        return fitness
+
+    def rows(self) -> np.ndarray:
+        """(k, 2) float64: (evaluations, best fitness so far) at every improvement, then at
+        the last evaluation if it improved nothing; evaluations rise, the fitness never does."""
+        rows = np.concatenate(self._improvements) if self._improvements else np.empty((0, 2))
+        if self.evaluations and (not len(rows) or rows[-1, 0] < self.evaluations):
+            rows = np.vstack([rows, [self.evaluations, self.best]])
+        return rows
 
 
 def joint_indices(joint: str, mask: np.ndarray) -> np.ndarray:
@@ -228,7 +268,8 @@ def track(sequence, body, foreground, evaluator, optimizer, strategy, evaluation
     at, or drops, a camera whose foreground is empty or nearly the whole image. The search
     draws from ``rng`` (default: a generator seeded with ``seed``). ``recovery`` (a
     :class:`mmocap.stages.recovery.Recovery`) searches a frame whose fitness says the track
-    is lost again; its evaluations are added to the frame's.
+    is lost again; its evaluations are added to the frame's. Every result's ``trace`` records
+    all of its frame's evaluations (:class:`Trace`), a recovery's included.
     """
     evaluations = check_budget(evaluations)
     n = sequence.n_frames if frames is None else int(frames)
@@ -250,13 +291,14 @@ def track(sequence, body, foreground, evaluator, optimizer, strategy, evaluation
             evaluator.setup(body, cameras, masks)
         else:
             evaluator.setup(body, *coverage.select(frame, cameras, masks, last_frame=n - 1))
-        x, f, used = strategy.estimate(body, x_prev, evaluator, optimizer, evaluations, rng)
+        trace = Trace(evaluator)
+        x, f, used = strategy.estimate(body, x_prev, trace, optimizer, evaluations, rng)
         if recovery is not None:
             if recovery.lost(f):
-                x, f, event = recovery.recover(frame, body, x, f, evaluator, optimizer, strategy, rng)
+                x, f, event = recovery.recover(frame, body, x, f, trace, optimizer, strategy, rng)
                 used += event.evaluations
             recovery.keep(f)
-        result = FrameResult(frame, x, f, used, time.perf_counter() - start, start - read)
+        result = FrameResult(frame, x, f, used, time.perf_counter() - start, start - read, trace.rows())
         results.append(result)
         if on_frame is not None:
             on_frame(result)

@@ -22,7 +22,7 @@ pytestmark = pytest.mark.slow
 REPO = Path(__file__).resolve().parents[2]
 PLUGINS = sorted(p for p in (REPO / "plugins").iterdir() if (p / "pyproject.toml").is_file())
 SUBCOMMANDS = ("track", "generate", "list", "export-humaneva", "check-recording", "to-recording", "export",
-               "collect", "summaries", "stats", "paper", "bench", "foreground-quality")
+               "collect", "ioh", "summaries", "stats", "paper", "bench", "foreground-quality")
 SMALL = ["dataset.frames=2", "dataset.width=320", "dataset.height=240", "dataset.background_frames=3",
          "dataset.cameras=[C1,C2,BW1]", "dataset.all_cameras=[C1,C2,BW1]", "dataset.root=data",
          "body.vertices=2000", "tracking.frames=2", "tracking.evaluations=150", "overlays=0",

@@ -185,6 +185,27 @@ def test_each_settings_preset_is_ranked_apart_and_labelled(tmp_path):
     assert set(data.settings) == {"tuned"} and (data.n_blocks == 4).all()  # the other presets' runs left out
 
 
+def test_each_realism_and_preset_is_ranked_apart_realistic_first(tmp_path):
+    # exact data ranks APF first by fitness, realistic data DE
+    exact_fitness = {**FITNESS, ("apf", "holistic"): 0.05}
+    sweeps = [make_sweep(settings=settings, fitness=exact_fitness if realism == "exact" else FITNESS)[0]
+              .assign(realism=realism, run_id=lambda r, tag=f"{realism}-{settings}": tag + r.run_id)
+              for realism in ("exact", "realistic") for settings in ("tuned", "paper")]
+    folder = tmp_path / "sweep"
+    folder.mkdir()
+    pd.concat(sweeps).to_csv(folder / "runs.csv", index=False)
+    written, _ = paper.make(["table4"], folder, tmp_path / "out")
+    stems = [f"table4_{realism}_{settings}" for realism in ("realistic", "exact") for settings in ("paper", "tuned")]
+    assert [p.name for p in written if p.suffix == ".md" and "marker" not in p.name] == [f"{s}.md" for s in stems]
+    tables = tmp_path / "out" / "tables"
+    assert "Yeguas Table 4 (realism=exact, settings=tuned): " in (tables / "table4_exact_tuned.md").read_text()
+    first = {stem: read(tables / f"{stem}.csv")["Algorithm (150 ev.)"].iloc[0] for stem in stems}
+    assert first == {"table4_realistic_paper": "DE(39,150)", "table4_realistic_tuned": "DE(39,150)",
+                     "table4_exact_paper": "APF(39,150)", "table4_exact_tuned": "APF(39,150)"}
+    data = read(tables / "table4_exact_paper_data.csv")
+    assert set(data.realism) == {"exact"} and set(data.settings) == {"paper"} and (data.n_blocks == 4).all()
+
+
 def test_cano_table3_values_and_ranks(tmp_path):
     runs, _ = make_sweep(vertices=(3000, 2000), algorithms={("cmaes", "holistic"): 12.0}, dofs=(39,))
     folder = tmp_path / "cano"

@@ -6,7 +6,8 @@ from mmocap.body.model import BodyModel
 from mmocap.body.skeleton import JOINTS, N_FULL, parameter_index
 from mmocap.errors import ConfigError
 from mmocap.optimizers.cmaes import CMAES
-from mmocap.stages.tracking import DEFAULT_STEPS, START_EVALUATIONS, Hierarchical, Holistic
+from mmocap.stages.recovery import Recovery
+from mmocap.stages.tracking import DEFAULT_STEPS, START_EVALUATIONS, Hierarchical, Holistic, Trace
 
 
 @pytest.fixture(scope="module")
@@ -160,3 +161,68 @@ def test_the_frame_clock_times_the_search_and_the_foreground_apart(bodies, monke
     for result in results:
         assert result.foreground_seconds == pytest.approx(5.0)
         assert result.seconds == pytest.approx(0.001 * len(evaluator.batches) / 2)
+
+
+def improvements(fitness: np.ndarray) -> np.ndarray:
+    """(k, 2) (evaluation from 1, best so far) at every value below all before it, then at
+    the last value: the convergence trace computed one evaluation at a time."""
+    rows, best = [], np.inf
+    for evaluation, value in enumerate(fitness, start=1):
+        if value < best:
+            best = value
+            rows.append((evaluation, best))
+    if rows[-1][0] != len(fitness):
+        rows.append((len(fitness), best))
+    return np.array(rows, dtype=float)
+
+
+def test_a_trace_records_each_improvement_at_its_evaluation_within_the_batch():
+    batches = [np.array([0.5]), np.array([0.7, 0.4, 0.45, 0.3]), np.array([0.3, 0.6]), np.array([0.2, 0.9])]
+    values = iter(batches)
+    trace = Trace(lambda X: next(values))
+    for batch in batches:
+        np.testing.assert_array_equal(trace(np.zeros((len(batch), 51))), batch)  # passed on unchanged
+    np.testing.assert_array_equal(trace.rows(), [[1, 0.5], [3, 0.4], [5, 0.3], [8, 0.2], [9, 0.2]])
+    np.testing.assert_array_equal(trace.rows(), improvements(np.concatenate(batches)))
+    ends_better = Trace(lambda X: np.array([0.3, 0.1]))
+    ends_better(np.zeros((2, 51)))
+    np.testing.assert_array_equal(ends_better.rows(), [[1, 0.3], [2, 0.1]])  # no repeated last row
+    assert Trace(lambda X: X).rows().shape == (0, 2)
+
+
+@pytest.mark.parametrize("strategy, recovered", [(Holistic, False), (Hierarchical, False), (Holistic, True)],
+                         ids=["holistic", "hierarchical", "holistic-recovered"])
+def test_every_frame_carries_the_trace_of_all_its_evaluations(bodies, strategy, recovered):
+    """Each frame's trace is the best fitness so far over every candidate the frame evaluated
+    (a recovery's too: one after every frame but the first), in order: rising evaluations from
+    1, a falling fitness, ending at the frame's evaluations and fitness."""
+    from types import SimpleNamespace
+
+    from mmocap.stages import tracking
+
+    body = bodies[39]
+    recovery = Recovery(window=1, max_fitness=1e-9, evaluations=60) if recovered else None
+
+    class Evaluator(Recorder):
+        def setup(self, body, cameras, masks):
+            pass
+
+    target = body.rest_pose() + np.where(body.mask, 0.05, 0.0)
+    evaluator = Evaluator(target)
+    sequence = SimpleNamespace(n_frames=3, x0=body.rest_pose(), root="fake")
+    foreground = SimpleNamespace(cameras=[], masks=lambda frame: [])
+    results = tracking.track(sequence, body, foreground, evaluator, CMAES(), strategy(), evaluations=200, seed=0,
+                             recovery=recovery)
+    fitness = np.concatenate([evaluator(batch) for batch in list(evaluator.batches)])
+    if recovered:
+        assert [event.frame for event in recovery.events] == [1, 2]
+    spent = 0
+    for result in results:
+        trace = result.trace
+        assert trace.shape[1] == 2 and trace[0, 0] == 1
+        assert np.all(np.diff(trace[:, 0]) > 0) and np.all(np.diff(trace[:, 1]) <= 0)
+        assert trace[-1, 0] == result.evaluations == (260 if recovered and result.frame else 200)
+        assert trace[-1, 1] == result.fitness
+        np.testing.assert_array_equal(trace, improvements(fitness[spent:spent + result.evaluations]))
+        spent += result.evaluations
+    assert spent == len(fitness)
