@@ -127,8 +127,13 @@ def export_humaneva(args: list[str], prog: str) -> None:
 
 def list_components(args: list[str], prog: str) -> None:
     from mmocap import registry
+    from mmocap.evaluators.opencl import device_checks
 
     print(registry.describe())
+    checks = device_checks()
+    if checks:
+        print("OpenCL devices, self-checked against numpy with the default settings:")
+        print("\n".join(f"  {line}" for line in checks))
 
 
 def _hydra_app(app):
@@ -148,7 +153,8 @@ def _main_of(module_name: str, function: str = "main"):
 SUBCOMMANDS = {
     "track": (_hydra_app(track_app), "track a sequence (the default): `mmocap [track] optimizer=pso ...`"),
     "generate": (_hydra_app(generate_app), "render the configured synthetic sequence only [Hydra overrides]"),
-    "list": (list_components, "the installed optimisers and evaluators, and why any is unavailable"),
+    "list": (list_components, "the installed optimisers and evaluators, why any is unavailable, and "
+                              "each OpenCL device's self-check"),
     "export-humaneva": (export_humaneva, "write a synthetic sequence folder in the HumanEva-I layout"),
     "check-recording": (_main_of("mmocap.report.recording", "check_main"),
                         "check a recording folder (calibration, videos, sync, first frame) before tracking it"),

@@ -1,4 +1,5 @@
-"""What produced a result: package versions, the source tree's git commit, Python, host.
+"""What produced a result: package versions, the source tree's git commit, Python, host,
+and the outcome of each OpenCL device's self-check in this process.
 
 :func:`facts` is the dict stored in every run record and sweep file; :func:`line` is the
 one-line form written at the top of every table and figure.
@@ -14,6 +15,7 @@ from functools import lru_cache
 from pathlib import Path
 
 PACKAGES = ("mmocap", "numpy", "scipy", "opencv-python-headless", "hydra-core", "pandas", "pyopencl")
+_DEVICE_CHECKS: dict[str, str] = {}  # OpenCL device configuration -> its self-check's outcome
 
 
 def _version(package: str) -> str | None:
@@ -31,11 +33,22 @@ def _git(source: Path, *args) -> str | None:
     return out.stdout.strip() if out.returncode == 0 else None
 
 
-@lru_cache(maxsize=1)
+def record_device_check(device: str, outcome: str) -> None:
+    """Note the outcome of the self-check of an OpenCL device configuration ('name (platform),
+    local_size k, lanes m'): ``"exact"`` or ``"within tolerance (...)"``."""
+    _DEVICE_CHECKS[device] = outcome
+
+
 def facts() -> dict:
     """git_commit and git_dirty of the source checkout (None when mmocap runs from an
     installed wheel), versions of mmocap and the numerical packages, python, host,
-    platform."""
+    platform, and opencl_checks: the self-check's outcome per OpenCL device configuration
+    an evaluator of this process runs on (see :mod:`mmocap.evaluators.opencl`)."""
+    return {**_fixed_facts(), "opencl_checks": dict(_DEVICE_CHECKS)}
+
+
+@lru_cache(maxsize=1)
+def _fixed_facts() -> dict:
     source = Path(__file__).resolve().parent.parent
     in_checkout = (source / "pyproject.toml").is_file() and (source / "mmocap").is_dir()
     commit = _git(source, "rev-parse", "HEAD") if in_checkout else None

@@ -11,9 +11,20 @@ instead of about 200 (measured). The kernel ``silhouette_counts``
 order of ``view_geometry``, steps 3-6 in the rule's float32 arithmetic, one work-group per
 (candidate, camera) pair, each with its own bit mask in local memory (1 bit per pixel:
 46 080 bytes for 640x480, rows padded to 8 words), so no two work-groups ever write the
-same memory. The foreground masks are uploaded once per frame as bit masks and counted
-against with popcounts. The per-block culling bounds need double precision
+same memory. The work-group size and the local memory are the device's and the built
+kernel's limits; masks larger than that local memory are a ConfigError that says so. The
+foreground masks are uploaded once per frame as bit masks and counted against with
+popcounts. The per-block culling bounds need double precision
 (``cl_khr_fp64``): PoCL on CPUs and current GPUs have it.
+
+Self-check: every evaluator counts a fixed test scene (:func:`check_scene`: a ball in a
+64x48 camera, in the middle, near a corner and half out of the image) on its devices and
+with NumPy when it is made, once per process and configuration. A device runs only if the
+counts are equal; with ``accept_inexact`` also if each is within :data:`TOLERANCE` of
+NumPy's. The kernel asks for correctly rounded float32 division and square root, which
+not every device advertises (Oclgrind and Intel's CPU runtime do not) and some honour all
+the same: the check decides, not the flag. The outcome (:attr:`OpenCLEvaluator.check`) is
+logged, recorded in the run's provenance and shown by ``mmocap list``.
 
 Devices, contexts, programs and PoCL's settings are :mod:`mmocap.evaluators.opencl_devices`'
 (``platform`` and ``device`` select a device as described there); pyopencl is imported when
@@ -31,11 +42,15 @@ import logging
 
 import numpy as np
 
+from mmocap import provenance
 from mmocap.body.kinematics import KinematicChain
+from mmocap.camera import Camera
 from mmocap.errors import ConfigError
 from mmocap.evaluators import opencl_devices
+from mmocap.evaluators.numpy_backend import NumpyEvaluator
 from mmocap.evaluators.opencl_devices import (
     context,
+    platforms,
     program,
     pyopencl,
     select_device,
@@ -65,6 +80,12 @@ log = logging.getLogger(__name__)
 # the kernels' arguments that change with every call: silhouette_counts' transforms and
 # joint_transforms' poses
 _TRANSFORMS_ARG, _POSES_ARG = 3, 0
+#: with accept_inexact, the self-check accepts a device whose every count of the test scene
+#: differs from NumPy's by at most this fraction of it, or 1 px
+TOLERANCE = 0.01
+# (evaluator class, devices, patch_scale, (local_size, lanes) per device) -> the test
+# scene's counts on the devices and with NumPy, (2, 3, 1) int64 each
+_CHECKED: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
 
 
 class _Lane:
@@ -78,14 +99,11 @@ class _Lane:
         if not device.double_fp_config:
             raise ConfigError(f"OpenCL device {device.name.strip()!r} has no double precision "
                               "(cl_khr_fp64), which the kernel's culling bounds need")
-        if not device.single_fp_config & cl.device_fp_config.CORRECTLY_ROUNDED_DIVIDE_SQRT:
-            raise ConfigError(f"OpenCL device {device.name.strip()!r} cannot divide floats "
-                              "correctly rounded, which the silhouette rule's float32 "
-                              "projection needs to match the other backends")
+        largest = min(device.max_work_group_size, device.max_work_item_sizes[0])
         if local_size is None:
-            local_size = 1 if device.type & cl.device_type.CPU else 64
-        if not 1 <= int(local_size) <= device.max_work_group_size:
-            raise ConfigError(f"local_size must be in [1, {device.max_work_group_size}] on "
+            local_size = 1 if device.type & cl.device_type.CPU else min(64, largest)
+        if not 1 <= int(local_size) <= largest:
+            raise ConfigError(f"local_size must be in [1, {largest}] on "
                               f"{device.name.strip()!r}, got {local_size}")
         if lanes is None:  # 8 floats, one AVX2 register, measured fastest on CPUs
             lanes = 8 if device.type & cl.device_type.CPU else 4
@@ -97,6 +115,14 @@ class _Lane:
         built = program(ctx, build_options(self.local_size, lanes))
         self.kernel = cl.Kernel(built, "silhouette_counts")
         self.kinematics = cl.Kernel(built, "joint_transforms")
+        info = cl.kernel_work_group_info
+        fits = self.kernel.get_work_group_info(info.WORK_GROUP_SIZE, device)
+        if self.local_size > fits:
+            raise ConfigError(f"local_size={self.local_size} is more than the kernel can run on "
+                              f"{device.name.strip()!r}; set local_size to at most {fits}")
+        #: bytes of local memory left for the masks: the device's less the kernel's own
+        self.local_bytes = device.local_mem_size - self.kernel.get_work_group_info(
+            info.LOCAL_MEM_SIZE, device)
         self.frame: dict = {}  # name -> pyopencl.Buffer
         self.batch: dict = {}  # name -> (bytes, pyopencl.Buffer)
         self.bound: dict = {}  # each kernel's arguments, see bind
@@ -145,6 +171,12 @@ class OpenCLEvaluator(SilhouetteEvaluator):
             on other devices.
         lanes: vertices per vector in the kernel, 4, 8 or 16; None: 8 on a CPU, 4 on other
             devices. The counts do not depend on it.
+        accept_inexact: also run on a device whose self-check counts are within
+            :data:`TOLERANCE` of NumPy's instead of equal (see the module's doc).
+
+    Attributes:
+        check: the self-check's outcome, ``"exact"`` or ``"within tolerance (largest
+            difference d px)"``.
     """
 
     name = "opencl"
@@ -156,12 +188,54 @@ class OpenCLEvaluator(SilhouetteEvaluator):
         return opencl_devices.unavailable()
 
     def __init__(self, patch_scale: float = PATCH_SCALE, platform=None, device: int = 0,
-                 local_size: int | None = None, lanes: int | None = None):
+                 local_size: int | None = None, lanes: int | None = None,
+                 accept_inexact: bool = False):
         super().__init__(patch_scale)
         self._lanes = self._make_lanes(platform, device, local_size, lanes)
         self._body_uploaded = None
         self._chain: KinematicChain | None = None
         self._weights = np.array([lane.device.max_compute_units for lane in self._lanes], float)
+        self.check = self._self_check(bool(accept_inexact))
+
+    @property
+    def where(self) -> str:
+        """'device (platform), local_size k, lanes m' for each distinct device configuration."""
+        return "; ".join(dict.fromkeys(
+            f"{lane.device.name.strip()} ({lane.device.platform.name.strip()}), local_size "
+            f"{lane.local_size}, lanes {lane.lanes}" for lane in self._lanes))
+
+    def _self_check(self, accept_inexact: bool) -> str:
+        """Count :func:`check_scene` here and with NumPy (once per process and
+        configuration); the outcome, also recorded in the provenance, or a ConfigError."""
+        key = (type(self), self.where, self.patch_scale)
+        if key not in _CHECKED:
+            body, camera, foreground, X = check_scene()
+            with NumpyEvaluator(self.patch_scale) as reference:
+                reference.setup(body, [camera], [foreground])
+                expected = np.stack(reference.counts(X))
+            self.setup(body, [camera], [foreground])
+            _CHECKED[key] = np.stack(self.counts(X)), expected
+            self.close()
+        got, expected = _CHECKED[key]
+        worst = int(np.abs(got - expected).max())
+        within = np.all(np.abs(got - expected) <= np.maximum(1, TOLERANCE * expected))
+        if worst == 0:
+            outcome = "exact"
+        elif within and accept_inexact:
+            outcome = f"within tolerance (largest difference {worst} px)"
+            log.warning("OpenCL device %s counts a test scene within %g %% of numpy, not "
+                        "exactly (accept_inexact)", self.where, 100 * TOLERANCE)
+        else:
+            change = ("set accept_inexact=true to run it within that tolerance" if within
+                      else "choose another device (platform, device) or evaluator=numpy")
+            raise ConfigError(f"OpenCL device {self.where} counts a test scene differently "
+                              f"from numpy (model pixels {got[0].ravel().tolist()}, numpy's "
+                              f"{expected[0].ravel().tolist()}; overlap {got[1].ravel().tolist()}"
+                              f", numpy's {expected[1].ravel().tolist()}), "
+                              f"{'within' if within else 'beyond'} the {100 * TOLERANCE:g} % of "
+                              f"accept_inexact: {change}")
+        provenance.record_device_check(self.where, outcome)
+        return outcome
 
     def _make_lanes(self, platform, device, local_size, lanes) -> list[_Lane]:
         dev = select_device(platform, device)
@@ -208,11 +282,15 @@ class OpenCLEvaluator(SilhouetteEvaluator):
         layer = max(layer_words(cam, lane.local_size)
                     for cam in self.cameras for lane in self._lanes)
         self._mask_words = (mask + 7) // 8 * 8
-        # words of local memory, less 16 for the kernel's own __local ints
-        room = min(lane.device.local_mem_size for lane in self._lanes) // 4 - 16
+        # words of local memory for the masks
+        small = min(self._lanes, key=lambda lane: lane.local_bytes)
+        room = small.local_bytes // 4
         if mask > room:
-            raise ConfigError(f"a {max(cam.width for cam in self.cameras)} px wide mask needs "
-                              f"{4 * mask} bytes of local memory; the OpenCL device has {4 * room}")
+            big = max(self.cameras, key=lambda cam: pitch(cam.width) * cam.height)
+            raise ConfigError(f"a {big.width}x{big.height} px mask needs {4 * mask} bytes of "
+                              f"OpenCL local memory; {small.device.name.strip()!r} has "
+                              f"{4 * room}: use smaller masks, a device with more local memory "
+                              "(platform, device) or evaluator=numpy")
         self._max_layers = min(MAX_LAYERS, room // layer)
         self._local_words = (max(mask, self._max_layers * layer) + 7) // 8 * 8
         shapes = np.array([(cam.width, cam.height, c * self._mask_words)
@@ -303,7 +381,7 @@ class MultiDeviceEvaluator(OpenCLEvaluator):
         devices: device indices on that platform, or None for all of them.
         sub_devices: when the selection is a single CPU device, split it into this many
             PoCL sub-devices (None: one per compute unit), each with its own queue.
-        local_size, lanes: as for :class:`OpenCLEvaluator`.
+        local_size, lanes, accept_inexact: as for :class:`OpenCLEvaluator`.
 
     Candidates go to the devices in proportion to their compute units.
     """
@@ -312,9 +390,9 @@ class MultiDeviceEvaluator(OpenCLEvaluator):
 
     def __init__(self, patch_scale: float = PATCH_SCALE, platform=None, devices=None,
                  sub_devices: int | None = None, local_size: int | None = None,
-                 lanes: int | None = None):
+                 lanes: int | None = None, accept_inexact: bool = False):
         self._sub_devices = sub_devices
-        super().__init__(patch_scale, platform, devices, local_size, lanes)
+        super().__init__(patch_scale, platform, devices, local_size, lanes, accept_inexact)
 
     def _make_lanes(self, platform, devices, local_size, lanes) -> list[_Lane]:
         if devices is None:
@@ -333,3 +411,52 @@ class MultiDeviceEvaluator(OpenCLEvaluator):
         return [_Lane(d, ctx, local_size, lanes) for d in chosen]
 
 
+
+
+def device_checks() -> list[str]:
+    """One line per OpenCL device: the self-check's outcome with the default settings, or
+    why the evaluator cannot run there; none when OpenCL is unavailable."""
+    if opencl_devices.unavailable():
+        return []
+    lines = []
+    for i, p in enumerate(platforms()):
+        for k, d in enumerate(p.get_devices()):
+            try:
+                ev = OpenCLEvaluator(platform=i, device=k)
+            except ConfigError as err:
+                outcome = f"refused: {err}"
+            else:
+                outcome = f"self-check {ev.check}"
+            lines.append(f"[{i}] {p.name.strip()}: [{k}] {d.name.strip()}: {outcome}")
+    return lines
+
+
+class _Ball:
+    """A ball of 300 vertices, radius 100 mm, on one joint; pose (3,): its centre in mm."""
+
+    def __init__(self, count: int = 300, radius: float = 100.0):
+        i = np.arange(count) + 0.5  # a Fibonacci sphere
+        polar, azimuth = np.arccos(1 - 2 * i / count), np.pi * (1 + 5 ** 0.5) * i
+        self.rest_normals = np.stack([np.sin(polar) * np.cos(azimuth), np.cos(polar),
+                                      np.sin(polar) * np.sin(azimuth)], axis=1)
+        self.rest_vertices = radius * self.rest_normals
+        self.vertex_joint = np.zeros(count, int)
+        self.joint_rest_positions = np.zeros((1, 3))
+        self.patch_mm = np.array([radius * np.sqrt(2 * np.pi / count)])
+
+    def transforms(self, X: np.ndarray) -> np.ndarray:
+        X = np.atleast_2d(X)
+        T = np.tile(np.eye(4), (len(X), 1, 1, 1))
+        T[:, 0, :3, 3] = X[:, :3]
+        return T
+
+
+def check_scene():
+    """The self-check's scene: a ball (body), a 64x48 camera 1 m away, a half-image (48, 64)
+    bool foreground, and (3, 3) poses (mm) that put the ball in the middle, near a corner
+    and half out of the image."""
+    camera = Camera.look_at("self-check", (0, 0, -1000), (0, 0, 0), 200.0, 64, 48)
+    foreground = np.zeros((48, 64), bool)
+    foreground[:, :32] = True
+    X = np.array([[0.0, 0.0, 0.0], [-60.0, 45.0, 20.0], [-130.0, 0.0, -30.0]])
+    return _Ball(), camera, foreground, X

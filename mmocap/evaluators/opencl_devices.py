@@ -6,8 +6,10 @@ that mmocap and ``mmocap list`` work without it; :func:`unavailable` says why Op
 be used here, with what to install.
 
 Devices: ``platform`` is an index into ``pyopencl.get_platforms()`` or a case-insensitive
-part of a platform's name (``"portable"`` for PoCL, ``"nvidia"``), None for the first
-platform that has a device; ``device`` is an index into that platform's devices. PoCL, the
+part of a platform's name (``"portable"`` for PoCL, ``"nvidia"``, ``"intel"``), None for the
+first platform that has a device and is not a simulator (:data:`SIMULATORS`: Oclgrind, which
+checks the kernel's memory accesses hundreds of times slower than a device runs it, is
+chosen by name only); ``device`` is an index into that platform's devices. PoCL, the
 CPU platform, comes from PyPI (``pocl-binary-distribution``), so a machine without any
 system OpenCL driver still has one. No platform, or an index that does not exist, is a
 :class:`~mmocap.errors.ConfigError` that lists what there is: there is no silent fallback
@@ -33,6 +35,8 @@ import numpy as np
 from mmocap.errors import ConfigError
 
 INSTALL = "pip install pyopencl pocl-binary-distribution"
+#: parts of the names of platforms that platform=None never chooses
+SIMULATORS = ("oclgrind",)
 _PID_VAR = "MMOCAP_POCL_CACHE_PID"
 _cl = None  # the pyopencl module, once imported
 _CONTEXTS: dict[tuple, object] = {}
@@ -107,11 +111,12 @@ def describe(found) -> str:
 
 
 def select_platform(platform):
-    """A platform by index, by part of its name, or (None) the first with a device."""
+    """A platform by index, by part of its name, or (None) the first with a device that is
+    not one of the :data:`SIMULATORS`."""
     found = platforms()
     if platform is None:
         for p in found:
-            if p.get_devices():
+            if p.get_devices() and not any(name in p.name.lower() for name in SIMULATORS):
                 return p
         raise ConfigError(f"no OpenCL platform has a device ({describe(found)}); install with: "
                           "pip install pocl-binary-distribution (a CPU platform), or a GPU's "

@@ -148,7 +148,6 @@ def test_body_arrays_are_uploaded_again_only_for_another_body(monkeypatch):
 
 @pytest.mark.parametrize("missing, message", [
     ("double_fp_config", "no double precision"),
-    ("single_fp_config", "cannot divide floats correctly rounded"),
     ("endian_little", "big-endian"),
 ])
 def test_a_device_without_what_the_kernel_needs_is_a_config_error(missing, message):
@@ -239,3 +238,68 @@ def test_a_body_with_a_kinematic_chain_gets_its_transforms_on_the_device_bit_for
         host = scene.body.transforms(X)[:, :, :3].reshape(len(X), 16, 12)
         np.testing.assert_array_equal(device, host)
     ev.close()
+
+
+class OffBy(opencl.OpenCLEvaluator):
+    """A device that counts ``extra`` model pixels too many in every view."""
+    extra = 1
+
+    def _counts(self, X):
+        model_px, overlap_px = super()._counts(X)
+        return model_px + self.extra, overlap_px
+
+
+class FarOff(OffBy):
+    extra = 100
+
+
+def test_the_self_check_runs_an_exact_device_and_records_it():
+    from mmocap import provenance
+    ev = opencl.OpenCLEvaluator(lanes=4)
+    assert ev.check == "exact"
+    assert provenance.facts()["opencl_checks"][ev.where] == "exact"
+    assert ev.body is None  # the test scene is gone again
+
+
+def test_an_inexact_device_runs_only_within_the_tolerance_and_when_asked():
+    from mmocap import provenance
+    with pytest.raises(ConfigError, match=r"counts a test scene differently from numpy \(model pixels "
+                                          r".*within the 1 % of accept_inexact: set accept_inexact=true"):
+        OffBy()
+    ev = OffBy(accept_inexact=True)
+    assert ev.check == "within tolerance (largest difference 1 px)"
+    assert provenance.facts()["opencl_checks"][ev.where] == ev.check
+    with pytest.raises(ConfigError, match=r"beyond the 1 % of accept_inexact: choose another device"):
+        FarOff(accept_inexact=True)
+
+
+def test_a_mask_larger_than_local_memory_says_what_to_change(monkeypatch):
+    from mmocap.camera import Camera
+    ev = opencl.OpenCLEvaluator()
+    monkeypatch.setattr(ev._lanes[0], "local_bytes", 32768)  # a GPU's 32 KB
+    hd = Camera.look_at("hd", (0, 500, 3000), (0, 400, 0), 1500.0, 1920, 1080)
+    with pytest.raises(ConfigError, match=r"a 1920x1080 px mask needs 276484 bytes of OpenCL local memory; "
+                                          r".* has 32768: use smaller masks, a device with more local "
+                                          r"memory \(platform, device\) or evaluator=numpy"):
+        ev.setup(BlobBody(), [hd], [np.zeros((1080, 1920), bool)])
+
+
+def test_a_work_group_larger_than_the_kernel_allows_is_a_config_error(monkeypatch):
+    cl = opencl_devices.pyopencl()
+    real, built = opencl_devices.select_device(None, 0), cl.Kernel
+
+    class Kernel(built):  # the built kernel, with a work-group limit of 16
+        def get_work_group_info(self, what, device):
+            limit = what == cl.kernel_work_group_info.WORK_GROUP_SIZE
+            return 16 if limit else super().get_work_group_info(what, device)
+
+    monkeypatch.setattr(cl, "Kernel", Kernel)
+    with pytest.raises(ConfigError, match="local_size=32 is more than the kernel can run on .*at most 16"):
+        opencl._Lane(real, opencl_devices.context([real]), 32, None)
+
+
+def test_mmocap_list_shows_each_devices_self_check():
+    done = run_python("from mmocap.cli import main\nmain(['list'])")
+    assert done.returncode == 0, done.stderr
+    assert "OpenCL devices, self-checked against numpy" in done.stdout
+    assert ": self-check exact" in done.stdout

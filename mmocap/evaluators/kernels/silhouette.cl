@@ -110,10 +110,12 @@
 // (cx, cy) clamped to [-2^20, 2^20] before the conversion to int: far beyond any image.
 #define CLAMP_PX 1048576.0f
 
-// floor(t) as int, t clamped to [-CLAMP_PX, CLAMP_PX]; exact, and on PoCL much faster
-// than the floor, clamp and convert builtins together (measured).
+// floor(t) as int, t clamped to [-CLAMP_PX, CLAMP_PX] (NaN, from a rejected vertex, to 0:
+// converting NaN to int is undefined); exact, and on PoCL much faster than the floor, clamp
+// and convert builtins together (measured).
 inline intV floor_int(floatV t)
 {
+    t = select(t, (floatV)(0.0f), isnan(t));
     t = t < -CLAMP_PX ? -CLAMP_PX : t;
     t = t > CLAMP_PX ? CLAMP_PX : t;
     const intV truncated = convert_intV(t);
@@ -401,7 +403,10 @@ void silhouette_counts(
                     // a centre in the padded layer: in range as a float, so floor needs no clamp
                     const intV in = keep & (tu >= (float)-PAD) & (tu < (float)(width + PAD))
                                     & (tw >= (float)-PAD) & (tw < (float)(height + PAD));
-                    const intV tx = convert_intV(tu), ty = convert_intV(tw);  // garbage if !in
+                    // lanes that are not in convert 0: a float out of int's range (or NaN)
+                    // converts to an undefined value, which may spoil the masked results too
+                    const intV tx = convert_intV(select((floatV)(0.0f), tu, in));
+                    const intV ty = convert_intV(select((floatV)(0.0f), tw, in));
                     const intV px = tx + (convert_floatV(tx) > tu) + PAD;
                     const intV py = ty + (convert_floatV(ty) > tw) + PAD;
                     loV = MIN(loV, in ? py : loV);
