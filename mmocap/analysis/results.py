@@ -230,6 +230,19 @@ def mean_best_fitness(fitness) -> float:
     return float(np.mean(fitness)) if len(fitness) and np.isfinite(fitness).all() else np.nan
 
 
+def variant_names(config) -> tuple[str | None, str | None]:
+    """The names of a run's optimiser settings preset (``settings.name``) and of its synthetic
+    data's realism level (``dataset.realism.name``) in its resolved ``config``; None for a
+    part the config does not hold (no preset named, a dataset that is not synthetic)."""
+    def name(node):
+        return node.get("name") if isinstance(node, dict) else None
+
+    if not isinstance(config, dict):
+        return None, None
+    dataset = config.get("dataset")
+    return name(config.get("settings")), name(dataset.get("realism") if isinstance(dataset, dict) else None)
+
+
 def run_row(record: dict, source: str = "record") -> dict:
     """One row of the ``runs`` table from a record; ``mean_marker_error_mm`` is NaN for a run
     without ground truth, ``mean_best_fitness`` for one with a frame without a finite fitness
@@ -240,17 +253,13 @@ def run_row(record: dict, source: str = "record") -> dict:
                for part in ("summary", "timings", "provenance"))
     evaluation = t.get("evaluation_seconds_per_frame")
     start = s.get("start") if isinstance(s.get("start"), dict) else {}  # records before the automatic start
-    config = record.get("config")
-    settings = config.get("settings") if isinstance(config, dict) else None
-    dataset = config.get("dataset") if isinstance(config, dict) else None
-    realism = dataset.get("realism") if isinstance(dataset, dict) else None
+    settings, realism = variant_names(record.get("config"))
     return {
         "run_id": record["run_id"], "subject": s["subject"], "action": s["action"],
         "sequence": f"{s['subject']}_{s['action']}", "seed": int(record["seed"]),
         "optimizer": s["optimizer"], "strategy": s["strategy"],
         "algorithm": f"{s['optimizer']}-{s['strategy']}",
-        "settings": settings.get("name") if isinstance(settings, dict) else None,
-        "realism": realism.get("name") if isinstance(realism, dict) else None, "dof": int(s["dof"]),
+        "settings": settings, "realism": realism, "dof": int(s["dof"]),
         "evaluations": int(s["evaluations_per_frame"]), "vertices": int(s["vertices"]),
         "backend": s["backend"], "frames": int(s["frames"]),
         "mean_marker_error_mm": _number(s["mean_marker_error_mm"]),

@@ -203,8 +203,11 @@ def generate(root, subject: str = "S1", action: str = "walking", frames: int = 6
             markers = realism_draws.posed_markers(mesh, markers_idx, marker_offsets, S)
             S_of = [S if offset == 0 else skinning(offset) for offset in offsets_frames]
             for f in tqdm(range(frames), desc=f"render {subject} {action}", unit="frame", disable=not progress):
+                posed = {}  # cameras at the same time offset share the posed mesh
                 for cam, S_cam in zip(cams, S_of):
-                    vertices = mesh.posed(S_cam[f])
+                    if id(S_cam) not in posed:
+                        posed[id(S_cam)] = mesh.posed(S_cam[f])
+                    vertices = posed[id(S_cam)]
                     shadow = render.floor_shadow(cam, vertices, mesh.faces, render.LIGHT_DIR,
                                                  shadow_strength, shadow_softness)
                     image, silhouette = render.render_view(cam, vertices, mesh.faces, colours,

@@ -50,6 +50,7 @@ from pathlib import Path
 
 import numpy as np
 
+from mmocap.analysis.results import variant_names
 from mmocap.errors import DataError
 from mmocap.io import write_json_atomic, write_text_atomic, writing
 from mmocap.validate import is_integer
@@ -148,16 +149,12 @@ def load_run(folder: str | Path) -> Run:
         if not ((value is None and nullable) or (is_integer(value) if kind is int else isinstance(value, kind))):
             wanted = "an integer" if kind is int else "text"
             raise DataError(f"{path}: {key} is {value!r:.40}, not {wanted}{' or null' if nullable else ''}")
-    config = summary.get("config")
-    settings = config.get("settings") if isinstance(config, dict) else None
-    preset = settings.get("name") if isinstance(settings, dict) else None
+    preset, realism = variant_names(summary.get("config"))
     algorithm = "-".join([summary["optimizer"], summary["strategy"], *([str(preset)] if preset else [])])
     action = summary["action"]
     function = f"{summary['subject']}_{action}" if action is not None else Path(summary["sequence"]).name
-    dataset = config.get("dataset") if isinstance(config, dict) else None
-    realism = dataset.get("realism") if isinstance(dataset, dict) else None
-    if isinstance(realism, dict) and realism.get("name") not in (None, "exact"):
-        function += f"_{realism['name']}"
+    if realism not in (None, "exact"):
+        function += f"_{realism}"
     traces = read_traces(folder / TRACES)
     missing = sorted(set(range(int(summary["frames"]))) - set(traces))
     extra = sorted(set(traces) - set(range(int(summary["frames"]))))
