@@ -19,7 +19,6 @@ from functools import cache
 from mmocap.errors import ConfigError
 from mmocap.evaluators.numpy_backend import NumpyEvaluator
 from mmocap.evaluators.opencl import OpenCLEvaluator
-from mmocap.evaluators.opencl import check_scene as _test_scene  # noqa: F401 - tests' name for it
 from mmocap.evaluators.silhouette import PATCH_SCALE
 
 log = logging.getLogger(__name__)

@@ -11,7 +11,7 @@ import pytest
 from mmocap import registry
 from mmocap.evaluators import auto
 from mmocap.evaluators.numpy_backend import NumpyEvaluator
-from mmocap.evaluators.opencl import OpenCLEvaluator
+from mmocap.evaluators.opencl import OpenCLEvaluator, check_scene
 from mmocap.testing.evaluators import RIGS, BlobBody, masks, naive_counts, test_poses
 from tests.test_cli import overrides
 
@@ -99,7 +99,7 @@ def test_the_choice_is_made_once_per_process(monkeypatch):
 
 
 def test_the_test_scene_covers_the_image_border_and_the_foreground():
-    body, camera, foreground, X = auto._test_scene()
+    body, camera, foreground, X = check_scene()
     with NumpyEvaluator() as ev:
         ev.setup(body, [camera], [foreground])
         model_px, overlap_px = ev.counts(X)
