@@ -34,7 +34,9 @@ variant are ranked apart: the data's realism (column ``realism``: ``realistic`` 
 ``conf/realism/``) and the optimiser settings preset (column ``settings``: ``paper``, Yeguas
 Table 3, and ``tuned``, mmocap's defaults; ``conf/settings/``), their files named
 ``NAME_<realism>_<settings>``, e.g. ``table4_realistic_paper.md`` and
-``table4_exact_tuned_marker_error.md``.
+``table4_exact_tuned_marker_error.md``. The figures and Cano's table are made per variant
+too (``fig7_realistic_paper.png``, ``cano_table3_exact.md``); a sweep without these columns
+(real data) writes ``NAME`` alone.
 """
 from __future__ import annotations
 
@@ -152,11 +154,17 @@ def variants(runs: pd.DataFrame) -> list[tuple[dict, pd.DataFrame]]:
     return out
 
 
+def variant_stem(name: str, variant: dict) -> str:
+    """The file name of a table or figure of one variant: 'fig7', {'realism': 'realistic',
+    'settings': 'paper'} -> 'fig7_realistic_paper'; 'fig7', {} -> 'fig7'."""
+    return "_".join([name, *variant.values()])
+
+
 def table_stem(name: str, variant: dict, value: str) -> str:
     """The file name of a ranking table: 'table4', {'realism': 'realistic', 'settings':
     'paper'}, FITNESS -> 'table4_realistic_paper'; 'table4', {'settings': 'tuned'}, ERROR ->
     'table4_tuned_marker_error'."""
-    return "_".join([name, *variant.values()]) + RANKINGS[value][0]
+    return variant_stem(name, variant) + RANKINGS[value][0]
 
 
 def variant_words(variant: dict) -> str:
@@ -328,10 +336,27 @@ def frame_errors(runs: pd.DataFrame, frames: pd.DataFrame | None, source: str) -
     return frames.merge(runs, on="run_id", how="inner")
 
 
-def fig7(runs, frames, out, *, source: str = "runs", **_) -> Outputs:
-    """Yeguas Fig. 7: box plots of the error of every frame, per sequence and algorithm-DOF."""
+def _variants_of_frames(build: Callable[..., Outputs], name: str, runs: pd.DataFrame,
+                        frames: pd.DataFrame | None, out: Path, source: str, **options) -> Outputs:
+    """``build(runs, data, path, variant, ...)`` for each variant (:func:`variants`), with its
+    runs, their frames joined with the runs (:func:`frame_errors`, which checks every frame
+    once) and the figure's path ``out/figures/<name>_<variant>.png``."""
     runs = checked(runs, ["run_id", "optimizer", "strategy", "dof", "evaluations", "sequence"], source)
     data = frame_errors(runs, frames, source)
+    (out / "figures").mkdir(parents=True, exist_ok=True)
+    return [path for variant, group in variants(runs)
+            for path in build(group, data[data.run_id.isin(group.run_id)],
+                              out / "figures" / f"{variant_stem(name, variant)}.png", variant,
+                              source=source, **options)]
+
+
+def fig7(runs, frames, out, *, source: str = "runs", **_) -> Outputs:
+    """Yeguas Fig. 7: box plots of the error of every frame, per sequence and algorithm-DOF,
+    one figure per variant (``fig7_<realism>_<settings>.png``)."""
+    return _variants_of_frames(_fig7, "fig7", runs, frames, out, source)
+
+
+def _fig7(runs: pd.DataFrame, data: pd.DataFrame, path: Path, variant: dict, *, source: str) -> Outputs:
     pair = [f"{short_name(o, s)}({d})" for o, s, d in zip(data.optimizer, data.strategy, data.dof)]
     pairs = [f"{short_name(o, s)}({d})" for o, s in by_optimizer(zip(data.optimizer, data.strategy))
              for d in sorted(data.dof.unique(), reverse=True)]
@@ -339,11 +364,10 @@ def fig7(runs, frames, out, *, source: str = "runs", **_) -> Outputs:
     data = data.assign(pair=pd.Categorical(pair, pairs),
                        budget=pd.Categorical([f"{e} evaluations" for e in data.evaluations], budgets),
                        kind=np.where(is_hierarchical(data), "hierarchical", "holistic"))
-    path = out / "figures" / "fig7.png"
-    path.parent.mkdir(parents=True, exist_ok=True)
     figures.plot_grouped_boxplots(
         data, path, value="marker_error_mm", x="sequence", hue="pair", panel=["budget", "kind"],
-        ylabel="marker error (mm)", title="Marker error of every frame of every run (Yeguas Fig. 7)",
+        ylabel="marker error (mm)",
+        title=f"Marker error of every frame of every run (Yeguas Fig. 7){variant_words(variant)}",
         note=provenance(describe_runs(runs, source)))
     return [path]
 
@@ -355,14 +379,19 @@ def _prefer(values, wanted):
 
 def fig10(runs, frames, out, *, source: str = "runs", sequence: str | None = None,
           dof: int | None = None, evaluations: int | None = None, **_) -> Outputs:
-    """Yeguas Fig. 10: error per frame of the holistic algorithms on one sequence.
+    """Yeguas Fig. 10: error per frame of the holistic algorithms on one sequence, one figure
+    per variant (``fig10_<realism>_<settings>.png``).
 
     Defaults as in the paper where the runs have them: S1_walking, 39 DOF, 1500 evaluations
     (else the first sequence, the middle DOF and budget). Several seeds: their mean, with
     a band from the lowest to the highest.
     """
-    runs = checked(runs, ["run_id", "optimizer", "strategy", "dof", "evaluations", "sequence"], source)
-    data = frame_errors(runs, frames, source)
+    return _variants_of_frames(_fig10, "fig10", runs, frames, out, source,
+                               sequence=sequence, dof=dof, evaluations=evaluations)
+
+
+def _fig10(runs: pd.DataFrame, data: pd.DataFrame, path: Path, variant: dict, *, source: str,
+           sequence: str | None, dof: int | None, evaluations: int | None) -> Outputs:
     holistic = data[~is_hierarchical(data)]
     data = holistic if not holistic.empty else data
     sequence = sequence or _prefer(data.sequence.unique(), "S1_walking")
@@ -377,13 +406,12 @@ def fig10(runs, frames, out, *, source: str = "runs", sequence: str | None = Non
     table = pd.concat({"mean": per_frame.agg(overflow_free_mean).unstack(), "min": per_frame.min().unstack(),
                        "max": per_frame.max().unstack()}, axis=1)
     seeds = data.groupby("name")["run_id"].nunique()
-    path = out / "figures" / "fig10.png"
-    path.parent.mkdir(parents=True, exist_ok=True)
     origin = describe_runs(data.drop_duplicates("run_id"), source)
     figures.plot_error_curves(
         table["mean"][order], path, note=provenance(origin),
         title=f"{sequence}, {dof} DOF, {evaluations} evaluations per frame"
-              + (f", mean of {seeds.max()} runs (band: min-max)" if seeds.max() > 1 else ""),
+              + (f", mean of {seeds.max()} runs (band: min-max)" if seeds.max() > 1 else "")
+              + variant_words(variant),
         spread=(table["min"][order], table["max"][order]) if seeds.max() > 1 else None)
     return [path]
 
@@ -394,19 +422,26 @@ def _configuration_label(vertices: int, evaluations: int) -> str:
 
 def cano_table3(runs, frames, out, *, block=DEFAULT_BLOCK, source: str = "runs", **_) -> Outputs:
     """Cano Table 3: error (mm) per sequence of each mesh level x budget, its average over the
-    sequences and the configurations' Friedman ranks."""
+    sequences and the configurations' Friedman ranks, one table per variant
+    (``cano_table3_<realism>``)."""
+    return [path for variant, group in variants(runs)
+            for path in _cano_table3(group, out, variant, block=block, source=source)]
+
+
+def _cano_table3(runs: pd.DataFrame, out: Path, variant: dict, *, block, source: str) -> Outputs:
+    stem = variant_stem("cano_table3", variant)
     runs = checked(runs, ["algorithm", "dof", "vertices", "evaluations", "sequence", ERROR, *block], source)
     setups = runs[["algorithm", "dof"]].drop_duplicates()
     if len(setups) > 1:
         held = ", ".join(f"{a}/{d}" for a, d in setups.itertuples(index=False))
-        raise DataError(f"{source}: cano_table3 compares the mesh levels and budgets of one "
+        raise DataError(f"{source}: {stem} compares the mesh levels and budgets of one "
                         f"algorithm and DOF, the runs hold {held}")
     configurations = runs[["vertices", "evaluations"]].drop_duplicates().sort_values(
         ["vertices", "evaluations"], ascending=[False, True])
     columns = [_configuration_label(v, e) for v, e in configurations.itertuples(index=False)]
     runs = runs.assign(configuration=[_configuration_label(v, e) for v, e in
                                       zip(runs.vertices, runs.evaluations)])
-    test = _test(runs, runs.configuration, ERROR, block, 0.05, source, "cano_table3", "configuration")
+    test = _test(runs, runs.configuration, ERROR, block, 0.05, source, stem, "configuration")
     per_sequence = runs.pivot_table(index="sequence", columns="configuration", values=ERROR,
                                     aggfunc=overflow_free_mean)[columns]
     ranks = test.comparisons.set_index("algorithm")["rank"]
@@ -416,23 +451,30 @@ def cano_table3(runs, frames, out, *, block=DEFAULT_BLOCK, source: str = "runs",
     algorithm, dof = setups.iloc[0]
     title = (f"Cano Table 3: mean marker error (mm) of {algorithm}, {dof} DOF, per mesh level "
              f"(vertices) x evaluations per frame; Ranks: Friedman over {test.n_blocks} blocks "
-             f"({' x '.join(block)}), chi2_F = {test.statistic:.3f}, p = {format_p(test.p_value)}")
-    return write_table(table, out / "tables" / "cano_table3", title=title,
+             f"({' x '.join(block)}), chi2_F = {test.statistic:.3f}, p = {format_p(test.p_value)}"
+             f"{variant_words(variant)}")
+    return write_table(table, out / "tables" / stem, title=title,
                        source=describe_runs(runs, source), floatfmt=".2f")
 
 
 def fig4(runs, frames, out, *, source: str = "runs", **_) -> Outputs:
     """Cano Fig. 4: time per frame against error of each mesh level x budget x backend, the
-    Pareto front linked; the configurations also as a table."""
+    Pareto front linked; the configurations also as a table; one of each per variant
+    (``fig4_<realism>``)."""
+    return [path for variant, group in variants(runs) for path in _fig4(group, out, variant, source=source)]
+
+
+def _fig4(runs: pd.DataFrame, out: Path, variant: dict, *, source: str) -> Outputs:
+    stem = variant_stem("fig4", variant)
     table = summarise(runs, source=source)
-    path = out / "figures" / "fig4.png"
+    path = out / "figures" / f"{stem}.png"
     path.parent.mkdir(parents=True, exist_ok=True)
     origin = describe_runs(runs, source)
     figures.plot_pareto_front(table, path, note=provenance(origin),
-                              title="Time per frame against marker error (Cano Fig. 4)")
+                              title=f"Time per frame against marker error (Cano Fig. 4){variant_words(variant)}")
     title = ("Cano Fig. 4: mean time per frame (s) and marker error (mm) of each configuration; "
-             "pareto = not dominated on both")
-    return [path] + write_table(table, out / "tables" / "fig4", title=title, source=origin,
+             f"pareto = not dominated on both{variant_words(variant)}")
+    return [path] + write_table(table, out / "tables" / stem, title=title, source=origin,
                                 floatfmt=".4g")
 
 

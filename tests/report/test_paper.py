@@ -254,6 +254,36 @@ def test_figures_7_and_10(sweep, tmp_path):
         assert image.shape[0] > 300 and image.std() > 10  # something drawn
 
 
+def test_figures_and_cano_table3_are_made_per_variant(tmp_path):
+    # the exact runs are 4 mm better than the realistic ones, frame by frame
+    variants = []
+    for realism, shift in (("exact", -4.0), ("realistic", 0.0)):
+        runs, frames = make_sweep(vertices=(3000, 2000), algorithms={("cmaes", "holistic"): 12.0}, dofs=(39,))
+        tag = realism[0]
+        variants.append((runs.assign(realism=realism, run_id=tag + runs.run_id,
+                                     mean_marker_error_mm=runs.mean_marker_error_mm + shift),
+                         frames.assign(run_id=tag + frames.run_id, marker_error_mm=frames.marker_error_mm + shift)))
+    folder = tmp_path / "sweep"
+    folder.mkdir()
+    pd.concat([r for r, _ in variants]).to_csv(folder / "runs.csv", index=False)
+    pd.concat([f for _, f in variants]).to_csv(folder / "frames.csv", index=False)
+    written, skipped = paper.make(["cano_table3", "fig4", "fig7", "fig10"], folder, tmp_path / "out")
+    assert not skipped
+    names = {p.name for p in written}
+    for realism in ("realistic", "exact"):
+        assert {f"cano_table3_{realism}.md", f"fig4_{realism}.png", f"fig7_{realism}.png",
+                f"fig10_{realism}.png"} <= names
+    tables = tmp_path / "out" / "tables"
+    cano = {r: read(tables / f"cano_table3_{r}.csv").set_index("Sequence") for r in ("realistic", "exact")}
+    assert cano["realistic"].loc["S1_walking", "3000 v, 150 ev."] == pytest.approx(12.05)
+    assert cano["exact"].loc["S1_walking", "3000 v, 150 ev."] == pytest.approx(8.05)
+    assert "(realism=exact)" in (tables / "cano_table3_exact.md").read_text()
+    front = read(tables / "fig4_exact.csv")
+    assert front.runs.sum() == len(variants[0][0])  # the exact runs alone
+    assert front.mean_marker_error_mm.min() == pytest.approx(variants[0][0].mean_marker_error_mm.groupby(
+        [variants[0][0].vertices, variants[0][0].evaluations]).mean().min())
+
+
 def test_fig10_needs_the_frames(sweep, tmp_path):
     (sweep / "frames.csv").unlink()
     with pytest.raises(DataError, match="no frames.csv beside the runs"):
