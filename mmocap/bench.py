@@ -12,6 +12,13 @@ frames per second, also plotted against the budget (Fig. 3, ``fig3.png``). ``nai
 take minutes per frame: its frame time is extrapolated from its Table 2 time per model-view
 (evaluations x cameras x that time), and marked so.
 
+Multi-fidelity (``fidelity``): the demo sequence (S1 walking, 4 cameras, 640x480) on
+``realistic`` data, tracked by the real pipeline with holistic CMA-ES, exactly at each of
+``--exact`` evaluations per frame and with each ``--schedule`` of cheaper fitness levels
+before a short exact search (:mod:`mmocap.stages.fidelity`), one run at a time: mean marker
+error and search time per frame side by side, their ratios to the exact run at 1500
+evaluations, and the Pareto front of both modes (``fidelity.png``).
+
 Scene: the MakeHuman body resampled to the vertex level, cameras of the synthetic ring
 (no lens distortion), the foreground being the model's own silhouettes of a reference
 pose; candidates are that pose with normal noise on the joint angles.
@@ -21,12 +28,14 @@ Usage::
     mmocap bench table2 --vertices 27393,20544,13695
     mmocap bench table1 --budgets 500,1500,3000,5000
     mmocap bench all --vertices 27393 --budgets 500,1500 --prefix bench_
+    mmocap bench fidelity --exact 500,1000,1500 --schedule 0.25:3000:1200+300
 """
 from __future__ import annotations
 
 import argparse
 import os
 import platform
+import tempfile
 import time
 from pathlib import Path
 
@@ -34,15 +43,21 @@ import numpy as np
 import pandas as pd
 
 from mmocap import registry
-from mmocap.analysis.figures import plot_frames_per_second
+from mmocap.analysis.figures import plot_frames_per_second, plot_pareto_front
+from mmocap.analysis.pareto import non_dominated
 from mmocap.body.model import VERTICES_RANGE, BodyModel
+from mmocap.config import compose
 from mmocap.data.synthetic import CAMERA_RING, camera_rig
 from mmocap.errors import ConfigError
 from mmocap.evaluators.timed import TimedEvaluator
+from mmocap.pipeline import run
+from mmocap.stages.fidelity import check_levels
 from mmocap.stages.tracking import MAX_EVALUATIONS, START_EVALUATIONS, Holistic
 from mmocap.validate import check_number
 
 MAX_FRAMES = 5  # frames per budget and backend that frame_ms adds to fill its seconds
+#: the multi-fidelity runs of ``mmocap bench fidelity`` unless ``--schedule`` is given
+DEFAULT_SCHEDULES = ["0.25:3000:1200+300"]
 
 
 def backends() -> list[str]:
@@ -159,6 +174,62 @@ def table1(evaluators: dict, scenes: dict, budgets, frames: int, naive_us: dict,
     return df
 
 
+#: the exact run the multi-fidelity runs are compared with: CMA-ES at this many evaluations
+FIDELITY_REFERENCE = 1500
+#: the run every fidelity configuration shares (the demo sequence on realistic data, as the
+#: papers' tables track, without the recovery searches, whose extra evaluations vary)
+FIDELITY_RUN = ["+experiment=demo", "realism=realistic", "recovery.enabled=false", "overlays=0",
+                "progress=false", "foreground_cache=null"]
+
+
+def parse_schedule(text: str) -> tuple[list[dict], int]:
+    """``--schedule`` 'SCALE:VERTICES:EVALUATIONS[,...]+EXACT' (e.g. '0.25:3000:1200+300')
+    -> (levels for ``fidelity.levels``, exact evaluations); a ConfigError naming it otherwise."""
+    levels_text, plus, exact = text.partition("+")
+    try:
+        fields = [level.split(":") for level in levels_text.split(",")]
+        levels = [{"scale": float(s), "vertices": int(v), "evaluations": int(e)} for s, v, e in fields]
+        exact = int(exact)
+    except ValueError:
+        raise ConfigError(f"--schedule must be SCALE:VERTICES:EVALUATIONS[,...]+EXACT, e.g. "
+                          f"0.25:3000:1200+300, got {text!r}") from None
+    check_levels(levels)
+    return levels, check_number("--schedule's exact evaluations", exact, START_EVALUATIONS + 1,
+                                MAX_EVALUATIONS, integer=True)
+
+
+def fidelity_table(exact: list[int], schedules: list[str], frames: int, out: Path) -> pd.DataFrame:
+    """Track the demo sequence (:data:`FIDELITY_RUN`, ``frames`` frames) exactly at each of
+    ``exact`` evaluations per frame and with each multi-fidelity ``schedules``
+    (:func:`parse_schedule`), one run after the other in a fresh folder; one row per run:
+    mode, label, evaluations (cheap, exact), mean marker error (mm), search time per frame
+    (ms, the foreground apart), the ratios to the exact run at :data:`FIDELITY_REFERENCE`
+    evaluations (when run) and ``pareto`` (not dominated on time and error)."""
+    runs = [("exact", str(n), [], n) for n in exact]
+    for text in schedules:
+        levels, n = parse_schedule(text)
+        runs.append(("multi-fidelity", text, levels, n))
+    rows = []
+    for mode, label, levels, n in runs:
+        cfg = compose([*FIDELITY_RUN, f"tracking.frames={frames}", f"tracking.evaluations={n}",
+                       f"fidelity.levels={levels}".replace("'", "")])
+        with tempfile.TemporaryDirectory(dir=out) as folder:
+            summary = run(cfg, Path(folder))
+        rows.append({"mode": mode, "evaluations": label, "cheap_evaluations": sum(lv["evaluations"] for lv in levels),
+                     "exact_evaluations": n, "vertices": summary["vertices"],
+                     "mean_marker_error_mm": summary["mean_marker_error_mm"],
+                     "ms_per_frame": summary["seconds_per_frame"] * 1e3})
+        print(f"fidelity: {mode} {label}: {rows[-1]['mean_marker_error_mm']:.1f} mm, "
+              f"{rows[-1]['ms_per_frame']:.0f} ms per frame", flush=True)
+    df = pd.DataFrame(rows)
+    reference = df[(df["mode"] == "exact") & (df.exact_evaluations == FIDELITY_REFERENCE)]
+    if len(reference):
+        df["error_ratio"] = df.mean_marker_error_mm / reference.mean_marker_error_mm.iloc[0]
+        df["time_ratio"] = df.ms_per_frame / reference.ms_per_frame.iloc[0]
+    df["pareto"] = non_dominated(df[["ms_per_frame", "mean_marker_error_mm"]].to_numpy())
+    return df
+
+
 def machine() -> str:
     """One line about the CPU and the OpenCL device the benchmark ran on."""
     cpus = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
@@ -195,7 +266,7 @@ def integer_list(option: str, text: str, low: int, high: int) -> list[int]:
 
 def main(argv: list[str], prog: str) -> None:
     parser = argparse.ArgumentParser(prog=prog, description=__doc__.split("\n\n")[0])
-    parser.add_argument("table", choices=["table1", "table2", "all"])
+    parser.add_argument("table", choices=["table1", "table2", "all", "fidelity"])
     parser.add_argument("--backends", default=None,
                         help="comma-separated evaluators (default: every one that can run here)")
     parser.add_argument("--vertices", default="27393,20544,13695")
@@ -206,9 +277,31 @@ def main(argv: list[str], prog: str) -> None:
     parser.add_argument("--frames", type=int, default=1, help="frames per budget, at least (table 1)")
     parser.add_argument("--seconds", type=float, default=2.0,
                         help=f"more frames (up to {MAX_FRAMES}) while they fit in this time")
+    parser.add_argument("--exact", default=f"500,1000,{FIDELITY_REFERENCE}",
+                        help="evaluations per frame of the exact runs (fidelity)")
+    parser.add_argument("--schedule", action="append", default=None,
+                        help="a multi-fidelity run, SCALE:VERTICES:EVALUATIONS[,...]+EXACT (fidelity; "
+                             f"repeat for more; default: {' and '.join(DEFAULT_SCHEDULES)})")
+    parser.add_argument("--track-frames", type=int, default=60, help="frames tracked per run (fidelity)")
     parser.add_argument("--out", type=Path, default=Path("outputs/tables"))
     parser.add_argument("--prefix", default="", help="prefix of the output file names")
     args = parser.parse_args(argv)
+    if args.table == "fidelity":
+        exact = integer_list("--exact", args.exact, START_EVALUATIONS + 1, MAX_EVALUATIONS)
+        schedules = args.schedule or DEFAULT_SCHEDULES
+        for text in schedules:
+            parse_schedule(text)  # every argument before anything runs
+        frames = check_number("--track-frames", args.track_frames, 1, 10_000, integer=True)
+        args.out.mkdir(parents=True, exist_ok=True)
+        table = fidelity_table(exact, schedules, frames, args.out)
+        title = (f"Multi-fidelity search against exact CMA-ES (holistic, 39 DOF), S1 walking, realistic, "
+                 f"{frames} frames, 4 cameras, 640x480; ratios to exact at {FIDELITY_REFERENCE} evaluations")
+        write(table, args.out, f"{args.prefix}fidelity", title)
+        figure = args.out / f"{args.prefix}fidelity.png"
+        plot_pareto_front(table.assign(seconds_per_frame=table.ms_per_frame / 1e3), figure, colour="mode",
+                          note=machine(), title=f"Multi-fidelity against exact search, {frames} frames\n{machine()}")
+        print(f"figure: {figure}")
+        return
     names = backends() if args.backends is None else [b for b in args.backends.split(",") if b]
     unknown = sorted(set(names) - set(registry.available("evaluator")))
     if unknown:

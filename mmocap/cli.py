@@ -73,7 +73,8 @@ def track_app(cfg: DictConfig) -> None:
     mean = summary["mean_marker_error_mm"]  # over the frames with ground truth; None without any
     error = "no ground truth" if mean is None else f"mean marker error {mean:.1f} mm"
     print(f"{summary['subject']} {summary['action']}: {summary['optimizer']} {summary['strategy']} "
-          f"{summary['dof']} DOF, {summary['evaluations_per_frame']} evaluations/frame, "
+          f"{summary['dof']} DOF, {summary['evaluations_per_frame']} evaluations/frame"
+          + (f" (+{cheap} cheaper)" if (cheap := summary.get("cheap_evaluations_per_frame")) else "") + ", "
           f"{summary['frames']} frames ({summary.get('frames_scored', '?')} scored): {error}, "
           f"{summary['seconds_per_frame']:.2f} s/frame ({summary['backend']} backend) -> {output_dir}")
 

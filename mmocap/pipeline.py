@@ -131,6 +131,7 @@ def _run(cfg: DictConfig, output_dir: Path, warning_messages: list[str]) -> dict
     coverage = instantiate(cfg.coverage)
     auto_start = instantiate(cfg.start)
     recovery = instantiate(cfg.recovery)
+    fidelity = instantiate(cfg.fidelity, evaluator=lambda: instantiate(cfg.evaluator))
     missing_markers = str(cfg.evaluation.missing_markers)
     strategy.check(body, optimizer, int(cfg.tracking.evaluations))
     dataset = instantiate(cfg.dataset)
@@ -171,7 +172,7 @@ def _run(cfg: DictConfig, output_dir: Path, warning_messages: list[str]) -> dict
         results = track(sequence, body, foreground, evaluator, optimizer, strategy,
                         evaluations=int(cfg.tracking.evaluations), seed=int(cfg.seed),
                         frames=cfg.tracking.frames, on_frame=on_frame, coverage=coverage, x0=x0, rng=rng,
-                        recovery=recovery)
+                        recovery=recovery, fidelity=fidelity)
     except BaseException:
         frame_log.close(complete=False)  # the frames tracked stay in frames.csv.partial
         raise
@@ -191,7 +192,8 @@ def _run(cfg: DictConfig, output_dir: Path, warning_messages: list[str]) -> dict
         "max_marker_error_mm": float(np.max(scored)) if scored.size else None,
         "frames": len(results),
         "frames_scored": int(scored.size),
-        "evaluations_per_frame": int(cfg.tracking.evaluations),
+        "evaluations_per_frame": int(cfg.tracking.evaluations),  # the exact search's
+        "cheap_evaluations_per_frame": fidelity.evaluations,  # the cheaper fitness levels' (mmocap.stages.fidelity)
         "evaluations_used": int(sum(r.evaluations for r in results)),
         "seconds_per_frame": search_seconds / len(results),  # the search alone
         "foreground_seconds_per_frame": foreground_seconds / len(results),
@@ -226,6 +228,7 @@ def _run(cfg: DictConfig, output_dir: Path, warning_messages: list[str]) -> dict
         write_run_videos(output_dir, sequence, foreground, evaluator, body, results, truth, progress=cfg.progress)
     write_json_atomic(output_dir / "summary.json", summary)  # the last output: the run is complete
     evaluator.close()
+    fidelity.close()
     path = store.put(make_record(cfg, summary, frame_rows, search_seconds, evaluator.seconds, foreground_seconds,
                                  started, output_dir))
     log.info("run %s recorded in %s", run_id, path)

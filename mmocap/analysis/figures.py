@@ -229,31 +229,33 @@ def plot_grouped_boxplots(data: pd.DataFrame, path: Path, *, value: str, x: str,
 
 
 def plot_pareto_front(table: pd.DataFrame, path: Path, *, title: str, note: str | None = None,
-                      x: str = "seconds_per_frame", y: str = "mean_marker_error_mm") -> Figure:
+                      x: str = "seconds_per_frame", y: str = "mean_marker_error_mm",
+                      colour: str = "backend") -> Figure:
     """Time against error of every configuration, the Pareto front linked (Cano Fig. 4);
     returns the saved (closed) figure.
 
-    ``table`` holds one row per configuration: ``vertices`` (marker shape), ``backend``
-    (colour), ``evaluations`` (written beside the point), ``x``, ``y`` and ``pareto`` (bool).
+    ``table`` holds one row per configuration: ``vertices`` (marker shape), ``colour`` (a
+    column, ``backend`` by default), ``evaluations`` (written beside the point), ``x``, ``y``
+    and ``pareto`` (bool).
     ``note`` (provenance) is stored as the PNG's Description. Values near the float limit are
     plotted in units of a power of ten that the axis label names.
     """
     (x_factor, x_unit), (y_factor, y_unit) = _axis_units(table[x]), _axis_units(table[y])
     table = table.assign(**{x: table[x] / x_factor, y: table[y] / y_factor})
-    backends, meshes = sorted(table["backend"].unique()), sorted(table["vertices"].unique())
+    backends, meshes = sorted(table[colour].unique()), sorted(table["vertices"].unique())
     colours = dict(zip(backends, plt.get_cmap("tab10")(np.arange(len(backends)) % 10)))
     markers = dict(zip(meshes, "os^Dvp*hX"))
     fig, ax = plt.subplots(figsize=(8, 5), dpi=110, layout="constrained")
     front = table[table["pareto"]].sort_values(x)
     ax.plot(front[x], front[y], color="0.3", lw=1.2, ls="--", zorder=1, label="Pareto front")
     for row in table.itertuples(index=False):
-        ax.scatter(getattr(row, x), getattr(row, y), color=colours[row.backend],
+        ax.scatter(getattr(row, x), getattr(row, y), color=colours[getattr(row, colour)],
                    marker=markers[row.vertices], s=70 if row.pareto else 35,
                    edgecolors="black" if row.pareto else "none", zorder=2)
         ax.annotate(f"{row.evaluations}", (getattr(row, x), getattr(row, y)), fontsize=7,
                     xytext=(4, 3), textcoords="offset points")
     handles = [plt.Line2D([], [], color="0.3", ls="--", label="Pareto front")]
-    handles += [plt.Line2D([], [], ls="", marker="o", color=colours[b], label=f"backend {b}")
+    handles += [plt.Line2D([], [], ls="", marker="o", color=colours[b], label=f"{colour} {b}")
                 for b in backends]
     handles += [plt.Line2D([], [], ls="", marker=markers[v], color="0.5", label=f"{v} vertices")
                 for v in meshes]

@@ -57,9 +57,13 @@ FRAME_COLUMNS = ["run_id", "frame", "marker_error_mm", "fitness"]
 
 
 def key_config(cfg: DictConfig) -> dict:
-    """The resolved config that identifies a run: everything but ``NOT_IN_KEY``."""
+    """The resolved config that identifies a run: everything but ``NOT_IN_KEY``, and
+    ``fidelity`` when it has no levels (an exact search, as before that stage existed, so
+    that the records made then still match)."""
     kept = {}
     for key in cfg:
+        if key == "fidelity" and not cfg[key].get("levels"):
+            continue
         if key not in NOT_IN_KEY:
             node = cfg[key]  # interpolations resolve against the whole config
             kept[key] = OmegaConf.to_container(node, resolve=True) if OmegaConf.is_config(node) else node

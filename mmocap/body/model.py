@@ -163,6 +163,11 @@ class BodyModel:
                          self.subject.height_mm if height_mm is None else height_mm,
                          self.subject.girth if girth is None else girth)
 
+    def resampled(self, vertices: int | None) -> BodyModel:
+        """The same body (preset, shape, DOF, seed) with ``vertices`` skin samples."""
+        return BodyModel(self.subject.name, self.dof, vertices, self.seed, self.subject.height_mm,
+                         self.subject.girth)
+
     @property
     def n_vertices(self) -> int:
         return len(self.rest_vertices)

@@ -83,6 +83,11 @@ class Trace:
         self.evaluations += values.size
         return fitness
 
+    def skip(self, n: int) -> None:
+        """Count ``n`` evaluations made at a cheaper fitness (:mod:`mmocap.stages.fidelity`),
+        whose values are not comparable with this evaluator's and are not recorded."""
+        self.evaluations += int(n)
+
     def rows(self) -> np.ndarray:
         """(k, 2) float64: (evaluations, best fitness so far) at every improvement, then at
         the last evaluation if it improved nothing; evaluations rise, the fitness never does."""
@@ -259,7 +264,7 @@ def check_budget(evaluations) -> int:
 
 def track(sequence, body, foreground, evaluator, optimizer, strategy, evaluations: int,
           seed: int, frames: int | None = None, on_frame=None, coverage=None, x0=None,
-          rng: np.random.Generator | None = None, recovery=None) -> list[FrameResult]:
+          rng: np.random.Generator | None = None, recovery=None, fidelity=None) -> list[FrameResult]:
     """Track ``frames`` frames (default: all) of ``sequence`` from the first frame's pose
     ``x0`` ((51,) mm and rad; default: the sequence's).
 
@@ -268,8 +273,11 @@ def track(sequence, body, foreground, evaluator, optimizer, strategy, evaluation
     at, or drops, a camera whose foreground is empty or nearly the whole image. The search
     draws from ``rng`` (default: a generator seeded with ``seed``). ``recovery`` (a
     :class:`mmocap.stages.recovery.Recovery`) searches a frame whose fitness says the track
-    is lost again; its evaluations are added to the frame's. Every result's ``trace`` records
-    all of its frame's evaluations (:class:`Trace`), a recovery's included.
+    is lost again; its evaluations are added to the frame's. ``fidelity`` (a
+    :class:`mmocap.stages.fidelity.Fidelity` with levels) searches each frame on cheaper
+    fitness levels first, the exact search starting from their pose; their evaluations are
+    added to the frame's. Every result's ``trace`` records all of its frame's exact
+    evaluations (:class:`Trace`), a recovery's included, and counts the cheaper ones.
     """
     evaluations = check_budget(evaluations)
     n = sequence.n_frames if frames is None else int(frames)
@@ -287,12 +295,16 @@ def track(sequence, body, foreground, evaluator, optimizer, strategy, evaluation
         read = time.perf_counter()
         masks = foreground.masks(frame)
         start = time.perf_counter()
-        if coverage is None:
-            evaluator.setup(body, cameras, masks)
-        else:
-            evaluator.setup(body, *coverage.select(frame, cameras, masks, last_frame=n - 1))
+        views = (cameras, masks) if coverage is None else coverage.select(frame, cameras, masks, last_frame=n - 1)
+        evaluator.setup(body, *views)
         trace = Trace(evaluator)
-        x, f, used = strategy.estimate(body, x_prev, trace, optimizer, evaluations, rng)
+        start_pose, cheap = x_prev, 0
+        if fidelity is not None and fidelity.enabled:
+            fidelity.setup(body, *views)
+            start_pose, cheap = fidelity.search(strategy, body, x_prev, optimizer, rng)
+            trace.skip(cheap)
+        x, f, used = strategy.estimate(body, start_pose, trace, optimizer, evaluations, rng)
+        used += cheap
         if recovery is not None:
             if recovery.lost(f):
                 x, f, event = recovery.recover(frame, body, x, f, trace, optimizer, strategy, rng)

@@ -1,0 +1,149 @@
+"""Stage "tracking", continued: multi-fidelity search, cheap fitness levels before the exact one.
+
+Most of a frame's evaluations go to candidates far from the optimum, which a coarser
+fitness ranks as well as the exact one. :class:`Fidelity` searches each frame first on its
+``levels``, each a cheaper fitness: the foreground masks and cameras shrunk by ``scale``
+(a mask pixel is foreground when most of the full-size pixels it covers are) and the body
+resampled to ``vertices`` skin samples, searched with ``evaluations`` of its own. Each level
+starts from the pose the one before found; the exact search (``tracking.evaluations``, the
+frame's own evaluator) starts from the last level's pose, so the frame's pose and fitness
+are always the exact fitness's. With no levels (the default) a frame is searched exactly,
+as without this stage.
+
+A level's evaluations are counted in the frame's ``evaluations``; its fitness values are
+not comparable with the exact ones and stay out of the frame's convergence trace, which
+counts them (:meth:`mmocap.stages.tracking.Trace.skip`).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import cv2
+import numpy as np
+
+from mmocap.errors import ConfigError
+from mmocap.validate import check_number
+
+#: the smallest image side a level may shrink a camera to, px
+MIN_SIDE_PX = 16
+
+
+@dataclass(frozen=True)
+class FidelityLevel:
+    """One cheaper fitness: masks and cameras shrunk by ``scale`` (0, 1], the body at
+    ``vertices`` skin samples (None: the exact body's), ``evaluations`` per frame."""
+
+    scale: float
+    vertices: int | None
+    evaluations: int
+
+
+def shrunk_camera(camera, scale: float):
+    """``camera`` (an ideal pin-hole) imaging a ``scale`` times smaller picture: the size
+    rounded to whole pixels (at least :data:`MIN_SIDE_PX`), ``K`` scaled per axis by the
+    rounded ratio, pixel centres kept at integer coordinates (OpenCV's convention:
+    ``u' = (u + 0.5) s - 0.5``)."""
+    width = max(MIN_SIDE_PX, round(camera.width * scale))
+    height = max(MIN_SIDE_PX, round(camera.height * scale))
+    sx, sy = width / camera.width, height / camera.height
+    S = np.array([[sx, 0.0, 0.5 * sx - 0.5], [0.0, sy, 0.5 * sy - 0.5], [0.0, 0.0, 1.0]])
+    return replace(camera, K=S @ np.asarray(camera.K, np.float64), width=width, height=height, _maps={})
+
+
+def shrunk_mask(mask: np.ndarray, width: int, height: int) -> np.ndarray:
+    """(H, W) bool-like mask -> (height, width) bool: a pixel is foreground when more than
+    half of the area it covers in ``mask`` is (OpenCV's area resampling)."""
+    area = cv2.resize((np.asarray(mask) != 0).astype(np.float32), (width, height), interpolation=cv2.INTER_AREA)
+    return area > 0.5
+
+
+def check_levels(levels) -> list[FidelityLevel]:
+    """``fidelity.levels`` from the config (a list of mappings with ``scale``, ``vertices``
+    and ``evaluations``) as FidelityLevels; a ConfigError naming the level and key otherwise."""
+    if levels is None:
+        return []
+    if isinstance(levels, (str, bytes)) or not hasattr(levels, "__iter__"):
+        raise ConfigError(f"fidelity.levels must be a list of {{scale, vertices, evaluations}}, got {levels!r}")
+    checked = []
+    for k, level in enumerate(levels):
+        where = f"fidelity.levels[{k}]"
+        if not hasattr(level, "keys"):
+            raise ConfigError(f"{where} must be a mapping with scale, vertices and evaluations, got {level!r}")
+        unknown = sorted(set(level.keys()) - {"scale", "vertices", "evaluations"})
+        if unknown:
+            raise ConfigError(f"{where} has unknown key(s) {', '.join(map(str, unknown))}: "
+                              "give scale, vertices and evaluations")
+        if "evaluations" not in level:
+            raise ConfigError(f"{where} needs evaluations (the level's evaluations per frame)")
+        scale = check_number(f"{where}.scale", level.get("scale", 1.0), 0, 1, low_open=True)
+        vertices = level.get("vertices")
+        if vertices is not None:
+            vertices = check_number(f"{where}.vertices", vertices, 1000, 200_000, integer=True)
+        evaluations = check_number(f"{where}.evaluations", level["evaluations"], 2, 10**8, integer=True)
+        checked.append(FidelityLevel(float(scale), vertices, int(evaluations)))
+    return checked
+
+
+class Fidelity:
+    """Multi-fidelity search of every frame (see the module's docstring).
+
+    Args:
+        levels: the cheaper levels, searched in order before the exact search: mappings with
+            ``scale`` (0, 1], ``vertices`` (skin samples, None: the exact body's) and
+            ``evaluations`` (per frame); [] (the default) searches exactly only.
+        evaluator: a callable returning a new evaluator of the run's backend, one per level
+            (the pipeline passes the ``evaluator`` config); required with levels.
+    """
+
+    def __init__(self, levels=(), evaluator=None):
+        self.levels = check_levels(levels)
+        self._new_evaluator = evaluator
+        if self.levels and evaluator is None:
+            raise ConfigError("fidelity.levels needs an evaluator factory for its levels")
+        self._evaluators: list = []
+        self._bodies: dict = {}
+
+    @property
+    def enabled(self) -> bool:
+        return bool(self.levels)
+
+    @property
+    def evaluations(self) -> int:
+        """Evaluations per frame spent on the cheaper levels."""
+        return sum(level.evaluations for level in self.levels)
+
+    def level_body(self, body, vertices: int | None):
+        """``body`` resampled to ``vertices`` skin samples (same shape, DOF and seed), made
+        once per body and count."""
+        if vertices is None or vertices == body.n_vertices:
+            return body
+        key = (id(body), vertices)
+        if key not in self._bodies:
+            self._bodies = {k: v for k, v in self._bodies.items() if k[0] == id(body)}  # a new body: forget the old
+            self._bodies[key] = body.resampled(vertices)
+        return self._bodies[key]
+
+    def setup(self, body, cameras, masks) -> None:
+        """Upload one frame to every level: the body at the level's vertices, C cameras and
+        their C (H_c, W_c) masks shrunk by the level's scale."""
+        if not self._evaluators:
+            self._evaluators = [self._new_evaluator() for _ in self.levels]
+        for level, evaluator in zip(self.levels, self._evaluators):
+            small = [shrunk_camera(cam, level.scale) for cam in cameras]
+            evaluator.setup(self.level_body(body, level.vertices), small,
+                            [shrunk_mask(m, cam.width, cam.height) for m, cam in zip(masks, small)])
+
+    def search(self, strategy, body, x_prev: np.ndarray, optimizer, rng) -> tuple[np.ndarray, int]:
+        """The cheaper levels in order from ``x_prev`` (51,): returns the last level's pose
+        (51,) and the evaluations they spent."""
+        x, used = np.asarray(x_prev, np.float64), 0
+        for level, evaluator in zip(self.levels, self._evaluators):
+            x, _, n = strategy.estimate(self.level_body(body, level.vertices), x, evaluator, optimizer,
+                                        level.evaluations, rng)
+            used += n
+        return x, used
+
+    def close(self) -> None:
+        for evaluator in self._evaluators:
+            evaluator.close()
+        self._evaluators = []
