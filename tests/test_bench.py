@@ -64,3 +64,29 @@ def test_frame_ms_adds_frames_that_fit_in_the_time_given(small_scene, delay, fra
     bench.frame_ms(ev, small_scene, 140, frames, seconds)
     # the warm-up call, then per frame the start pose and CMA-ES's 10 calls (139 evaluations)
     assert ev.calls == 1 + expected * (1 + 10)
+
+
+def test_fidelity_puts_both_modes_side_by_side_with_ratios_to_exact_1500(tiny_sequence, tmp_path, monkeypatch):
+    monkeypatch.setattr(bench, "FIDELITY_RUN", ["dataset=folder", f"dataset.root={tiny_sequence}", "evaluator=numpy",
+                                                "body.vertices=1000", "recovery.enabled=false", "overlays=0",
+                                                "progress=false", "foreground_cache=null"])
+    assert run_cli("bench", "fidelity", "--exact", "100,1500", "--schedule", "0.5:1000:300+60",
+                   "--track-frames", "2", "--out", tmp_path) == 0
+    table = pd.read_csv(tmp_path / "fidelity.csv")
+    assert table["mode"].tolist() == ["exact", "exact", "multi-fidelity"]
+    assert table.cheap_evaluations.tolist() == [0, 0, 300] and table.exact_evaluations.tolist() == [100, 1500, 60]
+    reference = table.iloc[1]
+    assert reference.error_ratio == 1 and reference.time_ratio == 1
+    assert table.time_ratio.tolist() == pytest.approx((table.ms_per_frame / reference.ms_per_frame).tolist())
+    assert table.mean_marker_error_mm.gt(0).all() and table.ms_per_frame.gt(0).all()
+    fastest, best = table.ms_per_frame.idxmin(), table.mean_marker_error_mm.idxmin()
+    assert table.pareto[fastest] and table.pareto[best]
+    assert (tmp_path / "fidelity.png").read_bytes()[:4] == b"\x89PNG"
+    assert list(tmp_path.iterdir()) and not [p for p in tmp_path.iterdir() if p.is_dir()]  # the runs' folders go
+
+
+@pytest.mark.parametrize("schedule", ["0.25:3000+300", "0.25:3000:1200", "2:3000:1200+300", "0.25:3000:1200+1"])
+def test_a_bad_schedule_is_one_line_naming_it(schedule, capsys):
+    assert run_cli("bench", "fidelity", "--schedule", schedule) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and ("--schedule" in err or "fidelity.levels[0]" in err)
