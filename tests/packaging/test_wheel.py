@@ -141,12 +141,12 @@ def test_a_recording_is_tracked_from_nothing_and_exported_without_extras(venv):
 
 
 def test_a_two_job_sweep_makes_a_paper_figure(venv):
-    mmocap(venv, "-m", "+experiment=fig10", "scale=smoke", "algorithm=cmaes-holistic,pso-holistic",
+    mmocap(venv, "-m", "+experiment=fig10", "scale=smoke", "settings=paper", "algorithm=cmaes-holistic,pso-holistic",
            "dataset.root=data-smoke", "hydra.sweep.dir=sweep")
     runs = pd.read_csv(venv["work"] / "sweep" / "runs.csv")
     assert sorted(runs.algorithm) == ["cmaes-holistic", "pso-holistic"]
     out = mmocap(venv, "paper", "fig10", "sweep", "--out", "paper").stdout
-    assert (venv["work"] / "paper" / "figures" / "fig10.png").read_bytes()[:4] == b"\x89PNG", out
+    assert (venv["work"] / "paper" / "figures" / "fig10_realistic_paper.png").read_bytes()[:4] == b"\x89PNG", out
 
 
 @pytest.mark.parametrize("plugin", PLUGINS, ids=[p.name for p in PLUGINS])
