@@ -183,16 +183,22 @@ FIDELITY_RUN = ["+experiment=demo", "realism=realistic", "recovery.enabled=false
 
 
 def parse_schedule(text: str) -> tuple[list[dict], int]:
-    """``--schedule`` 'SCALE:VERTICES:EVALUATIONS[,...]+EXACT' (e.g. '0.25:3000:1200+300')
-    -> (levels for ``fidelity.levels``, exact evaluations); a ConfigError naming it otherwise."""
-    levels_text, plus, exact = text.partition("+")
+    """``--schedule`` 'SCALE:VERTICES:EVALUATIONS[:POPSIZE][,...]+EXACT' (e.g.
+    '0.25:3000:1200:28+300') -> (levels for ``fidelity.levels``, exact evaluations); a
+    ConfigError naming it otherwise."""
+    levels_text, _, exact = text.partition("+")
     try:
-        fields = [level.split(":") for level in levels_text.split(",")]
-        levels = [{"scale": float(s), "vertices": int(v), "evaluations": int(e)} for s, v, e in fields]
+        levels = []
+        for level in levels_text.split(","):
+            scale, vertices, evaluations, *popsize = level.split(":")
+            if len(popsize) > 1:
+                raise ValueError(level)
+            levels.append({"scale": float(scale), "vertices": int(vertices), "evaluations": int(evaluations),
+                           **({"optimizer": {"popsize": int(popsize[0])}} if popsize else {})})
         exact = int(exact)
     except ValueError:
-        raise ConfigError(f"--schedule must be SCALE:VERTICES:EVALUATIONS[,...]+EXACT, e.g. "
-                          f"0.25:3000:1200+300, got {text!r}") from None
+        raise ConfigError(f"--schedule must be SCALE:VERTICES:EVALUATIONS[:POPSIZE][,...]+EXACT, e.g. "
+                          f"0.25:3000:1200:28+300, got {text!r}") from None
     check_levels(levels)
     return levels, check_number("--schedule's exact evaluations", exact, START_EVALUATIONS + 1,
                                 MAX_EVALUATIONS, integer=True)
@@ -280,7 +286,7 @@ def main(argv: list[str], prog: str) -> None:
     parser.add_argument("--exact", default=f"500,1000,{FIDELITY_REFERENCE}",
                         help="evaluations per frame of the exact runs (fidelity)")
     parser.add_argument("--schedule", action="append", default=None,
-                        help="a multi-fidelity run, SCALE:VERTICES:EVALUATIONS[,...]+EXACT (fidelity; "
+                        help="a multi-fidelity run, SCALE:VERTICES:EVALUATIONS[:POPSIZE][,...]+EXACT (fidelity; "
                              f"repeat for more; default: {' and '.join(DEFAULT_SCHEDULES)})")
     parser.add_argument("--track-frames", type=int, default=60, help="frames tracked per run (fidelity)")
     parser.add_argument("--out", type=Path, default=Path("outputs/tables"))

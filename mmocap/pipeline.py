@@ -131,7 +131,8 @@ def _run(cfg: DictConfig, output_dir: Path, warning_messages: list[str]) -> dict
     coverage = instantiate(cfg.coverage)
     auto_start = instantiate(cfg.start)
     recovery = instantiate(cfg.recovery)
-    fidelity = instantiate(cfg.fidelity, evaluator=lambda: instantiate(cfg.evaluator))
+    fidelity = instantiate(cfg.fidelity, evaluator=lambda: instantiate(cfg.evaluator),
+                           optimizer=lambda **settings: instantiate(cfg.optimizer, **settings))
     missing_markers = str(cfg.evaluation.missing_markers)
     strategy.check(body, optimizer, int(cfg.tracking.evaluations))
     dataset = instantiate(cfg.dataset)

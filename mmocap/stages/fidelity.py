@@ -4,7 +4,9 @@ Most of a frame's evaluations go to candidates far from the optimum, which a coa
 fitness ranks as well as the exact one. :class:`Fidelity` searches each frame first on its
 ``levels``, each a cheaper fitness: the foreground masks and cameras shrunk by ``scale``
 (a mask pixel is foreground when most of the full-size pixels it covers are) and the body
-resampled to ``vertices`` skin samples, searched with ``evaluations`` of its own. Each level
+resampled to ``vertices`` skin samples, searched with ``evaluations`` of its own, by the run's
+optimiser or, with ``optimizer``, one with those settings changed (a larger ``popsize`` spreads
+the per-call costs, which dominate a cheap level, over more candidates). Each level
 starts from the pose the one before found; the exact search (``tracking.evaluations``, the
 frame's own evaluator) starts from the last level's pose, so the frame's pose and fitness
 are always the exact fitness's. With no levels (the default) a frame is searched exactly,
@@ -16,7 +18,7 @@ counts them (:meth:`mmocap.stages.tracking.Trace.skip`).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import cv2
 import numpy as np
@@ -31,11 +33,13 @@ MIN_SIDE_PX = 16
 @dataclass(frozen=True)
 class FidelityLevel:
     """One cheaper fitness: masks and cameras shrunk by ``scale`` (0, 1], the body at
-    ``vertices`` skin samples (None: the exact body's), ``evaluations`` per frame."""
+    ``vertices`` skin samples (None: the exact body's), ``evaluations`` per frame, and the
+    settings changed in the run's optimiser for this level (``optimizer``, {} for none)."""
 
     scale: float
     vertices: int | None
     evaluations: int
+    optimizer: dict = field(default_factory=dict)
 
 
 def shrunk_camera(camera, scale: float):
@@ -58,8 +62,9 @@ def shrunk_mask(mask: np.ndarray, width: int, height: int) -> np.ndarray:
 
 
 def check_levels(levels) -> list[FidelityLevel]:
-    """``fidelity.levels`` from the config (a list of mappings with ``scale``, ``vertices``
-    and ``evaluations``) as FidelityLevels; a ConfigError naming the level and key otherwise."""
+    """``fidelity.levels`` from the config (a list of mappings with ``scale``, ``vertices``,
+    ``evaluations`` and optionally ``optimizer``) as FidelityLevels; a ConfigError naming the
+    level and key otherwise."""
     if levels is None:
         return []
     if isinstance(levels, (str, bytes)) or not hasattr(levels, "__iter__"):
@@ -69,10 +74,10 @@ def check_levels(levels) -> list[FidelityLevel]:
         where = f"fidelity.levels[{k}]"
         if not hasattr(level, "keys"):
             raise ConfigError(f"{where} must be a mapping with scale, vertices and evaluations, got {level!r}")
-        unknown = sorted(set(level.keys()) - {"scale", "vertices", "evaluations"})
+        unknown = sorted(set(level.keys()) - {"scale", "vertices", "evaluations", "optimizer"})
         if unknown:
             raise ConfigError(f"{where} has unknown key(s) {', '.join(map(str, unknown))}: "
-                              "give scale, vertices and evaluations")
+                              "give scale, vertices, evaluations and optionally optimizer")
         if "evaluations" not in level:
             raise ConfigError(f"{where} needs evaluations (the level's evaluations per frame)")
         scale = check_number(f"{where}.scale", level.get("scale", 1.0), 0, 1, low_open=True)
@@ -80,7 +85,11 @@ def check_levels(levels) -> list[FidelityLevel]:
         if vertices is not None:
             vertices = check_number(f"{where}.vertices", vertices, 1000, 200_000, integer=True)
         evaluations = check_number(f"{where}.evaluations", level["evaluations"], 2, 10**8, integer=True)
-        checked.append(FidelityLevel(float(scale), vertices, int(evaluations)))
+        settings = level.get("optimizer") or {}
+        if not hasattr(settings, "keys"):
+            raise ConfigError(f"{where}.optimizer must be a mapping of optimiser settings, e.g. {{popsize: 28}}, "
+                              f"got {settings!r}")
+        checked.append(FidelityLevel(float(scale), vertices, int(evaluations), dict(settings)))
     return checked
 
 
@@ -89,17 +98,24 @@ class Fidelity:
 
     Args:
         levels: the cheaper levels, searched in order before the exact search: mappings with
-            ``scale`` (0, 1], ``vertices`` (skin samples, None: the exact body's) and
-            ``evaluations`` (per frame); [] (the default) searches exactly only.
+            ``scale`` (0, 1], ``vertices`` (skin samples, None: the exact body's),
+            ``evaluations`` (per frame) and optionally ``optimizer`` (settings changed in the
+            run's optimiser); [] (the default) searches exactly only.
         evaluator: a callable returning a new evaluator of the run's backend, one per level
             (the pipeline passes the ``evaluator`` config); required with levels.
+        optimizer: a callable returning a new optimiser of the run's kind with the keyword
+            settings it is given changed (the pipeline passes the ``optimizer`` config);
+            required by a level with ``optimizer`` settings.
     """
 
-    def __init__(self, levels=(), evaluator=None):
+    def __init__(self, levels=(), evaluator=None, optimizer=None):
         self.levels = check_levels(levels)
         self._new_evaluator = evaluator
         if self.levels and evaluator is None:
             raise ConfigError("fidelity.levels needs an evaluator factory for its levels")
+        if any(level.optimizer for level in self.levels) and optimizer is None:
+            raise ConfigError("fidelity.levels with optimizer settings need an optimizer factory")
+        self._optimizers = [optimizer(**level.optimizer) if level.optimizer else None for level in self.levels]
         self._evaluators: list = []
         self._bodies: dict = {}
 
@@ -137,8 +153,8 @@ class Fidelity:
         """The cheaper levels in order from ``x_prev`` (51,): returns the last level's pose
         (51,) and the evaluations they spent."""
         x, used = np.asarray(x_prev, np.float64), 0
-        for level, evaluator in zip(self.levels, self._evaluators):
-            x, _, n = strategy.estimate(self.level_body(body, level.vertices), x, evaluator, optimizer,
+        for level, evaluator, own in zip(self.levels, self._evaluators, self._optimizers):
+            x, _, n = strategy.estimate(self.level_body(body, level.vertices), x, evaluator, own or optimizer,
                                         level.evaluations, rng)
             used += n
         return x, used

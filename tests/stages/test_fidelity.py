@@ -97,3 +97,20 @@ def test_the_cheap_levels_lead_the_exact_search_which_scores_the_frame(scene):
     alone, _ = track_one_frame(scene, 150)
     assert result.fitness < alone.fitness
     fidelity.close()
+
+
+def test_a_level_may_search_with_its_own_optimiser_settings(scene):
+    class Counting(NumpyEvaluator):
+        def __call__(self, X):
+            self.sizes = [*getattr(self, "sizes", []), len(X)]
+            return super().__call__(X)
+
+    fidelity = Fidelity([{"scale": 0.5, "vertices": 3000, "evaluations": 301, "optimizer": {"popsize": 30}}],
+                        evaluator=Counting, optimizer=lambda **settings: CMAES(**settings))
+    result, _ = track_one_frame(scene, 150, fidelity)
+    assert result.evaluations == 301 + 150
+    assert fidelity._evaluators[0].sizes == [1] + [30] * 10  # the start, then generations of 30
+    with pytest.raises(ConfigError, match="need an optimizer factory"):
+        Fidelity([{"scale": 0.5, "evaluations": 100, "optimizer": {"popsize": 30}}], evaluator=NumpyEvaluator)
+    with pytest.raises(ConfigError, match=r"levels\[0\].optimizer must be a mapping"):
+        check_levels([{"scale": 0.5, "evaluations": 100, "optimizer": 30}])
