@@ -32,13 +32,15 @@ an evaluator is made, not with this module, so that mmocap works without it:
 :meth:`OpenCLEvaluator.unavailable` says why it cannot be used.
 
 :class:`MultiDeviceEvaluator` (``evaluator=multidevice``) splits the population over
-several devices of a platform, or over PoCL sub-devices when the platform has one CPU
-device; every (candidate, camera) pair is computed by the same kernel on one device, so
-the counts are those of a single device.
+several devices of one or more platforms (PoCL and Intel's CPU runtime side by side, a GPU
+and a CPU), or over PoCL sub-devices when the selection is one CPU device, in proportion to
+each device's measured speed; every (candidate, camera) pair is computed by the same kernel
+on one device, so the counts are those of a single device.
 """
 from __future__ import annotations
 
 import logging
+import time
 
 import numpy as np
 
@@ -83,6 +85,10 @@ _TRANSFORMS_ARG, _POSES_ARG = 3, 0
 #: with accept_inexact, the self-check accepts a device whose every count of the test scene
 #: differs from NumPy's by at most this fraction of it, or 1 px
 TOLERANCE = 0.01
+#: candidates per call and calls per device with which :meth:`MultiDeviceEvaluator.measure`
+#: times each device
+SPEED_CANDIDATES = 16
+SPEED_REPEATS = 3
 # (evaluator class, devices, patch_scale, (local_size, lanes) per device) -> the test
 # scene's counts on the devices and with NumPy, (2, 3, 1) int64 each
 _CHECKED: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
@@ -358,10 +364,12 @@ class OpenCLEvaluator(SilhouetteEvaluator):
             lane.kernel.set_arg(_TRANSFORMS_ARG, rows)
             cl.enqueue_nd_range_kernel(lane.queue, lane.kernel, (nV * lane.local_size,),
                                        (lane.local_size,))
-            events.append(cl.enqueue_copy(lane.queue, counts[views], out, is_blocking=False))
+            copies = [cl.enqueue_copy(lane.queue, counts[views], out, is_blocking=False)]
             if write_masks:
-                events.append(cl.enqueue_copy(lane.queue, masks[views], img, is_blocking=False))
-        cl.wait_for_events(events)
+                copies.append(cl.enqueue_copy(lane.queue, masks[views], img, is_blocking=False))
+            events.append(copies)
+        for copies in events:  # one wait per device: a wait may not mix contexts (platforms)
+            cl.wait_for_events(copies)
         return counts.reshape(n, C, 2), masks
 
     def close(self) -> None:
@@ -377,13 +385,16 @@ class MultiDeviceEvaluator(OpenCLEvaluator):
 
     Args:
         patch_scale: factor on the body's per-joint patch size (Cano Eq. 4), > 0.
-        platform: as for :class:`OpenCLEvaluator`.
-        devices: device indices on that platform, or None for all of them.
+        platform: as for :class:`OpenCLEvaluator`, or a list of them: every device of each
+            (one context and program build per platform).
+        devices: device indices on that (one) platform, or None for all of them.
         sub_devices: when the selection is a single CPU device, split it into this many
             PoCL sub-devices (None: one per compute unit), each with its own queue.
         local_size, lanes, accept_inexact: as for :class:`OpenCLEvaluator`.
 
-    Candidates go to the devices in proportion to their compute units.
+    Candidates go to the devices in proportion to their speed, measured on each frame's
+    body, cameras and masks the first time a body is set up (:meth:`measure`): the best of
+    :data:`SPEED_REPEATS` calls of :data:`SPEED_CANDIDATES` candidates per device, alone.
     """
 
     name = "multidevice"
@@ -392,10 +403,17 @@ class MultiDeviceEvaluator(OpenCLEvaluator):
                  sub_devices: int | None = None, local_size: int | None = None,
                  lanes: int | None = None, accept_inexact: bool = False):
         self._sub_devices = sub_devices
+        self._measured_body = None
         super().__init__(patch_scale, platform, devices, local_size, lanes, accept_inexact)
 
     def _make_lanes(self, platform, devices, local_size, lanes) -> list[_Lane]:
-        if devices is None:
+        several = not isinstance(platform, (str, int, np.integer, type(None)))
+        if several and devices is not None:
+            raise ConfigError("multidevice: devices picks devices of one platform; with a list of "
+                              "platforms every device of each is used (leave devices null)")
+        if several:
+            chosen = [d for p in dict.fromkeys(select_platform(p) for p in platform) for d in p.get_devices()]
+        elif devices is None:
             chosen = select_platform(platform).get_devices()
         else:
             chosen = [select_device(platform, d) for d in devices]
@@ -405,10 +423,41 @@ class MultiDeviceEvaluator(OpenCLEvaluator):
             count = self._sub_devices or chosen[0].max_compute_units
             chosen = sub_devices(chosen[0], count)
         log.info("multidevice evaluator on %d devices: %s", len(chosen),
-                 ", ".join(d.name.strip() for d in chosen))
+                 ", ".join(f"{d.name.strip()} ({d.platform.name.strip()})" for d in chosen))
         # devices of one platform share a context, hence one program build
-        ctx = context(chosen)
-        return [_Lane(d, ctx, local_size, lanes) for d in chosen]
+        by_platform: dict = {}
+        for d in chosen:
+            by_platform.setdefault(d.platform.int_ptr, []).append(d)
+        contexts = {key: context(group) for key, group in by_platform.items()}
+        return [_Lane(d, contexts[d.platform.int_ptr], local_size, lanes) for d in chosen]
+
+    def _counts(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        if len(self._lanes) > 1 and self._measured_body is not self.body:
+            self.measure(X)
+            self._measured_body = self.body
+        return super()._counts(X)
+
+    def measure(self, X: np.ndarray) -> np.ndarray:
+        """Each device's speed on the frame set up now, alone: the inverse of its best time
+        of :data:`SPEED_REPEATS` calls of :data:`SPEED_CANDIDATES` candidates (``X`` (n, P)
+        repeated); sets and returns the shares of the population (summing to 1), logged."""
+        X = np.resize(np.asarray(X, np.float64), (SPEED_CANDIDATES, X.shape[1]))
+        seconds = []
+        for k in range(len(self._lanes)):
+            self._weights = np.eye(len(self._lanes))[k]
+            self._run(X, write_masks=False)  # warm-up: the kernel's first launch on this device
+            best = np.inf
+            for _ in range(SPEED_REPEATS):
+                start = time.perf_counter()
+                self._run(X, write_masks=False)
+                best = min(best, time.perf_counter() - start)
+            seconds.append(best)
+        speed = 1.0 / np.maximum(seconds, 1e-9)
+        self._weights = speed / speed.sum()
+        log.info("multidevice shares by measured speed: %s", ", ".join(
+            f"{lane.device.name.strip()} ({lane.device.platform.name.strip()}) {share:.2f}"
+            for lane, share in zip(self._lanes, self._weights)))
+        return self._weights
 
 
 

