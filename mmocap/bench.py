@@ -57,7 +57,7 @@ from mmocap.validate import check_number
 
 MAX_FRAMES = 5  # frames per budget and backend that frame_ms adds to fill its seconds
 #: the multi-fidelity runs of ``mmocap bench fidelity`` unless ``--schedule`` is given
-DEFAULT_SCHEDULES = ["0.25:3000:1200+300"]
+DEFAULT_SCHEDULES = ["0.25:3000:900+200", "0.25:3000:1200:28+300", "0.5:13695:1200:28+300"]
 
 
 def backends() -> list[str]:
