@@ -15,7 +15,8 @@ take minutes per frame: its frame time is extrapolated from its Table 2 time per
 Multi-fidelity (``fidelity``): the demo sequence (S1 walking, 4 cameras, 640x480) on
 ``realistic`` data, tracked by the real pipeline with holistic CMA-ES, exactly at each of
 ``--exact`` evaluations per frame and with each ``--schedule`` of cheaper fitness levels
-before a short exact search (:mod:`mmocap.stages.fidelity`), one run at a time: mean marker
+before a short exact search (:mod:`mmocap.stages.fidelity`; carried on, or restarted per level
+when a level names a popsize), one run at a time: mean marker
 error and search time per frame side by side, their ratios to the exact run at 1500
 evaluations, and the Pareto front of both modes (``fidelity.png``).
 
@@ -57,7 +58,8 @@ from mmocap.validate import check_number
 
 MAX_FRAMES = 5  # frames per budget and backend that frame_ms adds to fill its seconds
 #: the multi-fidelity runs of ``mmocap bench fidelity`` unless ``--schedule`` is given
-DEFAULT_SCHEDULES = ["0.25:3000:900+200", "0.25:3000:1200:28+300", "0.5:13695:1200:28+300"]
+DEFAULT_SCHEDULES = ["0.25:3000:1000+250", "0.25:3000:1200+300", "0.25:3000:700,0.5:13695:300+250",
+                     "0.25:3000:1200:28+300"]
 
 
 def backends() -> list[str]:
@@ -214,14 +216,16 @@ def fidelity_table(exact: list[int], schedules: list[str], frames: int, out: Pat
     runs = [("exact", str(n), [], n) for n in exact]
     for text in schedules:
         levels, n = parse_schedule(text)
-        runs.append(("multi-fidelity", text, levels, n))
+        runs.append(("multi-fidelity", text, levels, n))  # restarted when a level names a popsize
     rows = []
     for mode, label, levels, n in runs:
+        carry = not any("optimizer" in level for level in levels)
         cfg = compose([*FIDELITY_RUN, f"tracking.frames={frames}", f"tracking.evaluations={n}",
-                       f"fidelity.levels={levels}".replace("'", "")])
+                       f"fidelity.levels={levels}".replace("'", ""), f"fidelity.carry={carry}"])
         with tempfile.TemporaryDirectory(dir=out) as folder:
             summary = run(cfg, Path(folder))
-        rows.append({"mode": mode, "evaluations": label, "cheap_evaluations": sum(lv["evaluations"] for lv in levels),
+        rows.append({"mode": mode if not levels else f"{mode} ({'carried' if carry else 'restarted'})",
+                     "evaluations": label, "cheap_evaluations": sum(lv["evaluations"] for lv in levels),
                      "exact_evaluations": n, "vertices": summary["vertices"],
                      "mean_marker_error_mm": summary["mean_marker_error_mm"],
                      "ms_per_frame": summary["seconds_per_frame"] * 1e3})

@@ -135,6 +135,7 @@ def _run(cfg: DictConfig, output_dir: Path, warning_messages: list[str]) -> dict
                            optimizer=lambda **settings: instantiate(cfg.optimizer, **settings))
     missing_markers = str(cfg.evaluation.missing_markers)
     strategy.check(body, optimizer, int(cfg.tracking.evaluations))
+    fidelity.check(strategy)
     dataset = instantiate(cfg.dataset)
     with exclusive(getattr(dataset, "path", None)):  # parallel jobs render a sequence once
         sequence = dataset.open(progress=cfg.progress)

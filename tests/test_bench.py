@@ -73,7 +73,7 @@ def test_fidelity_puts_both_modes_side_by_side_with_ratios_to_exact_1500(tiny_se
     assert run_cli("bench", "fidelity", "--exact", "100,1500", "--schedule", "0.5:1000:300+60",
                    "--track-frames", "2", "--out", tmp_path) == 0
     table = pd.read_csv(tmp_path / "fidelity.csv")
-    assert table["mode"].tolist() == ["exact", "exact", "multi-fidelity"]
+    assert table["mode"].tolist() == ["exact", "exact", "multi-fidelity (carried)"]
     assert table.cheap_evaluations.tolist() == [0, 0, 300] and table.exact_evaluations.tolist() == [100, 1500, 60]
     reference = table.iloc[1]
     assert reference.error_ratio == 1 and reference.time_ratio == 1

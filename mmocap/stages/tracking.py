@@ -298,13 +298,11 @@ def track(sequence, body, foreground, evaluator, optimizer, strategy, evaluation
         views = (cameras, masks) if coverage is None else coverage.select(frame, cameras, masks, last_frame=n - 1)
         evaluator.setup(body, *views)
         trace = Trace(evaluator)
-        start_pose, cheap = x_prev, 0
         if fidelity is not None and fidelity.enabled:
             fidelity.setup(body, *views)
-            start_pose, cheap = fidelity.search(strategy, body, x_prev, optimizer, rng)
-            trace.skip(cheap)
-        x, f, used = strategy.estimate(body, start_pose, trace, optimizer, evaluations, rng)
-        used += cheap
+            x, f, used = fidelity.estimate(strategy, body, x_prev, trace, optimizer, evaluations, rng)
+        else:
+            x, f, used = strategy.estimate(body, x_prev, trace, optimizer, evaluations, rng)
         if recovery is not None:
             if recovery.lost(f):
                 x, f, event = recovery.recover(frame, body, x, f, trace, optimizer, strategy, rng)

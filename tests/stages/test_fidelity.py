@@ -83,16 +83,20 @@ def track_one_frame(scene, evaluations, fidelity=None):
     return result, evaluator
 
 
-def test_the_cheap_levels_lead_the_exact_search_which_scores_the_frame(scene):
-    fidelity = Fidelity([{"scale": 0.5, "vertices": 3000, "evaluations": 600}], evaluator=NumpyEvaluator)
+@pytest.mark.parametrize("carry", [True, False], ids=["carried", "restarted"])
+def test_the_cheap_levels_lead_the_exact_search_which_scores_the_frame(scene, carry):
+    fidelity = Fidelity([{"scale": 0.5, "vertices": 3000, "evaluations": 600}], evaluator=NumpyEvaluator,
+                        carry=carry)
     result, exact = track_one_frame(scene, 150, fidelity)
     assert result.evaluations == 600 + 150
     assert result.fitness == exact(result.pose[None])[0]  # the frame's fitness is the exact one
     level = fidelity._evaluators[0]
     assert level.body.n_vertices == 3000 and [c.width for c in level.cameras] == [160, 160]
     assert [m.shape for m in level.foreground] == [(120, 160), (120, 160)]
-    # the trace counts the cheap evaluations and records the exact ones after them
-    assert result.trace[0, 0] == 601 and result.trace[-1].tolist() == [750, result.fitness]
+    # the trace counts the cheap evaluations and records the exact ones after them (carried:
+    # from the first call that begins after the 600th evaluation)
+    assert 600 < result.trace[0, 0] <= 600 + CMAES().population_size(39) if carry else result.trace[0, 0] == 601
+    assert result.trace[-1].tolist() == [750, result.fitness]
     # and they pay: the exact search from their pose ends better than one from the start
     alone, _ = track_one_frame(scene, 150)
     assert result.fitness < alone.fitness
@@ -106,11 +110,27 @@ def test_a_level_may_search_with_its_own_optimiser_settings(scene):
             return super().__call__(X)
 
     fidelity = Fidelity([{"scale": 0.5, "vertices": 3000, "evaluations": 301, "optimizer": {"popsize": 30}}],
-                        evaluator=Counting, optimizer=lambda **settings: CMAES(**settings))
+                        evaluator=Counting, optimizer=lambda **settings: CMAES(**settings), carry=False)
     result, _ = track_one_frame(scene, 150, fidelity)
     assert result.evaluations == 301 + 150
     assert fidelity._evaluators[0].sizes == [1] + [30] * 10  # the start, then generations of 30
     with pytest.raises(ConfigError, match="need an optimizer factory"):
-        Fidelity([{"scale": 0.5, "evaluations": 100, "optimizer": {"popsize": 30}}], evaluator=NumpyEvaluator)
+        Fidelity([{"scale": 0.5, "evaluations": 100, "optimizer": {"popsize": 30}}], evaluator=NumpyEvaluator,
+                 carry=False)
+    with pytest.raises(ConfigError, match=r"levels\[0\].optimizer needs fidelity.carry=false"):
+        Fidelity([{"scale": 0.5, "evaluations": 100, "optimizer": {"popsize": 30}}], evaluator=NumpyEvaluator,
+                 optimizer=CMAES)
     with pytest.raises(ConfigError, match=r"levels\[0\].optimizer must be a mapping"):
         check_levels([{"scale": 0.5, "evaluations": 100, "optimizer": 30}])
+
+
+def test_carrying_on_needs_the_holistic_strategy():
+    from mmocap.stages.tracking import Hierarchical
+
+    fidelity = Fidelity([{"scale": 0.5, "evaluations": 100}], evaluator=NumpyEvaluator)
+    fidelity.check(Holistic())
+    with pytest.raises(ConfigError, match="fidelity.carry=true needs strategy=holistic .* set fidelity.carry=false"):
+        fidelity.check(Hierarchical())
+    Fidelity([{"scale": 0.5, "evaluations": 100}], evaluator=NumpyEvaluator, carry=False).check(Hierarchical())
+    with pytest.raises(ConfigError, match="fidelity.carry must be true or false"):
+        Fidelity([], carry="yes")
