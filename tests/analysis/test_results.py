@@ -63,9 +63,12 @@ def test_run_key_ignores_outputs_and_presentation_only():
 
 
 def test_the_settings_presets_name_does_not_enter_the_key_but_its_values_do():
-    # Fig. 7 names no preset and runs the optimisers' own values: it finds the tuned runs of Table 4
-    assert run_key(config("+experiment=table4", "settings=tuned")) == run_key(config("+experiment=fig7"))
-    assert run_key(config("+experiment=table4", "settings=paper")) != run_key(config("+experiment=fig7"))
+    # the default config names no preset and runs the optimisers' own values: the tuned runs
+    tuned = run_key(config("+experiment=table4", "settings=tuned"))
+    assert tuned == run_key(config("+experiment=table4", "settings=tuned", "settings.name=renamed"))
+    assert tuned == run_key(config("+experiment=fig7", "settings=tuned"))  # Fig. 7 finds Table 4's runs
+    assert run_key(config("+experiment=table4", "settings=paper")) == run_key(config("+experiment=fig7"))
+    assert run_key(config("+experiment=table4", "settings=paper")) != tuned
 
 
 def test_scale_presets_do_not_enter_the_key_but_their_values_do():
