@@ -178,7 +178,7 @@ def test_a_run_without_ground_truth_is_kept_empty_with_a_warning(tmp_path):
 
 def test_load_runs_gives_the_contract_tables(tmp_path):
     store = ResultsStore(tmp_path)
-    store.put(record_of(config("seed=0", "algorithm=cmaes-hierarchical", "+experiment=fig10"), [10.0, 30.0],
+    store.put(record_of(config("seed=0", "algorithm=cmaes-hierarchical", "+experiment=cano_table3"), [10.0, 30.0],
                         fitness=[0.2, 0.4]))
     store.put(record_of(config("seed=1", "body.dof=28", "evaluator=opencl", "+experiment=table4", "settings=paper",
                                "realism=realistic"), [5.0, 7.0, 9.0], fitness=[0.1, 0.1, 0.4]))
@@ -193,7 +193,7 @@ def test_load_runs_gives_the_contract_tables(tmp_path):
     assert first["algorithm"] == "cmaes-hierarchical" and first["sequence"] == "S1_walking"
     assert first["mean_marker_error_mm"] == 20.0 and first["frames"] == 2
     assert first["mean_best_fitness"] == pytest.approx(0.3) and second["mean_best_fitness"] == pytest.approx(0.2)
-    assert pd.isna(first["settings"]) and second["settings"] == "paper"  # fig10 names no preset
+    assert pd.isna(first["settings"]) and second["settings"] == "paper"  # Cano Table 3 names no preset
     assert first["realism"] == "exact" and second["realism"] == "realistic"
     assert second["backend"] == "opencl"
     assert runs["dof"].dtype.kind == "i" and runs["seconds_per_frame"].dtype.kind == "f"
@@ -244,8 +244,8 @@ def test_export_writes_csv_and_an_empty_store_is_an_error(tmp_path, capsys):
 # paper scales on exact data too).
 JOBS = {
     ("table4", "smoke"): 2 * 8 * 3 * 2, ("table4", "paper"): 2 * 2 * 8 * 3 * 9 * 30,
-    ("table6", "default"): 2 * 2 * 4 * 2 * 3 * 3 * 2, ("fig10", "paper"): 4,
-    ("cano_table3", "paper"): 3 * 4 * 6 * 10, ("fig4", "smoke"): 2 * 3 * 2 * 2,
+    ("table6", "default"): 2 * 2 * 4 * 2 * 3 * 3 * 2, ("fig10", "paper"): 2 * 2 * 4,
+    ("cano_table3", "paper"): 2 * 3 * 4 * 6 * 10, ("fig4", "smoke"): 2 * 3 * 2 * 2,
 }
 
 
