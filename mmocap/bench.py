@@ -206,20 +206,20 @@ def parse_schedule(text: str) -> tuple[list[dict], int]:
                                 MAX_EVALUATIONS, integer=True)
 
 
-def fidelity_table(exact: list[int], schedules: list[str], frames: int, out: Path) -> pd.DataFrame:
+def fidelity_table(exact: list[int], schedules: dict[str, tuple[list[dict], int]], frames: int,
+                   out: Path) -> pd.DataFrame:
     """Track the demo sequence (:data:`FIDELITY_RUN`, ``frames`` frames) exactly at each of
-    ``exact`` evaluations per frame and with each multi-fidelity ``schedules``
-    (:func:`parse_schedule`), one run after the other in a fresh folder; one row per run:
+    ``exact`` evaluations per frame and with each multi-fidelity schedule (``schedules``:
+    its text -> :func:`parse_schedule`'s levels and exact evaluations), one run after the
+    other in a fresh folder; one row per run:
     mode, label, evaluations (cheap, exact), mean marker error (mm), search time per frame
     (ms, the foreground apart), the ratios to the exact run at :data:`FIDELITY_REFERENCE`
     evaluations (when run) and ``pareto`` (not dominated on time and error)."""
     runs = [("exact", str(n), [], n) for n in exact]
-    for text in schedules:
-        levels, n = parse_schedule(text)
-        runs.append(("multi-fidelity", text, levels, n))  # restarted when a level names a popsize
+    runs += [("multi-fidelity", text, levels, n) for text, (levels, n) in schedules.items()]
     rows = []
     for mode, label, levels, n in runs:
-        carry = not any("optimizer" in level for level in levels)
+        carry = not any("optimizer" in level for level in levels)  # restarted when a level names a popsize
         cfg = compose([*FIDELITY_RUN, f"tracking.frames={frames}", f"tracking.evaluations={n}",
                        f"fidelity.levels={levels}".replace("'", ""), f"fidelity.carry={carry}"])
         with tempfile.TemporaryDirectory(dir=out) as folder:
@@ -298,9 +298,7 @@ def main(argv: list[str], prog: str) -> None:
     args = parser.parse_args(argv)
     if args.table == "fidelity":
         exact = integer_list("--exact", args.exact, START_EVALUATIONS + 1, MAX_EVALUATIONS)
-        schedules = args.schedule or DEFAULT_SCHEDULES
-        for text in schedules:
-            parse_schedule(text)  # every argument before anything runs
+        schedules = {text: parse_schedule(text) for text in args.schedule or DEFAULT_SCHEDULES}
         frames = check_number("--track-frames", args.track_frames, 1, 10_000, integer=True)
         args.out.mkdir(parents=True, exist_ok=True)
         table = fidelity_table(exact, schedules, frames, args.out)

@@ -111,12 +111,12 @@ class _Switching:
 
     def __init__(self, stages, exact):
         self.stages, self.exact = stages, exact
-        self.calls = 0
+        self.evaluations = 0
         self.best = (None, np.inf)
 
     def __call__(self, X: np.ndarray) -> np.ndarray:
-        spent = self.calls
-        self.calls += len(X)
+        spent = self.evaluations
+        self.evaluations += len(X)
         for evaluator, evaluations in self.stages:
             if spent < evaluations:
                 self.exact.skip(len(X))
@@ -150,14 +150,14 @@ class Fidelity:
         self.levels = check_levels(levels)
         self.carry = check_flag("fidelity.carry", carry)
         own = [k for k, level in enumerate(self.levels) if level.optimizer]
-        if self.carry and own:
+        if own and self.carry:
             raise ConfigError(f"fidelity.levels[{own[0]}].optimizer needs fidelity.carry=false: with carry, one "
                               "optimiser carries on over every level")
+        if own and optimizer is None:
+            raise ConfigError("fidelity.levels with optimizer settings need an optimizer factory")
         self._new_evaluator = evaluator
         if self.levels and evaluator is None:
             raise ConfigError("fidelity.levels needs an evaluator factory for its levels")
-        if any(level.optimizer for level in self.levels) and optimizer is None:
-            raise ConfigError("fidelity.levels with optimizer settings need an optimizer factory")
         self._optimizers = [optimizer(**level.optimizer) if level.optimizer else None for level in self.levels]
         self._evaluators: list = []
         self._bodies: dict = {}
@@ -232,7 +232,7 @@ class Fidelity:
         strategy.estimate(body, x_prev, switching, optimizer, self.evaluations + budget - 1, rng)
         start = float(exact(np.asarray(x_prev, np.float64)[None])[0])
         x, f = switching.best if switching.best[1] < start else (np.asarray(x_prev, np.float64), start)
-        return x, f, switching.calls + 1
+        return x, f, switching.evaluations + 1
 
     def close(self) -> None:
         for evaluator in self._evaluators:

@@ -274,8 +274,8 @@ def track(sequence, body, foreground, evaluator, optimizer, strategy, evaluation
     draws from ``rng`` (default: a generator seeded with ``seed``). ``recovery`` (a
     :class:`mmocap.stages.recovery.Recovery`) searches a frame whose fitness says the track
     is lost again; its evaluations are added to the frame's. ``fidelity`` (a
-    :class:`mmocap.stages.fidelity.Fidelity` with levels) searches each frame on cheaper
-    fitness levels first, the exact search starting from their pose; their evaluations are
+    :class:`mmocap.stages.fidelity.Fidelity` with levels) spends each frame's first
+    evaluations on cheaper fitness levels and its last ``evaluations`` exactly; theirs are
     added to the frame's. Every result's ``trace`` records all of its frame's exact
     evaluations (:class:`Trace`), a recovery's included, and counts the cheaper ones.
     """
