@@ -16,9 +16,10 @@ Multi-fidelity (``fidelity``): the demo sequence (S1 walking, 4 cameras, 640x480
 ``realistic`` data, tracked by the real pipeline with holistic CMA-ES, exactly at each of
 ``--exact`` evaluations per frame and with each ``--schedule`` of cheaper fitness levels
 before a short exact search (:mod:`mmocap.stages.fidelity`; carried on, or restarted per level
-when a level names a popsize), one run at a time: mean marker
-error and search time per frame side by side, their ratios to the exact run at 1500
-evaluations, and the Pareto front of both modes (``fidelity.png``).
+when a level names a popsize), one run at a time, each with every search seed of
+``--seeds`` (a single seed's error moves by 1-2 mm): mean marker error and search time per
+frame averaged over the seeds side by side, the error's spread over the seeds, their ratios to
+the exact run at 1500 evaluations, and the Pareto front of both modes (``fidelity.png``).
 
 Scene: the MakeHuman body resampled to the vertex level, cameras of the synthetic ring
 (no lens distortion), the foreground being the model's own silhouettes of a reference
@@ -207,30 +208,37 @@ def parse_schedule(text: str) -> tuple[list[dict], int]:
 
 
 def fidelity_table(exact: list[int], schedules: dict[str, tuple[list[dict], int]], frames: int,
-                   out: Path) -> pd.DataFrame:
+                   seeds: list[int], out: Path) -> pd.DataFrame:
     """Track the demo sequence (:data:`FIDELITY_RUN`, ``frames`` frames) exactly at each of
     ``exact`` evaluations per frame and with each multi-fidelity schedule (``schedules``:
-    its text -> :func:`parse_schedule`'s levels and exact evaluations), one run after the
-    other in a fresh folder; one row per run:
-    mode, label, evaluations (cheap, exact), mean marker error (mm), search time per frame
-    (ms, the foreground apart), the ratios to the exact run at :data:`FIDELITY_REFERENCE`
-    evaluations (when run) and ``pareto`` (not dominated on time and error)."""
+    its text -> :func:`parse_schedule`'s levels and exact evaluations), once per search seed
+    of ``seeds`` (the data stay the same), one run after the other in a fresh folder; one row
+    per search: mode, label, evaluations (cheap, exact), the mean marker error (mm) and search
+    time per frame (ms, the foreground apart), both averaged over the seeds, the spread of
+    the error over the seeds (sample standard deviation, mm; 0 for one seed), the ratios to
+    the exact run at :data:`FIDELITY_REFERENCE` evaluations (when run) and ``pareto`` (not
+    dominated on time and mean error)."""
     runs = [("exact", str(n), [], n) for n in exact]
     runs += [("multi-fidelity", text, levels, n) for text, (levels, n) in schedules.items()]
     rows = []
     for mode, label, levels, n in runs:
         carry = not any("optimizer" in level for level in levels)  # restarted when a level names a popsize
-        cfg = compose([*FIDELITY_RUN, f"tracking.frames={frames}", f"tracking.evaluations={n}",
-                       f"fidelity.levels={levels}".replace("'", ""), f"fidelity.carry={carry}"])
-        with tempfile.TemporaryDirectory(dir=out) as folder:
-            summary = run(cfg, Path(folder))
+        errors, times = [], []
+        for seed in seeds:
+            cfg = compose([*FIDELITY_RUN, f"seed={seed}", f"tracking.frames={frames}", f"tracking.evaluations={n}",
+                           f"fidelity.levels={levels}".replace("'", ""), f"fidelity.carry={carry}"])
+            with tempfile.TemporaryDirectory(dir=out) as folder:
+                summary = run(cfg, Path(folder))
+            errors.append(summary["mean_marker_error_mm"])
+            times.append(summary["seconds_per_frame"] * 1e3)
+            print(f"fidelity: {mode} {label}, seed {seed}: {errors[-1]:.1f} mm, {times[-1]:.0f} ms per frame",
+                  flush=True)
         rows.append({"mode": mode if not levels else f"{mode} ({'carried' if carry else 'restarted'})",
                      "evaluations": label, "cheap_evaluations": sum(lv["evaluations"] for lv in levels),
-                     "exact_evaluations": n, "vertices": summary["vertices"],
-                     "mean_marker_error_mm": summary["mean_marker_error_mm"],
-                     "ms_per_frame": summary["seconds_per_frame"] * 1e3})
-        print(f"fidelity: {mode} {label}: {rows[-1]['mean_marker_error_mm']:.1f} mm, "
-              f"{rows[-1]['ms_per_frame']:.0f} ms per frame", flush=True)
+                     "exact_evaluations": n, "vertices": summary["vertices"], "seeds": len(seeds),
+                     "mean_marker_error_mm": float(np.mean(errors)),
+                     "error_sd_mm": float(np.std(errors, ddof=1)) if len(errors) > 1 else 0.0,
+                     "ms_per_frame": float(np.mean(times))})
     df = pd.DataFrame(rows)
     reference = df[(df["mode"] == "exact") & (df.exact_evaluations == FIDELITY_REFERENCE)]
     if len(reference):
@@ -293,6 +301,8 @@ def main(argv: list[str], prog: str) -> None:
                         help="a multi-fidelity run, SCALE:VERTICES:EVALUATIONS[:POPSIZE][,...]+EXACT (fidelity; "
                              f"repeat for more; default: {' and '.join(DEFAULT_SCHEDULES)})")
     parser.add_argument("--track-frames", type=int, default=60, help="frames tracked per run (fidelity)")
+    parser.add_argument("--seeds", default="0,1,2",
+                        help="search seeds each search is run with, its error and time averaged (fidelity)")
     parser.add_argument("--out", type=Path, default=Path("outputs/tables"))
     parser.add_argument("--prefix", default="", help="prefix of the output file names")
     args = parser.parse_args(argv)
@@ -300,10 +310,12 @@ def main(argv: list[str], prog: str) -> None:
         exact = integer_list("--exact", args.exact, START_EVALUATIONS + 1, MAX_EVALUATIONS)
         schedules = {text: parse_schedule(text) for text in args.schedule or DEFAULT_SCHEDULES}
         frames = check_number("--track-frames", args.track_frames, 1, 10_000, integer=True)
+        seeds = integer_list("--seeds", args.seeds, 0, 2**32 - 1)
         args.out.mkdir(parents=True, exist_ok=True)
-        table = fidelity_table(exact, schedules, frames, args.out)
+        table = fidelity_table(exact, schedules, frames, seeds, args.out)
         title = (f"Multi-fidelity search against exact CMA-ES (holistic, 39 DOF), S1 walking, realistic, "
-                 f"{frames} frames, 4 cameras, 640x480; ratios to exact at {FIDELITY_REFERENCE} evaluations")
+                 f"{frames} frames, 4 cameras, 640x480, search seeds {args.seeds} averaged; ratios to exact "
+                 f"at {FIDELITY_REFERENCE} evaluations")
         write(table, args.out, f"{args.prefix}fidelity", title)
         figure = args.out / f"{args.prefix}fidelity.png"
         plot_pareto_front(table.assign(seconds_per_frame=table.ms_per_frame / 1e3), figure, colour="mode",

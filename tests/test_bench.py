@@ -71,7 +71,7 @@ def test_fidelity_puts_both_modes_side_by_side_with_ratios_to_exact_1500(tiny_se
                                                 "body.vertices=1000", "recovery.enabled=false", "overlays=0",
                                                 "progress=false", "foreground_cache=null"])
     assert run_cli("bench", "fidelity", "--exact", "100,1500", "--schedule", "0.5:1000:300+60",
-                   "--track-frames", "2", "--out", tmp_path) == 0
+                   "--track-frames", "2", "--seeds", "0,1", "--out", tmp_path) == 0
     table = pd.read_csv(tmp_path / "fidelity.csv")
     assert table["mode"].tolist() == ["exact", "exact", "multi-fidelity (carried)"]
     assert table.cheap_evaluations.tolist() == [0, 0, 300] and table.exact_evaluations.tolist() == [100, 1500, 60]
@@ -79,6 +79,7 @@ def test_fidelity_puts_both_modes_side_by_side_with_ratios_to_exact_1500(tiny_se
     assert reference.error_ratio == 1 and reference.time_ratio == 1
     assert table.time_ratio.tolist() == pytest.approx((table.ms_per_frame / reference.ms_per_frame).tolist())
     assert table.mean_marker_error_mm.gt(0).all() and table.ms_per_frame.gt(0).all()
+    assert table.seeds.eq(2).all() and table.error_sd_mm.ge(0).all()
     fastest, best = table.ms_per_frame.idxmin(), table.mean_marker_error_mm.idxmin()
     assert table.pareto[fastest] and table.pareto[best]
     assert (tmp_path / "fidelity.png").read_bytes()[:4] == b"\x89PNG"
