@@ -128,17 +128,9 @@ def folder(tmp_path_factory) -> Path:
     return tmp_path_factory.mktemp("platforms")
 
 
-# Oclgrind counts 3708 more model pixels than NumPy in one view of the blob scene (pose 1,
-# camera NEAR, every work-group size and lane width; more with work-groups of 1), and none of
-# its memory or race checks reports anything; not yet explained.
-OCLGRIND_DIFFERS = pytest.mark.xfail(strict=True, reason="Oclgrind counts one view of the blob scene differently")
-
-
 @pytest.mark.parametrize("platform", [pytest.param(p, id=p) for p in sorted(PLATFORMS)])
 @pytest.mark.parametrize("case", [name for name, _ in CASES])
-def test_the_kernel_counts_exactly_as_numpy(platform, case, folder, request):
-    if platform == "oclgrind" and case != "mesh-27393":
-        request.applymarker(OCLGRIND_DIFFERS)
+def test_the_kernel_counts_exactly_as_numpy(platform, case, folder):
     result = run_case(platform, case, folder)
     assert result["check"] == "exact"
     assert result["got"] == result["expected"]

@@ -447,7 +447,11 @@ void silhouette_counts(
                 const intV ok = keep & (col0 <= col1) & (row0 <= row1);
                 loV = MIN(loV, ok ? row0 : height);
                 hiV = MAX(hiV, ok ? row1 : -1);
-                const uintV len = convert_uintV(MIN(MAX(col1 - col0 + 1, 1), 32));
+                // 1 + MAX(.., 0) rather than MAX(.. + 1, 1): clang compiles MAX(x, 1) on vectors
+                // to select(x > 1, x, 0) | zext(!(x > 1)), and on Oclgrind, whose vector compares
+                // give all-ones lanes but whose constant true is 1, that zext is 254 where x > 1
+                // (every len 32)
+                const uintV len = convert_uintV(MIN(MAX(col1 - col0, 0) + 1, 32));
                 const uintV shift = convert_uintV(col0) & 31u;
                 const uintV low = ((uintV)(0xffffffffu) >> (32u - len)) << shift;
                 // bits of the patch past word w0: (ones(len) << shift) >> 32, 0 when shift 0
