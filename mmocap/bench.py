@@ -8,9 +8,15 @@ host work, body kinematics at least, is included), best of
 Table 1 (``frame``): time per frame of CMA-ES (holistic, 39 DOF) with a budget of
 evaluations and 7 cameras, split into the time spent evaluating solutions and the rest,
 the mean over ``--frames`` frames and more (up to 5) while they fit in ``--seconds``;
-frames per second, also plotted against the budget (Fig. 3, ``fig3.png``). ``naive`` would
+frames per second, also plotted against the budget (Fig. 3, ``fig3.png``), and the host's
+share of the frame. ``naive`` would
 take minutes per frame: its frame time is extrapolated from its Table 2 time per model-view
 (evaluations x cameras x that time), and marked so.
+
+Roofline (``roofline``, and in ``all`` with the opencl backend): what one model-view at the
+largest vertex level needs of float32 arithmetic, cache reads and local-memory ORs, this
+device's measured rate of each, the floor that follows
+(:mod:`mmocap.evaluators.roofline`) and the kernel's Table 2 time beside it.
 
 Multi-fidelity (``fidelity``): the demo sequence (S1 walking, 4 cameras, 640x480) on
 ``realistic`` data, tracked by the real pipeline with holistic CMA-ES, exactly at each of
@@ -29,6 +35,7 @@ Usage::
 
     mmocap bench table2 --vertices 27393,20544,13695
     mmocap bench table1 --budgets 500,1500,3000,5000
+    mmocap bench roofline --backends opencl --vertices 27393
     mmocap bench all --vertices 27393 --budgets 500,1500 --prefix bench_
     mmocap bench fidelity --exact 500,1000,1500 --schedule 0.25:3000:1200+300
 """
@@ -39,6 +46,7 @@ import os
 import platform
 import tempfile
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -51,7 +59,11 @@ from mmocap.body.model import VERTICES_RANGE, BodyModel
 from mmocap.config import compose
 from mmocap.data.synthetic import CAMERA_RING, camera_rig
 from mmocap.errors import ConfigError
+from mmocap.evaluators.roofline import BYTES_PER_VERTEX, FACING, FLOPS_PER_VERTEX
+from mmocap.evaluators.roofline import floor_us as roofline_floor
+from mmocap.evaluators.roofline import measure as measure_rates
 from mmocap.evaluators.timed import TimedEvaluator
+from mmocap.optimizers.cmaes import strategy_parameters
 from mmocap.pipeline import run
 from mmocap.stages.fidelity import check_levels
 from mmocap.stages.tracking import MAX_EVALUATIONS, START_EVALUATIONS, Holistic
@@ -147,8 +159,9 @@ def table2(evaluators: dict, scenes: dict, population: int, repeats: int) -> pd.
 
 def table1(evaluators: dict, scenes: dict, budgets, frames: int, naive_us: dict,
            seconds: float = 0.0) -> pd.DataFrame:
-    """Frame and solutions time (ms) of CMA-ES per backend, vertex level and budget; fps.
-    ``frames`` and ``seconds`` as for :func:`frame_ms`."""
+    """Frame and solutions time (ms) of CMA-ES per backend, vertex level and budget; fps;
+    the host's share of the frame (the time not spent evaluating: CMA-ES, the strategy, the
+    evaluator's setup). ``frames`` and ``seconds`` as for :func:`frame_ms`."""
     rows = []
     for vertices, scene in scenes.items():
         C = len(scene.cameras)
@@ -169,11 +182,41 @@ def table1(evaluators: dict, scenes: dict, budgets, frames: int, naive_us: dict,
                       f"{frame:.0f} ms per frame ({solutions:.0f} ms evaluating)", flush=True)
     df = pd.DataFrame(rows)
     df["fps"] = 1e3 / df.frame_ms
+    df["host_share"] = 1 - df.solutions_ms / df.frame_ms
     if naive_us:
         key = ["vertices", "evaluations"]
         naive = df[df.backend == "naive"].set_index(key)
         index = pd.MultiIndex.from_frame(df[key])
         df["speedup_vs_naive"] = naive.frame_ms.reindex(index).to_numpy() / df.frame_ms
+    return df
+
+
+ROOFLINE_TITLE = "Roofline of the silhouette kernel: one 640x480 model-view at {vertices} vertices, microseconds"
+
+
+def roofline_table(vertices: int, kernel_us: float) -> pd.DataFrame:
+    """The silhouette kernel's roofline (:mod:`mmocap.evaluators.roofline`) on the default
+    OpenCL device at ``vertices`` and 640x480: per resource what a model-view needs, the
+    measured rate and the microseconds that follow; the floor (the largest); and the kernel
+    as measured (``kernel_us``, Table 2), with its ratio to the floor."""
+    rates, device = measure_rates()
+    us = roofline_floor(rates, vertices, 640, 480)
+    words, facing = (640 + 31) // 32 * 480, round(FACING * vertices)
+    rows = [{"resource": "float32 arithmetic", "need_per_model_view": f"{FLOPS_PER_VERTEX * facing} flop",
+             "measured_rate": f"{rates.flops / 1e9:.1f} Gflop/s", "us_per_model_view": us["arithmetic"]},
+            {"resource": "reads (cache-resident)", "need_per_model_view": f"{BYTES_PER_VERTEX * facing / 1e3:.0f} kB",
+             "measured_rate": f"{rates.read_bytes / 1e9:.1f} GB/s", "us_per_model_view": us["reads"]},
+            {"resource": "local memory: clear, scattered ORs",
+             "need_per_model_view": f"{words} words, {facing} ORs",
+             "measured_rate": f"{rates.clear_words / 1e9:.2f} Gword/s, {rates.ors / 1e9:.2f} GOR/s",
+             "us_per_model_view": us["scatter"]},
+            {"resource": "floor (the largest)", "need_per_model_view": "", "measured_rate": "",
+             "us_per_model_view": us["floor"]},
+            {"resource": "silhouette kernel (Table 2)", "need_per_model_view": "", "measured_rate": "",
+             "us_per_model_view": kernel_us}]
+    df = pd.DataFrame(rows)
+    df["ratio_to_floor"] = df.us_per_model_view / us["floor"]
+    print(f"roofline: {device}: floor {us['floor']:.1f} us, kernel {kernel_us:.1f} us per model-view", flush=True)
     return df
 
 
@@ -185,11 +228,63 @@ FIDELITY_RUN = ["+experiment=demo", "realism=realistic", "recovery.enabled=false
                 "progress=false", "foreground_cache=null"]
 
 
-def parse_schedule(text: str) -> tuple[list[dict], int]:
-    """``--schedule`` 'SCALE:VERTICES:EVALUATIONS[:POPSIZE][,...]+EXACT' (e.g.
-    '0.25:3000:1200:28+300') -> (levels for ``fidelity.levels``, exact evaluations); a
-    ConfigError naming it otherwise."""
+@dataclass(frozen=True)
+class Search:
+    """One search of the fidelity benchmark: its label (the text it was given), the cheaper
+    levels (``fidelity.levels``, [] for an exact search), the exact evaluations per frame and
+    CMA-ES's population size (None: the default, Table 2's)."""
+
+    label: str
+    levels: list
+    exact: int
+    popsize: int | None = None
+
+    @property
+    def carry(self) -> bool:
+        """Carried on unless a level names its own optimiser settings (then restarted)."""
+        return not any("optimizer" in level for level in self.levels)
+
+    @property
+    def mode(self) -> str:
+        return "exact" if not self.levels else f"multi-fidelity ({'carried' if self.carry else 'restarted'})"
+
+    def overrides(self, frames: int, seed: int) -> list[str]:
+        """The config overrides of one run of this search (after :data:`FIDELITY_RUN`)."""
+        popsize = [] if self.popsize is None else [f"optimizer.popsize={self.popsize}"]
+        return [f"seed={seed}", f"tracking.frames={frames}", f"tracking.evaluations={self.exact}",
+                f"fidelity.levels={self.levels}".replace("'", ""), f"fidelity.carry={self.carry}", *popsize]
+
+
+def exact_part(text: str, option: str) -> tuple[int, int | None]:
+    """'EVALUATIONS[:POPSIZE]' -> (evaluations, popsize or None), checked; a ConfigError
+    naming ``option`` otherwise."""
+    evaluations, _, popsize = text.partition(":")
+    try:
+        evaluations, popsize = int(evaluations), int(popsize) if popsize else None
+    except ValueError:
+        raise ConfigError(f"{option} must be EVALUATIONS[:POPSIZE], e.g. 1500 or 1500:28, got {text!r}") from None
+    check_number(option, evaluations, START_EVALUATIONS + 1, MAX_EVALUATIONS, integer=True)
+    if popsize is not None:
+        check_number(f"{option}'s popsize", popsize, 2, 10_000, integer=True)
+    return evaluations, popsize
+
+
+def parse_exact(text: str) -> list[Search]:
+    """``--exact`` 'EVALUATIONS[:POPSIZE][,...]' (e.g. '1000,1500,1500:28') -> exact searches."""
+    items = [item.strip() for item in text.split(",") if item.strip()]
+    if not items:
+        raise ConfigError(f"--exact must be EVALUATIONS[:POPSIZE][,...], e.g. 1000,1500:28, got {text!r}")
+    return [Search(item, [], *exact_part(item, "--exact")) for item in items]
+
+
+def parse_schedule(text: str) -> Search:
+    """``--schedule`` 'SCALE:VERTICES:EVALUATIONS[:POPSIZE][,...]+EXACT[:POPSIZE]' (e.g.
+    '0.25:3000:1200:28+300' or '0.25:1000:1400+400:28') -> its search: the levels, carried on
+    with the whole search's population size after EXACT, or restarted when a level names its
+    own; a ConfigError naming it otherwise."""
     levels_text, _, exact = text.partition("+")
+    syntax = (f"--schedule must be SCALE:VERTICES:EVALUATIONS[:POPSIZE][,...]+EXACT[:POPSIZE], e.g. "
+              f"0.25:3000:1200:28+300 or 0.25:1000:1400+400:28, got {text!r}")
     try:
         levels = []
         for level in levels_text.split(","):
@@ -198,52 +293,52 @@ def parse_schedule(text: str) -> tuple[list[dict], int]:
                 raise ValueError(level)
             levels.append({"scale": float(scale), "vertices": int(vertices), "evaluations": int(evaluations),
                            **({"optimizer": {"popsize": int(popsize[0])}} if popsize else {})})
-        exact = int(exact)
     except ValueError:
-        raise ConfigError(f"--schedule must be SCALE:VERTICES:EVALUATIONS[:POPSIZE][,...]+EXACT, e.g. "
-                          f"0.25:3000:1200:28+300, got {text!r}") from None
+        raise ConfigError(syntax) from None
+    if not exact:
+        raise ConfigError(syntax)
     check_levels(levels)
-    return levels, check_number("--schedule's exact evaluations", exact, START_EVALUATIONS + 1,
-                                MAX_EVALUATIONS, integer=True)
+    search = Search(text, levels, *exact_part(exact, "--schedule's exact evaluations"))
+    if search.popsize is not None and not search.carry:
+        raise ConfigError(f"--schedule {text!r} names a popsize per level (restarted) and for the whole search "
+                          "(carried): give one or the other")
+    return search
 
 
-def fidelity_table(exact: list[int], schedules: dict[str, tuple[list[dict], int]], frames: int,
-                   seeds: list[int], out: Path) -> pd.DataFrame:
-    """Track the demo sequence (:data:`FIDELITY_RUN`, ``frames`` frames) exactly at each of
-    ``exact`` evaluations per frame and with each multi-fidelity schedule (``schedules``:
-    its text -> :func:`parse_schedule`'s levels and exact evaluations), once per search seed
-    of ``seeds`` (the data stay the same), one run after the other in a fresh folder; one row
-    per search: mode, label, evaluations (cheap, exact), the mean marker error (mm) and search
-    time per frame (ms, the foreground apart), both averaged over the seeds, the spread of
-    the error over the seeds (sample standard deviation, mm; 0 for one seed), the ratios to
-    the exact run at :data:`FIDELITY_REFERENCE` evaluations (when run) and ``pareto`` (not
-    dominated on time and mean error)."""
-    runs = [("exact", str(n), [], n) for n in exact]
-    runs += [("multi-fidelity", text, levels, n) for text, (levels, n) in schedules.items()]
+def fidelity_table(searches: list[Search], frames: int, seeds: list[int], out: Path) -> pd.DataFrame:
+    """Track the demo sequence (:data:`FIDELITY_RUN`, ``frames`` frames) with each search
+    (exact or multi-fidelity), once per search seed of ``seeds`` (the data stay the same),
+    one run after the other in a fresh folder; one row per search: mode, label, evaluations
+    (cheap, exact), population size, the mean marker error (mm) and search time per frame
+    (ms, the foreground apart), both averaged over the seeds, the spread of the error over
+    the seeds (sample standard deviation, mm; 0 for one seed), the ratios to the exact run at
+    :data:`FIDELITY_REFERENCE` evaluations and the default population size (when run) and
+    ``pareto`` (not dominated on time and mean error)."""
     rows = []
-    for mode, label, levels, n in runs:
-        carry = not any("optimizer" in level for level in levels)  # restarted when a level names a popsize
+    for search in searches:
         errors, times = [], []
         for seed in seeds:
-            cfg = compose([*FIDELITY_RUN, f"seed={seed}", f"tracking.frames={frames}", f"tracking.evaluations={n}",
-                           f"fidelity.levels={levels}".replace("'", ""), f"fidelity.carry={carry}"])
+            cfg = compose([*FIDELITY_RUN, *search.overrides(frames, seed)])
             with tempfile.TemporaryDirectory(dir=out) as folder:
                 summary = run(cfg, Path(folder))
             errors.append(summary["mean_marker_error_mm"])
             times.append(summary["seconds_per_frame"] * 1e3)
-            print(f"fidelity: {mode} {label}, seed {seed}: {errors[-1]:.1f} mm, {times[-1]:.0f} ms per frame",
-                  flush=True)
-        rows.append({"mode": mode if not levels else f"{mode} ({'carried' if carry else 'restarted'})",
-                     "evaluations": label, "cheap_evaluations": sum(lv["evaluations"] for lv in levels),
-                     "exact_evaluations": n, "vertices": summary["vertices"], "seeds": len(seeds),
+            print(f"fidelity: {search.mode} {search.label}, seed {seed}: {errors[-1]:.1f} mm, "
+                  f"{times[-1]:.0f} ms per frame", flush=True)
+        rows.append({"mode": search.mode, "evaluations": search.label,
+                     "cheap_evaluations": sum(level["evaluations"] for level in search.levels),
+                     "exact_evaluations": search.exact,
+                     "popsize": search.popsize or strategy_parameters(summary["dof"]).lam,
+                     "vertices": summary["vertices"], "seeds": len(seeds),
                      "mean_marker_error_mm": float(np.mean(errors)),
                      "error_sd_mm": float(np.std(errors, ddof=1)) if len(errors) > 1 else 0.0,
                      "ms_per_frame": float(np.mean(times))})
     df = pd.DataFrame(rows)
-    reference = df[(df["mode"] == "exact") & (df.exact_evaluations == FIDELITY_REFERENCE)]
-    if len(reference):
-        df["error_ratio"] = df.mean_marker_error_mm / reference.mean_marker_error_mm.iloc[0]
-        df["time_ratio"] = df.ms_per_frame / reference.ms_per_frame.iloc[0]
+    reference = [k for k, search in enumerate(searches)
+                 if not search.levels and search.exact == FIDELITY_REFERENCE and search.popsize is None]
+    if reference:
+        df["error_ratio"] = df.mean_marker_error_mm / df.mean_marker_error_mm.iloc[reference[0]]
+        df["time_ratio"] = df.ms_per_frame / df.ms_per_frame.iloc[reference[0]]
     df["pareto"] = non_dominated(df[["ms_per_frame", "mean_marker_error_mm"]].to_numpy())
     return df
 
@@ -284,7 +379,7 @@ def integer_list(option: str, text: str, low: int, high: int) -> list[int]:
 
 def main(argv: list[str], prog: str) -> None:
     parser = argparse.ArgumentParser(prog=prog, description=__doc__.split("\n\n")[0])
-    parser.add_argument("table", choices=["table1", "table2", "all", "fidelity"])
+    parser.add_argument("table", choices=["table1", "table2", "roofline", "all", "fidelity"])
     parser.add_argument("--backends", default=None,
                         help="comma-separated evaluators (default: every one that can run here)")
     parser.add_argument("--vertices", default="27393,20544,13695")
@@ -296,10 +391,10 @@ def main(argv: list[str], prog: str) -> None:
     parser.add_argument("--seconds", type=float, default=2.0,
                         help=f"more frames (up to {MAX_FRAMES}) while they fit in this time")
     parser.add_argument("--exact", default=f"500,1000,{FIDELITY_REFERENCE}",
-                        help="evaluations per frame of the exact runs (fidelity)")
+                        help="exact searches, EVALUATIONS[:POPSIZE][,...] per frame (fidelity)")
     parser.add_argument("--schedule", action="append", default=None,
-                        help="a multi-fidelity run, SCALE:VERTICES:EVALUATIONS[:POPSIZE][,...]+EXACT (fidelity; "
-                             f"repeat for more; default: {' and '.join(DEFAULT_SCHEDULES)})")
+                        help="a multi-fidelity run, SCALE:VERTICES:EVALUATIONS[:POPSIZE][,...]+EXACT[:POPSIZE] "
+                             f"(fidelity; repeat for more; default: {' and '.join(DEFAULT_SCHEDULES)})")
     parser.add_argument("--track-frames", type=int, default=60, help="frames tracked per run (fidelity)")
     parser.add_argument("--seeds", default="0,1,2",
                         help="search seeds each search is run with, its error and time averaged (fidelity)")
@@ -307,12 +402,11 @@ def main(argv: list[str], prog: str) -> None:
     parser.add_argument("--prefix", default="", help="prefix of the output file names")
     args = parser.parse_args(argv)
     if args.table == "fidelity":
-        exact = integer_list("--exact", args.exact, START_EVALUATIONS + 1, MAX_EVALUATIONS)
-        schedules = {text: parse_schedule(text) for text in args.schedule or DEFAULT_SCHEDULES}
+        searches = parse_exact(args.exact) + [parse_schedule(text) for text in args.schedule or DEFAULT_SCHEDULES]
         frames = check_number("--track-frames", args.track_frames, 1, 10_000, integer=True)
         seeds = integer_list("--seeds", args.seeds, 0, 2**32 - 1)
         args.out.mkdir(parents=True, exist_ok=True)
-        table = fidelity_table(exact, schedules, frames, seeds, args.out)
+        table = fidelity_table(searches, frames, seeds, args.out)
         title = (f"Multi-fidelity search against exact CMA-ES (holistic, 39 DOF), S1 walking, realistic, "
                  f"{frames} frames, 4 cameras, 640x480, search seeds {args.seeds} averaged; ratios to exact "
                  f"at {FIDELITY_REFERENCE} evaluations")
@@ -339,10 +433,23 @@ def main(argv: list[str], prog: str) -> None:
     evaluators = {name: registry.make_evaluator(name) for name in names}
     try:
         naive_us, t2 = {}, None
+        if args.table == "roofline":
+            if "opencl" not in evaluators:
+                parser.error("roofline needs the opencl backend (--backends opencl)")
+            vertices = max(scenes)
+            t2 = table2({"opencl": evaluators["opencl"]}, {vertices: scenes[vertices]}, args.population, args.repeats)
+            write(roofline_table(vertices, t2.us_per_model_view.iloc[0]), args.out, f"{args.prefix}roofline",
+                  ROOFLINE_TITLE.format(vertices=vertices))
+            return
         if args.table != "table1":
             t2 = table2(evaluators, scenes, args.population, args.repeats)
             write(t2, args.out, f"{args.prefix}table2", "Time per model-view (Cano Table 2): "
                   "project + count, one 640x480 view, microseconds")
+            if "opencl" in evaluators:
+                vertices = max(scenes)
+                kernel = t2[(t2.backend == "opencl") & (t2.vertices == vertices)].us_per_model_view.iloc[0]
+                write(roofline_table(vertices, kernel), args.out, f"{args.prefix}roofline",
+                      ROOFLINE_TITLE.format(vertices=vertices))
         elif "naive" in evaluators:  # for the extrapolated naive frame times
             t2 = table2({"naive": evaluators["naive"]}, scenes, args.population, args.repeats)
         if "naive" in evaluators:

@@ -22,9 +22,27 @@ def test_bench_writes_both_tables_with_speedups_against_naive(tmp_path, capsys):
     assert naive.frame_ms == pytest.approx(60 * 2 * t2.us_per_model_view.iloc[0] / 1e3)
     assert 0 < numpy.solutions_ms <= numpy.frame_ms
     assert numpy.fps == pytest.approx(1e3 / numpy.frame_ms)
+    assert numpy.host_share == pytest.approx(1 - numpy.solutions_ms / numpy.frame_ms) and 0 <= numpy.host_share < 1
     assert (tmp_path / "t_table1.md").read_text().startswith("# Time per frame")
     assert (tmp_path / "t_fig3.png").read_bytes()[:4] == b"\x89PNG"
     assert "| numpy" in capsys.readouterr().out
+
+
+def test_roofline_puts_the_kernel_beside_the_floor_of_the_measured_rates(tmp_path):
+    pytest.importorskip("pyopencl")
+    assert run_cli("bench", "roofline", "--backends", "opencl", "--vertices", "1000", "--population", "4",
+                   "--repeats", "1", "--out", str(tmp_path)) == 0
+    table = pd.read_csv(tmp_path / "roofline.csv")
+    needs, floor, kernel = table.iloc[:3], table.iloc[3], table.iloc[4]
+    assert floor.us_per_model_view == needs.us_per_model_view.max() and floor.ratio_to_floor == 1
+    assert kernel.us_per_model_view > 0
+    assert kernel.ratio_to_floor == pytest.approx(kernel.us_per_model_view / floor.us_per_model_view)
+    assert "500 ORs" in needs.need_per_model_view.iloc[2]  # half of 1000 vertices face the camera
+
+
+def test_roofline_needs_the_opencl_backend(capsys):
+    assert run_cli("bench", "roofline", "--backends", "numpy") == 2
+    assert "roofline needs the opencl backend" in capsys.readouterr().err
 
 
 def test_bench_rejects_an_unknown_backend(capsys):
@@ -86,8 +104,27 @@ def test_fidelity_puts_both_modes_side_by_side_with_ratios_to_exact_1500(tiny_se
     assert list(tmp_path.iterdir()) and not [p for p in tmp_path.iterdir() if p.is_dir()]  # the runs' folders go
 
 
-@pytest.mark.parametrize("schedule", ["0.25:3000+300", "0.25:3000:1200", "2:3000:1200+300", "0.25:3000:1200+1"])
+def test_a_schedule_carries_a_population_size_for_the_whole_search_or_restarts_with_one_per_level():
+    carried = bench.parse_schedule("0.25:1000:1400+400:28")
+    assert (carried.carry, carried.popsize, carried.exact) == (True, 28, 400)
+    assert carried.levels == [{"scale": 0.25, "vertices": 1000, "evaluations": 1400}]
+    assert "optimizer.popsize=28" in carried.overrides(60, 1) and "fidelity.carry=True" in carried.overrides(60, 1)
+    restarted = bench.parse_schedule("0.25:3000:1200:28+300")
+    assert (restarted.carry, restarted.popsize, restarted.mode) == (False, None, "multi-fidelity (restarted)")
+    assert not any(o.startswith("optimizer.popsize") for o in restarted.overrides(60, 1))
+    assert [(s.exact, s.popsize) for s in bench.parse_exact("1000, 1500:28")] == [(1000, None), (1500, 28)]
+
+
+@pytest.mark.parametrize("schedule", ["0.25:3000+300", "0.25:3000:1200", "2:3000:1200+300", "0.25:3000:1200+1",
+                                      "0.25:3000:1200:28+300:28", "0.25:3000:1200+300:1"])
 def test_a_bad_schedule_is_one_line_naming_it(schedule, capsys):
     assert run_cli("bench", "fidelity", "--schedule", schedule) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and ("--schedule" in err or "fidelity.levels[0]" in err)
+
+
+@pytest.mark.parametrize("exact", ["1500:x", "1", ",", "1500:1"])
+def test_a_bad_exact_search_is_one_line_naming_it(exact, capsys):
+    assert run_cli("bench", "fidelity", "--exact", exact) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--exact" in err

@@ -1,0 +1,27 @@
+"""The silhouette kernel's roofline: the floor from a device's rates, and the rates measured."""
+import math
+
+import pytest
+
+from mmocap.evaluators.roofline import BYTES_PER_VERTEX, FLOPS_PER_VERTEX, Rates, floor_us, measure
+
+RATES = Rates(flops=50e9, read_bytes=40e9, clear_words=5e9, ors=0.5e9)
+
+
+def test_each_need_is_the_facing_vertices_work_over_its_rate_and_the_floor_the_largest():
+    us = floor_us(RATES, 20000, 640, 480)
+    assert us["arithmetic"] == pytest.approx(10000 * FLOPS_PER_VERTEX / 50e9 * 1e6)
+    assert us["reads"] == pytest.approx(10000 * BYTES_PER_VERTEX / 40e9 * 1e6)
+    assert us["scatter"] == pytest.approx((10000 / 0.5e9 + 20 * 480 / 5e9) * 1e6)
+    assert us["floor"] == max(us["arithmetic"], us["reads"], us["scatter"]) == us["scatter"]
+    doubled = floor_us(RATES, 40000, 640, 480)
+    assert doubled["arithmetic"] == pytest.approx(2 * us["arithmetic"])
+
+
+def test_the_rates_measured_on_the_default_device_are_finite_and_positive():
+    pytest.importorskip("pyopencl")
+    rates, device = measure(array_bytes=64 * 1024, repeats=1)
+    assert device
+    for name in ("flops", "read_bytes", "clear_words", "ors"):
+        value = getattr(rates, name)
+        assert math.isfinite(value) and value > 0, name
