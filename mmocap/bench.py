@@ -71,7 +71,7 @@ from mmocap.validate import check_number
 
 MAX_FRAMES = 5  # frames per budget and backend that frame_ms adds to fill its seconds
 #: the multi-fidelity runs of ``mmocap bench fidelity`` unless ``--schedule`` is given
-DEFAULT_SCHEDULES = ["0.25:3000:1000+250", "0.25:3000:1200+300", "0.25:3000:700,0.5:13695:300+250",
+DEFAULT_SCHEDULES = ["0.25:3000:1000+350", "0.5:3000:1000+350", "0.5:3000:1200+300:28", "0.5:3000:1400+400:28",
                      "0.25:3000:1200:28+300"]
 
 
@@ -390,7 +390,7 @@ def main(argv: list[str], prog: str) -> None:
     parser.add_argument("--frames", type=int, default=1, help="frames per budget, at least (table 1)")
     parser.add_argument("--seconds", type=float, default=2.0,
                         help=f"more frames (up to {MAX_FRAMES}) while they fit in this time")
-    parser.add_argument("--exact", default=f"500,1000,{FIDELITY_REFERENCE}",
+    parser.add_argument("--exact", default=f"500,1000,{FIDELITY_REFERENCE},{FIDELITY_REFERENCE}:28",
                         help="exact searches, EVALUATIONS[:POPSIZE][,...] per frame (fidelity)")
     parser.add_argument("--schedule", action="append", default=None,
                         help="a multi-fidelity run, SCALE:VERTICES:EVALUATIONS[:POPSIZE][,...]+EXACT[:POPSIZE] "
