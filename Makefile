@@ -48,7 +48,7 @@ optimizers: $(STAMP) ## Demo sequence with every built-in optimiser, holistic an
 # inflate CMA-ES's share of a frame many times over on a small machine.
 BENCH := OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 $(MMOCAP) bench
 
-bench: $(STAMP) ## Evaluator benchmark, 27393 vertices: time per model-view and per CMA-ES frame (500, 1500 evaluations); multi-fidelity against exact search on the demo sequence; outputs/tables/bench_*
+bench: $(STAMP) ## Evaluator benchmark, 27393 vertices: time per model-view, the kernel's roofline, per CMA-ES frame (500, 1500 evaluations) and its host share; multi-fidelity against exact search on the demo sequence; outputs/tables/bench_*
 	$(BENCH) all --vertices 27393 --budgets 500,1500 --prefix bench_
 	$(BENCH) fidelity --prefix bench_
 
