@@ -59,9 +59,7 @@ from mmocap.body.model import VERTICES_RANGE, BodyModel
 from mmocap.config import compose
 from mmocap.data.synthetic import CAMERA_RING, camera_rig
 from mmocap.errors import ConfigError
-from mmocap.evaluators.roofline import BYTES_PER_VERTEX, FACING, FLOPS_PER_VERTEX
-from mmocap.evaluators.roofline import floor_us as roofline_floor
-from mmocap.evaluators.roofline import measure as measure_rates
+from mmocap.evaluators import roofline
 from mmocap.evaluators.timed import TimedEvaluator
 from mmocap.optimizers.cmaes import strategy_parameters
 from mmocap.pipeline import run
@@ -191,23 +189,20 @@ def table1(evaluators: dict, scenes: dict, budgets, frames: int, naive_us: dict,
     return df
 
 
-ROOFLINE_TITLE = "Roofline of the silhouette kernel: one 640x480 model-view at {vertices} vertices, microseconds"
-
-
-def roofline_table(vertices: int, kernel_us: float) -> pd.DataFrame:
+def write_roofline(vertices: int, kernel_us: float, out: Path, prefix: str) -> None:
     """The silhouette kernel's roofline (:mod:`mmocap.evaluators.roofline`) on the default
-    OpenCL device at ``vertices`` and 640x480: per resource what a model-view needs, the
-    measured rate and the microseconds that follow; the floor (the largest); and the kernel
-    as measured (``kernel_us``, Table 2), with its ratio to the floor."""
-    rates, device = measure_rates()
-    us = roofline_floor(rates, vertices, 640, 480)
-    words, facing = (640 + 31) // 32 * 480, round(FACING * vertices)
-    rows = [{"resource": "float32 arithmetic", "need_per_model_view": f"{FLOPS_PER_VERTEX * facing} flop",
+    OpenCL device at ``vertices`` and 640x480, written as ``{prefix}roofline``: per resource
+    what a model-view needs, the measured rate and the microseconds that follow; the floor
+    (the largest); and the kernel as measured (``kernel_us``, Table 2), with its ratio to
+    the floor."""
+    rates, device = roofline.measure()
+    us, need = roofline.floor_us(rates, vertices, 640, 480), roofline.needs(vertices, 640, 480)
+    rows = [{"resource": "float32 arithmetic", "need_per_model_view": f"{need['flops']} flop",
              "measured_rate": f"{rates.flops / 1e9:.1f} Gflop/s", "us_per_model_view": us["arithmetic"]},
-            {"resource": "reads (cache-resident)", "need_per_model_view": f"{BYTES_PER_VERTEX * facing / 1e3:.0f} kB",
+            {"resource": "reads (cache-resident)", "need_per_model_view": f"{need['bytes'] / 1e3:.0f} kB",
              "measured_rate": f"{rates.read_bytes / 1e9:.1f} GB/s", "us_per_model_view": us["reads"]},
             {"resource": "local memory: clear, scattered ORs",
-             "need_per_model_view": f"{words} words, {facing} ORs",
+             "need_per_model_view": f"{need['words']} words, {need['ors']} ORs",
              "measured_rate": f"{rates.clear_words / 1e9:.2f} Gword/s, {rates.ors / 1e9:.2f} GOR/s",
              "us_per_model_view": us["scatter"]},
             {"resource": "floor (the largest)", "need_per_model_view": "", "measured_rate": "",
@@ -217,7 +212,8 @@ def roofline_table(vertices: int, kernel_us: float) -> pd.DataFrame:
     df = pd.DataFrame(rows)
     df["ratio_to_floor"] = df.us_per_model_view / us["floor"]
     print(f"roofline: {device}: floor {us['floor']:.1f} us, kernel {kernel_us:.1f} us per model-view", flush=True)
-    return df
+    write(df, out, f"{prefix}roofline",
+          f"Roofline of the silhouette kernel: one 640x480 model-view at {vertices} vertices, microseconds")
 
 
 #: the exact run the multi-fidelity runs are compared with: CMA-ES at this many evaluations
@@ -295,8 +291,6 @@ def parse_schedule(text: str) -> Search:
                            **({"optimizer": {"popsize": int(popsize[0])}} if popsize else {})})
     except ValueError:
         raise ConfigError(syntax) from None
-    if not exact:
-        raise ConfigError(syntax)
     check_levels(levels)
     search = Search(text, levels, *exact_part(exact, "--schedule's exact evaluations"))
     if search.popsize is not None and not search.carry:
@@ -433,23 +427,22 @@ def main(argv: list[str], prog: str) -> None:
     evaluators = {name: registry.make_evaluator(name) for name in names}
     try:
         naive_us, t2 = {}, None
-        if args.table == "roofline":
-            if "opencl" not in evaluators:
+        if args.table != "table1":
+            roofline_only = args.table == "roofline"
+            if roofline_only and "opencl" not in evaluators:
                 parser.error("roofline needs the opencl backend (--backends opencl)")
             vertices = max(scenes)
-            t2 = table2({"opencl": evaluators["opencl"]}, {vertices: scenes[vertices]}, args.population, args.repeats)
-            write(roofline_table(vertices, t2.us_per_model_view.iloc[0]), args.out, f"{args.prefix}roofline",
-                  ROOFLINE_TITLE.format(vertices=vertices))
-            return
-        if args.table != "table1":
-            t2 = table2(evaluators, scenes, args.population, args.repeats)
-            write(t2, args.out, f"{args.prefix}table2", "Time per model-view (Cano Table 2): "
-                  "project + count, one 640x480 view, microseconds")
-            if "opencl" in evaluators:
-                vertices = max(scenes)
+            timed = {"opencl": evaluators["opencl"]} if roofline_only else evaluators
+            t2 = table2(timed, {vertices: scenes[vertices]} if roofline_only else scenes, args.population,
+                        args.repeats)
+            if not roofline_only:
+                write(t2, args.out, f"{args.prefix}table2", "Time per model-view (Cano Table 2): "
+                      "project + count, one 640x480 view, microseconds")
+            if "opencl" in timed:
                 kernel = t2[(t2.backend == "opencl") & (t2.vertices == vertices)].us_per_model_view.iloc[0]
-                write(roofline_table(vertices, kernel), args.out, f"{args.prefix}roofline",
-                      ROOFLINE_TITLE.format(vertices=vertices))
+                write_roofline(vertices, kernel, args.out, args.prefix)
+            if roofline_only:
+                return
         elif "naive" in evaluators:  # for the extrapolated naive frame times
             t2 = table2({"naive": evaluators["naive"]}, scenes, args.population, args.repeats)
         if "naive" in evaluators:

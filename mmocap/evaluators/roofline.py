@@ -105,13 +105,19 @@ def measure(platform=None, array_bytes: int = 768 * 1024, repeats: int = 3) -> t
                  ors=GROUPS * ors / max(scatter_s - clear_s, 1e-9)), device.name.strip()
 
 
+def needs(vertices: int, width: int, height: int) -> dict[str, float]:
+    """What one model-view needs at least (see the module docstring): ``flops``, ``bytes``
+    read, local ``ors`` (one per facing vertex) and mask ``words`` cleared."""
+    facing = round(FACING * vertices)
+    return {"flops": FLOPS_PER_VERTEX * facing, "bytes": BYTES_PER_VERTEX * facing, "ors": facing,
+            "words": (width + 31) // 32 * height}
+
+
 def floor_us(rates: Rates, vertices: int, width: int, height: int) -> dict[str, float]:
     """Microseconds per model-view that each resource needs at these rates (``arithmetic``,
     ``reads``, ``scatter``), and ``floor``, the largest of them (see the module docstring)."""
-    words = (width + 31) // 32 * height
-    facing = FACING * vertices
-    need = {"arithmetic": FLOPS_PER_VERTEX * facing / rates.flops,
-            "reads": BYTES_PER_VERTEX * facing / rates.read_bytes,
-            "scatter": facing / rates.ors + words / rates.clear_words}
-    need = {name: seconds * 1e6 for name, seconds in need.items()}
-    return {**need, "floor": max(need.values())}
+    need = needs(vertices, width, height)
+    us = {"arithmetic": need["flops"] / rates.flops, "reads": need["bytes"] / rates.read_bytes,
+          "scatter": need["ors"] / rates.ors + need["words"] / rates.clear_words}
+    us = {name: seconds * 1e6 for name, seconds in us.items()}
+    return {**us, "floor": max(us.values())}
