@@ -61,6 +61,7 @@ from mmocap.evaluators.opencl_devices import (
 )
 from mmocap.evaluators.opencl_layout import (
     MAX_LAYERS,
+    SINK_WORDS,
     build_options,
     culling_cones,
     device_chain,
@@ -94,6 +95,14 @@ SPEED_REPEATS = 3
 _CHECKED: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
 
 
+def default_lanes(device) -> int:
+    """The kernel's vector width when none is given: on a CPU one vector register of floats
+    (16 with AVX-512, else 8; measured fastest), 4 on other devices."""
+    if not device.type & pyopencl().device_type.CPU:
+        return 4
+    return 16 if device.native_vector_width_float >= 16 else 8
+
+
 class _Lane:
     """One device with its queue, program and per-frame buffers."""
 
@@ -111,11 +120,11 @@ class _Lane:
         if not 1 <= int(local_size) <= largest:
             raise ConfigError(f"local_size must be in [1, {largest}] on "
                               f"{device.name.strip()!r}, got {local_size}")
-        if lanes is None:  # 8 floats, one AVX2 register, measured fastest on CPUs
-            lanes = 8 if device.type & cl.device_type.CPU else 4
+        if lanes is None:
+            lanes = default_lanes(device)
         if lanes not in (4, 8, 16):
-            raise ConfigError(f"lanes must be 4, 8 or 16 (or null: 8 on a CPU, 4 on other "
-                              f"devices), got {lanes!r}")
+            raise ConfigError(f"lanes must be 4, 8 or 16 (or null: the CPU's vector width, 4 on "
+                              f"other devices), got {lanes!r}")
         self.device, self.ctx, self.local_size, self.lanes = device, ctx, int(local_size), lanes
         self.queue = cl.CommandQueue(ctx, device)
         built = program(ctx, build_options(self.local_size, lanes))
@@ -175,8 +184,9 @@ class OpenCLEvaluator(SilhouetteEvaluator):
         device: device index on that platform.
         local_size: work-items per (candidate, camera) work-group; None: 1 on a CPU, 64
             on other devices.
-        lanes: vertices per vector in the kernel, 4, 8 or 16; None: 8 on a CPU, 4 on other
-            devices. The counts do not depend on it.
+        lanes: vertices per vector in the kernel, 4, 8 or 16; None: on a CPU its native float
+            vector width (16 with AVX-512, else 8), 4 on other devices. The counts do not
+            depend on it.
         accept_inexact: also run on a device whose self-check counts are within
             :data:`TOLERANCE` of NumPy's instead of equal (see the module's doc).
 
@@ -297,8 +307,8 @@ class OpenCLEvaluator(SilhouetteEvaluator):
                               f"OpenCL local memory; {small.device.name.strip()!r} has "
                               f"{4 * room}: use smaller masks, a device with more local memory "
                               "(platform, device) or evaluator=numpy")
-        self._max_layers = min(MAX_LAYERS, room // layer)
-        self._local_words = (max(mask, self._max_layers * layer) + 7) // 8 * 8
+        self._max_layers = min(MAX_LAYERS, (room - SINK_WORDS) // layer)
+        self._local_words = (max(mask, self._max_layers * layer + SINK_WORDS) + 7) // 8 * 8
         shapes = np.array([(cam.width, cam.height, c * self._mask_words)
                            for c, cam in enumerate(self.cameras)], np.int32)
         packed = self._packed or [None] * len(self.foreground)

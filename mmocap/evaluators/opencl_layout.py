@@ -13,7 +13,8 @@ Layout, for the kernel ``silhouette_counts``:
 - one culling cone and bounding sphere per block (:func:`culling_cones`);
 - bit masks, 1 bit per pixel (bit ``x % 32`` of word ``x // 32`` of a row), rows
   :func:`pitch` words apart (:func:`pack_bits`); in local memory the mask of a view or up to
-  :data:`MAX_LAYERS` layers padded by :data:`PAD` px (:func:`layer_words`).
+  :data:`MAX_LAYERS` layers padded by :data:`PAD` px (:func:`layer_words`) and
+  :data:`SINK_WORDS` after them.
 """
 from __future__ import annotations
 
@@ -31,6 +32,9 @@ MAX_LAYERS = 4
 MAX_JOINTS = 32
 #: mask and foreground rows start at multiples of this many 32-bit words
 PITCH_WORDS = 8
+#: words after the padded layers where the kernel's lanes without a centre in the layer set
+#: their bits, one word per lane (LANES is at most 16), never read
+SINK_WORDS = 16
 #: vertices per culling cone: 3-4 % faster than 64, 1-2 % than 256 (measured)
 BLOCK = 128
 #: bound on the float32 rounding of the culling test n . v + n . b, relative to

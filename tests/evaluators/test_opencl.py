@@ -179,6 +179,17 @@ def test_a_device_without_what_the_kernel_needs_is_a_config_error(missing, messa
         opencl._Lane(Device(), opencl_devices.context([real]), None, None)
 
 
+@pytest.mark.parametrize("kind, native, lanes", [("CPU", 16, 16), ("CPU", 8, 8), ("CPU", 4, 8),
+                                                 ("GPU", 16, 4), ("GPU", 1, 4)])
+def test_a_cpu_gets_one_vector_register_of_lanes_by_default(kind, native, lanes):
+    from types import SimpleNamespace
+    cl = opencl_devices.pyopencl()
+    device = SimpleNamespace(type=getattr(cl.device_type, kind), native_vector_width_float=native)
+    assert opencl.default_lanes(device) == lanes
+    real = opencl_devices.select_device(None, 0)  # and the evaluator takes it
+    assert opencl.OpenCLEvaluator()._lanes[0].lanes == opencl.default_lanes(real)
+
+
 @pytest.mark.parametrize("max_layers", [1, 2, 4])
 def test_views_with_several_patch_sides_give_naive_counts_whatever_the_layer_limit(
         monkeypatch, max_layers):

@@ -380,6 +380,7 @@ void silhouette_counts(
         int l = 0;
         while (layered && side_of[l] != s) ++l;
         __local uint *layer = words + l * layer_words;
+        const int sink = 32 * (max_layers - l) * layer_words;  // bit address, from layer
         for (int blk = joint_start[j] / BLOCK + lid; blk < joint_start[j + 1] / BLOCK;
              blk += LOCAL_SIZE) {
             // the whole block behind its normals: n . (v + b) >= (a . d) cos - |a x d| sin - r > 0
@@ -413,18 +414,17 @@ void silhouette_counts(
                     hiV = MAX(hiV, in ? py : -1);
                     leftV = MIN(leftV, in ? px : leftV);
                     rightV = MAX(rightV, in ? px : -1);
-                    // a lane that is not in ORs 0 into a word of its own, the layer's lane-th
-                    // (padding): lanes that share one word wait for each other's writes
-                    const intV k = in ? py * pstride + (px >> 5) : LANE_INDEX;
-                    const uintV bit = as_uintV(in) & ((uintV)(1u) << (convert_uintV(px) & 31u));
+                    // the bit address of each centre in the layer; a lane that is not in sets
+                    // a bit of a sink word of its own, past the layers (see SINK_WORDS)
+                    const intV at = in ? py * (32 * pstride) + px : sink + 32 * LANE_INDEX;
                     // through memory, lane by lane, unrolled: extracting lanes from registers
-                    // instead is slower (measured)
-                    volatile intV k_lanes = k;
-                    volatile uintV bit_lanes = bit;
+                    // instead is slower, and so is storing words and bits apart (measured)
+                    volatile intV at_lanes = at;
 #pragma unroll
-                    for (int i = 0; i < LANES; ++i)
-                        OR_WORD(layer + ((volatile int *)&k_lanes)[i],
-                                ((volatile uint *)&bit_lanes)[i]);
+                    for (int i = 0; i < LANES; ++i) {
+                        const int bit = ((volatile int *)&at_lanes)[i];
+                        OR_WORD(layer + (bit >> 5), 1u << (bit & 31));
+                    }
                 }
                 continue;
             }
