@@ -60,8 +60,10 @@ from mmocap.evaluators.opencl_devices import (
     sub_devices,
 )
 from mmocap.evaluators.opencl_layout import (
+    LARGEST_BLOCK,
     MAX_LAYERS,
     SINK_WORDS,
+    block_size,
     build_options,
     culling_cones,
     device_chain,
@@ -127,9 +129,12 @@ class _Lane:
                               f"other devices), got {lanes!r}")
         self.device, self.ctx, self.local_size, self.lanes = device, ctx, int(local_size), lanes
         self.queue = cl.CommandQueue(ctx, device)
-        built = program(ctx, build_options(self.local_size, lanes))
-        self.kernel = cl.Kernel(built, "silhouette_counts")
-        self.kinematics = cl.Kernel(built, "joint_transforms")
+        self.frame: dict = {}  # name -> pyopencl.Buffer
+        self.batch: dict = {}  # name -> (bytes, pyopencl.Buffer)
+        self.bound: dict = {}  # each kernel's arguments, see bind
+        self.block = 0
+        self.build(LARGEST_BLOCK)
+        # the block size changes loop bounds only, not what the kernel needs of the device
         info = cl.kernel_work_group_info
         fits = self.kernel.get_work_group_info(info.WORK_GROUP_SIZE, device)
         if self.local_size > fits:
@@ -138,9 +143,15 @@ class _Lane:
         #: bytes of local memory left for the masks: the device's less the kernel's own
         self.local_bytes = device.local_mem_size - self.kernel.get_work_group_info(
             info.LOCAL_MEM_SIZE, device)
-        self.frame: dict = {}  # name -> pyopencl.Buffer
-        self.batch: dict = {}  # name -> (bytes, pyopencl.Buffer)
-        self.bound: dict = {}  # each kernel's arguments, see bind
+
+    def build(self, block: int) -> None:
+        """Take the kernels built for culling blocks of ``block`` vertices (once per process,
+        context and options; see :func:`~mmocap.evaluators.opencl_layout.block_size`)."""
+        if block != self.block:
+            built = program(self.ctx, build_options(self.local_size, self.lanes, block))
+            self.kernel = self.cl.Kernel(built, "silhouette_counts")
+            self.kinematics = self.cl.Kernel(built, "joint_transforms")
+            self.block = block
 
     def upload(self, **arrays: np.ndarray) -> None:
         """Read-only buffers kept until replaced (per frame, or per body)."""
@@ -280,10 +291,12 @@ class OpenCLEvaluator(SilhouetteEvaluator):
         # the body's arrays only when the body is another object than last frame's (about
         # 30 ms for 27 393 vertices); a body is not modified in place
         if self._body_uploaded is not self.body:
-            vertices, start = vertex_arrays(self.body, self.patch_scale)
-            cones = culling_cones(vertices)
+            block = block_size(len(self.body.vertex_joint))
+            vertices, start = vertex_arrays(self.body, self.patch_scale, block)
+            cones = culling_cones(vertices, block)
             joints = joint_rows(self.body, self.patch_scale)
             for lane in self._lanes:
+                lane.build(block)
                 lane.upload(vertices=interleaved(vertices, lane.lanes), start=start, cones=cones,
                             joints=joints)
             self._chain = device_chain(self.body)

@@ -20,12 +20,13 @@ def required_constants(source: str) -> set[str]:
 
 def test_build_options_pass_exactly_the_constants_the_kernel_requires():
     source = opencl_devices.kernel_source()
-    for local_size, lanes in ((1, 8), (64, 4)):
-        options = opencl_layout.build_options(local_size, lanes)
+    for local_size, lanes, block in ((1, 8, 128), (64, 4, 32)):
+        options = opencl_layout.build_options(local_size, lanes, block)
         passed = dict(o[2:].split("=", 1) for o in options if o.startswith("-D"))
         assert set(passed) == required_constants(source)
         assert passed["COUNT_WORDS"] == str(opencl_layout.count_words(local_size))
-        assert (passed["LOCAL_SIZE"], passed["LANES"]) == (str(local_size), str(lanes))
+        assert (passed["LOCAL_SIZE"], passed["LANES"], passed["BLOCK"]) == (str(local_size), str(lanes),
+                                                                          str(block))
     for name in required_constants(source):  # the kernel defines none of them itself
         assert not re.search(rf"^\s*#define\s+{name}\b", source, re.MULTILINE), name
     assert {"PAD", "MAX_LAYERS", "MAX_JOINTS", "PITCH_WORDS", "BLOCK"} <= required_constants(source)
@@ -42,7 +43,7 @@ def test_the_kernel_is_package_data():
 def test_a_missing_constant_fails_the_build(left_out):
     cl = opencl_devices.pyopencl()
     ctx = opencl_devices.context([opencl_devices.select_device(None, 0)])
-    options = [o for o in opencl_layout.build_options(1, 8) if not o.startswith(f"-D{left_out}=")]
+    options = [o for o in opencl_layout.build_options(1, 8, 128) if not o.startswith(f"-D{left_out}=")]
     with pytest.raises(cl.RuntimeError, match=f"build with .*-D{left_out}"):
         cl.Program(ctx, opencl_devices.kernel_source()).build(options=options)
 
@@ -56,3 +57,10 @@ def test_rows_are_pitch_words_apart():
     bits = np.unpackbits(rows.view(np.uint8), axis=1, bitorder="little")
     np.testing.assert_array_equal(bits[:, :70], mask)
     assert not bits[:, 70:].any() and not packed[40:].any()
+
+
+@pytest.mark.parametrize("vertices, block", [(1, 32), (300, 32), (3000, 32), (6000, 64), (13695, 128),
+                                             (27393, 128), (10 ** 6, 128)])
+def test_culling_blocks_are_about_a_hundredth_of_the_body_within_limits(vertices, block):
+    assert opencl_layout.block_size(vertices) == block
+    assert block % 16 == 0  # a multiple of every lane count
