@@ -80,6 +80,8 @@ class BoxTransform:
         self._start = lower - self.margin_lower   # the base period is [start, start + period)
         self._end = upper + self.margin_upper
         self._period = 2 * (self._end - self._start)
+        # where the map is the identity (every candidate of a tracked frame, measured)
+        self._identity = (lower + self.margin_lower, upper - self.margin_upper)
 
     def base_period(self, Y: np.ndarray) -> np.ndarray:
         """Genotypes (..., D) moved by whole periods into the base period (same image);
@@ -89,12 +91,15 @@ class BoxTransform:
 
     def __call__(self, Y: np.ndarray) -> np.ndarray:
         """Images (..., D) in the box of the genotypes Y (..., D)."""
+        inner_low, inner_high = self._identity
+        if np.all((Y >= inner_low) & (Y <= inner_high)):  # the same values, without the work
+            return Y
         Y = self.base_period(Y)
         Y = np.where(Y > self._end, 2 * self._end - Y, Y)
         low = self.lower + (Y - self._start) ** 2 / (4 * self.margin_lower)
         high = self.upper - (Y - self._end) ** 2 / (4 * self.margin_upper)
-        X = np.where(Y < self.lower + self.margin_lower, low, Y)
-        return np.where(Y > self.upper - self.margin_upper, high, X)
+        X = np.where(Y < inner_low, low, Y)
+        return np.where(Y > inner_high, high, X)
 
     def inverse(self, X: np.ndarray) -> np.ndarray:
         """A genotype (..., D) in ``[lower - a_l, upper + a_u]`` of each point X (..., D) of
@@ -102,8 +107,9 @@ class BoxTransform:
         X = np.clip(X, self.lower, self.upper)
         low = self._start + np.sqrt(np.maximum(4 * self.margin_lower * (X - self.lower), 0.0))
         high = self._end - np.sqrt(np.maximum(4 * self.margin_upper * (self.upper - X), 0.0))
-        Y = np.where(X < self.lower + self.margin_lower, low, X)
-        return np.where(X > self.upper - self.margin_upper, high, Y)
+        inner_low, inner_high = self._identity
+        Y = np.where(X < inner_low, low, X)
+        return np.where(X > inner_high, high, Y)
 
 
 @dataclass(frozen=True)

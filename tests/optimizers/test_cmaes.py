@@ -115,6 +115,20 @@ def test_box_transform_maps_onto_the_box_smoothly_and_inverts():
     np.testing.assert_allclose(box_map(box_map.inverse(points)), points, atol=1e-12)
 
 
+def test_box_transform_maps_each_point_alike_whatever_else_is_in_the_call():
+    """Calls with every point where the map is the identity take a shortcut; a point's image
+    is the same in such a call and in one that takes the full map."""
+    box_map = BoxTransform(np.array([-1.0, 0.0]), np.array([1.0, 3.0]))
+    rng = np.random.default_rng(0)
+    Y = rng.uniform([-0.9, 0.1], [0.9, 2.9], (1000, 2))
+    Y = Y[np.all((Y >= box_map._identity[0]) & (Y <= box_map._identity[1]), axis=1)]
+    edges = np.array([box_map._identity[0], box_map._identity[1]])  # the identity's own ends
+    shortcut = box_map(np.r_[Y, edges])
+    full = box_map(np.r_[Y, edges, [[5.0, -7.0]]])[:-1]  # a point outside: the full map
+    np.testing.assert_array_equal(shortcut, full)
+    np.testing.assert_array_equal(shortcut, np.r_[Y, edges])
+
+
 def test_transform_needs_finite_bounds():
     space = SearchSpace(x0=np.zeros(3), lower=np.full(3, -np.inf), upper=np.ones(3),
                         sigma0=np.ones(3), budget=100)
