@@ -69,8 +69,7 @@ from mmocap.validate import check_number
 
 MAX_FRAMES = 5  # frames per budget and backend that frame_ms adds to fill its seconds
 #: the multi-fidelity runs of ``mmocap bench fidelity`` unless ``--schedule`` is given
-DEFAULT_SCHEDULES = ["0.25:3000:1000+350", "0.5:3000:1000+350", "0.5:3000:1200+300:28", "0.5:3000:1400+400:28",
-                     "0.25:3000:1200:28+300"]
+DEFAULT_SCHEDULES = ["0.25:3000:1000+350", "0.5:3000:1200+500:28", "0.5:3000:1400+400:28", "0.5:3000:1400+500:28"]
 
 
 def backends() -> list[str]:
@@ -390,7 +389,7 @@ def main(argv: list[str], prog: str) -> None:
                         help="a multi-fidelity run, SCALE:VERTICES:EVALUATIONS[:POPSIZE][,...]+EXACT[:POPSIZE] "
                              f"(fidelity; repeat for more; default: {' and '.join(DEFAULT_SCHEDULES)})")
     parser.add_argument("--track-frames", type=int, default=60, help="frames tracked per run (fidelity)")
-    parser.add_argument("--seeds", default="0,1,2",
+    parser.add_argument("--seeds", default="0,1,2,3,4",
                         help="search seeds each search is run with, its error and time averaged (fidelity)")
     parser.add_argument("--out", type=Path, default=Path("outputs/tables"))
     parser.add_argument("--prefix", default="", help="prefix of the output file names")
