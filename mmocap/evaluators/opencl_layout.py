@@ -51,9 +51,9 @@ def count_words(local_size: int) -> int:
 
 def block_size(vertices: int) -> int:
     """Vertices per culling cone (the kernel's BLOCK) for a body of ``vertices``: about 1 %
-    of them as a power of two in [SMALLEST_BLOCK, LARGEST_BLOCK]. Measured on 7 views of 28 candidates:
-    blocks of 32 take 16 % less time than blocks of 128 at 3000 vertices (less padding, fewer
-    blocks with both faces), and 128 about 5 % less than 32 at 13 695."""
+    of them as a power of two in [SMALLEST_BLOCK, LARGEST_BLOCK]. Measured on 7 views of 28
+    candidates: blocks of 32 take 16 % less time than blocks of 128 at 3000 vertices (less
+    padding, fewer blocks with both faces), and 128 about 5 % less than 32 at 13 695."""
     return int(min(LARGEST_BLOCK, max(SMALLEST_BLOCK, 2 ** round(np.log2(max(vertices, 1) / 100)))))
 
 
