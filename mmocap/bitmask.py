@@ -20,9 +20,11 @@ def pack_rows(mask: np.ndarray) -> np.ndarray:
     """(H, W) bool -> (H, ceil(W / 32)) little-endian uint32 in the layout above."""
     mask = np.asarray(mask, dtype=bool)
     H, W = mask.shape
-    padded = np.zeros((H, words_per_row(W) * WORD_BITS), bool)
-    padded[:, :W] = mask
-    return np.packbits(padded, axis=1, bitorder="little").view("<u4")
+    if W % WORD_BITS:  # whole words: zeros past the last pixel
+        padded = np.zeros((H, words_per_row(W) * WORD_BITS), bool)
+        padded[:, :W] = mask
+        mask = padded
+    return np.packbits(mask, axis=1, bitorder="little").view("<u4")
 
 
 def unpack_rows(packed: np.ndarray, width: int) -> np.ndarray:

@@ -236,7 +236,7 @@ def check_foreground(cameras, foreground) -> list[np.ndarray]:
         if mask.dtype != bool and not np.issubdtype(mask.dtype, np.number):
             raise DataError(f"foreground mask of camera {cam.name} has dtype {mask.dtype}, "
                             "expected bool or numbers (nonzero = foreground)")
-        masks.append(mask != 0)
+        masks.append(np.array(mask, dtype=bool))  # a copy; nonzero = foreground
     return masks
 
 

@@ -67,7 +67,7 @@ def shrunk_camera(camera, scale: float):
 def shrunk_mask(mask: np.ndarray, width: int, height: int) -> np.ndarray:
     """(H, W) bool-like mask -> (height, width) bool: a pixel is foreground when more than
     half of the area it covers in ``mask`` is (OpenCV's area resampling)."""
-    area = cv2.resize((np.asarray(mask) != 0).astype(np.float32), (width, height), interpolation=cv2.INTER_AREA)
+    area = cv2.resize(np.asarray(mask, bool).astype(np.float32), (width, height), interpolation=cv2.INTER_AREA)
     return area > 0.5
 
 
