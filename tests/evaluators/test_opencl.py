@@ -142,7 +142,7 @@ def test_culling_cones_skip_only_back_faces_and_pass_only_front_faces(block):
         assert facing[all_facing].all()
         facing_total += all_facing.sum()
     # and the tests are worth having: with blocks of 128 vertices they skip about a fifth of
-    # the blocks and pass an eighth without the per-vertex test (more with smaller blocks)
+    # the blocks and pass an eighth without the per-vertex test
     assert skipped_total > 0.15 * blocks * len(bs)
     assert facing_total > 0.1 * blocks * len(bs)
 

@@ -63,4 +63,5 @@ def test_rows_are_pitch_words_apart():
                                              (27393, 128), (10 ** 6, 128)])
 def test_culling_blocks_are_about_a_hundredth_of_the_body_within_limits(vertices, block):
     assert opencl_layout.block_size(vertices) == block
-    assert block % 16 == 0  # a multiple of every lane count
+    # every size in between is a power of two, so a multiple of every lane count (4, 8, 16)
+    assert opencl_layout.SMALLEST_BLOCK % 16 == 0 and opencl_layout.LARGEST_BLOCK % 16 == 0

@@ -44,9 +44,10 @@
 // per-vertex culling test; the others are culled vertex by vertex.
 
 // Vertices are processed LANES (4, 8 or 16, dividing BLOCK) at a time in vectors of that
-// width (8 floats: one AVX2 register). The vertex array holds per vector its seven rows of
-// LANES floats side by side (interleaved in opencl_layout.py); each joint's run is padded to a
-// multiple of BLOCK with zero-normal vertices, which the culling test always rejects.
+// width (on CPUs one vector register: 16 floats with AVX-512, 8 with AVX2). The vertex array
+// holds per vector its seven rows of LANES floats side by side (interleaved in
+// opencl_layout.py); each joint's run is padded to a multiple of BLOCK with zero-normal
+// vertices, which the culling test always rejects.
 #define CAT_(a, b) a##b
 #define CAT(a, b) CAT_(a, b)
 #define floatV CAT(float, LANES)
