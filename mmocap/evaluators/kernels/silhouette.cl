@@ -116,7 +116,7 @@
 // and convert builtins together (measured).
 inline intV floor_int(floatV t)
 {
-    t = select(t, (floatV)(0.0f), isnan(t));
+    t = t != t ? (floatV)(0.0f) : t;
     t = t < -CLAMP_PX ? -CLAMP_PX : t;
     t = t > CLAMP_PX ? CLAMP_PX : t;
     const intV truncated = convert_intV(t);
@@ -185,6 +185,18 @@ __attribute__((always_inline)) inline void stamp(__local uint *mask, const int s
         OR_WORD(row + w0, first);
         for (int k = w0 + 1; k < w1; ++k) OR_WORD(row + k, 0xffffffffu);
         OR_WORD(row + w1, last);
+    }
+}
+
+// Sets bit b % 32 of words[b / 32] for the bit address b in each lane of *pending, lane by
+// lane (unrolled).
+__attribute__((always_inline)) inline void set_bits(__local uint *words,
+                                                   volatile const intV *pending)
+{
+#pragma unroll
+    for (int i = 0; i < LANES; ++i) {
+        const int bit = ((volatile const int *)pending)[i];
+        OR_WORD(words + (bit >> 5), 1u << (bit & 31));
     }
 }
 
@@ -360,6 +372,11 @@ void silhouette_counts(
     barrier(CLK_LOCAL_MEM_FENCE);
 
     int lo = height + 2 * PAD, hi = -1;  // rows touched (padded rows when layered)
+    // the bit addresses in words of the layered path's last vector of centres, not yet set; a
+    // lane without a centre in the layer sets a bit of a sink word of its own, past the layers
+    // (see SINK_WORDS)
+    const intV sink = 32 * max_layers * layer_words + 32 * LANE_INDEX;
+    volatile intV pending = sink;
     intV loV = lo, hiV = -1;
     intV leftV = width + 2 * PAD, rightV = -1;  // padded columns of the layer's centres
     for (int j = 0; j < J; ++j) {
@@ -380,8 +397,7 @@ void silhouette_counts(
         const int before = (s - 1) / 2, after = s / 2;
         int l = 0;
         while (layered && side_of[l] != s) ++l;
-        __local uint *layer = words + l * layer_words;
-        const int sink = 32 * (max_layers - l) * layer_words;  // bit address, from layer
+        const int layer_bit = 32 * l * layer_words;  // bit address of the layer in words
         for (int blk = joint_start[j] / BLOCK + lid; blk < joint_start[j + 1] / BLOCK;
              blk += LOCAL_SIZE) {
             // the whole block behind its normals: n . (v + b) >= (a . d) cos - |a x d| sin - r > 0
@@ -407,25 +423,20 @@ void silhouette_counts(
                                     & (tw >= (float)-PAD) & (tw < (float)(height + PAD));
                     // lanes that are not in convert 0: a float out of int's range (or NaN)
                     // converts to an undefined value, which may spoil the masked results too
-                    const intV tx = convert_intV(select((floatV)(0.0f), tu, in));
-                    const intV ty = convert_intV(select((floatV)(0.0f), tw, in));
+                    const intV tx = convert_intV(in ? tu : (floatV)(0.0f));
+                    const intV ty = convert_intV(in ? tw : (floatV)(0.0f));
                     const intV px = tx + (convert_floatV(tx) > tu) + PAD;
                     const intV py = ty + (convert_floatV(ty) > tw) + PAD;
                     loV = MIN(loV, in ? py : loV);
                     hiV = MAX(hiV, in ? py : -1);
                     leftV = MIN(leftV, in ? px : leftV);
                     rightV = MAX(rightV, in ? px : -1);
-                    // the bit address of each centre in the layer; a lane that is not in sets
-                    // a bit of a sink word of its own, past the layers (see SINK_WORDS)
-                    const intV at = in ? py * (32 * pstride) + px : sink + 32 * LANE_INDEX;
-                    // through memory, lane by lane, unrolled: extracting lanes from registers
-                    // instead is slower, and so is storing words and bits apart (measured)
-                    volatile intV at_lanes = at;
-#pragma unroll
-                    for (int i = 0; i < LANES; ++i) {
-                        const int bit = ((volatile int *)&at_lanes)[i];
-                        OR_WORD(layer + (bit >> 5), 1u << (bit & 31));
-                    }
+                    // set the bits of the previous vector's centres, then hold this vector's:
+                    // its lanes are read back from memory one by one (extracting them from
+                    // registers is slower, measured) when the store has long completed (read
+                    // right after it, every load waited for the store: 1.4x the kernel's time)
+                    set_bits(words, &pending);
+                    pending = in ? layer_bit + py * (32 * pstride) + px : sink;
                 }
                 continue;
             }
@@ -467,6 +478,7 @@ void silhouette_counts(
             }
         }
     }
+    if (layered) set_bits(words, &pending);
     MIN_INT(&row_lo, MIN(lo, min_lane(loV)));
     MAX_INT(&row_hi, MAX(hi, max_lane(hiV)));
     MIN_INT(&col_lo, min_lane(leftV));
