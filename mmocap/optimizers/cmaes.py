@@ -80,14 +80,17 @@ class BoxTransform:
         self._start = lower - self.margin_lower   # the base period is [start, start + period)
         self._end = upper + self.margin_upper
         self._period = 2 * (self._end - self._start)
+        self._period_end = self._start + self._period
         # where the map is the identity (every candidate of a tracked frame, measured)
         self._identity = (lower + self.margin_lower, upper - self.margin_upper)
 
     def base_period(self, Y: np.ndarray) -> np.ndarray:
         """Genotypes (..., D) moved by whole periods into the base period (same image);
         those already in it are returned unchanged (no rounding)."""
-        outside = (Y < self._start) | (Y >= self._start + self._period)
-        return np.where(outside, self._start + np.mod(Y - self._start, self._period), Y)
+        inside = (Y >= self._start) & (Y < self._period_end)
+        if inside.all():
+            return Y
+        return np.where(inside, Y, self._start + np.mod(Y - self._start, self._period))
 
     def __call__(self, Y: np.ndarray) -> np.ndarray:
         """Images (..., D) in the box of the genotypes Y (..., D)."""
@@ -254,19 +257,22 @@ class CMAES(PopulationOptimizer):
         self._p_sigma = ((1 - p.c_sigma) * self._p_sigma
                          + math.sqrt(p.c_sigma * (2 - p.c_sigma) * p.mu_eff) * inv_sqrt_C_y_w)
         self._updates += 1
-        norm_p_sigma = float(np.linalg.norm(self._p_sigma))
+        norm_p_sigma = math.sqrt(self._p_sigma @ self._p_sigma)
         bias = math.sqrt(1 - (1 - p.c_sigma) ** (2 * self._updates))
         h_sigma = norm_p_sigma / bias < (1.4 + 2 / (p.dim + 1)) * p.chi_n
         self._p_c = ((1 - p.c_c) * self._p_c
                      + h_sigma * math.sqrt(p.c_c * (2 - p.c_c) * p.mu_eff) * y_w)
         c_one = p.c_cov / p.mu_cov
         c_mu = p.c_cov - c_one
-        # (1 - h_sigma) term: Hansen's compensation for the p_c update stalled by h_sigma.
-        stalled = (1 - h_sigma) * p.c_c * (2 - p.c_c)
-        C = ((1 - p.c_cov) * self._C
-             + c_one * (np.outer(self._p_c, self._p_c) + stalled * self._C)
-             + c_mu * (y.T * p.weights) @ y)
-        self._C = (C + C.T) / 2
+        rank_one = np.multiply.outer(self._p_c, self._p_c)
+        if not h_sigma:  # Hansen's compensation for the p_c update stalled by h_sigma
+            rank_one += p.c_c * (2 - p.c_c) * self._C
+        C = (1 - p.c_cov) * self._C
+        C += c_one * rank_one
+        C += c_mu * (y.T * p.weights) @ y
+        self._C = C
+        C += C.T
+        C /= 2
         self._sigma *= math.exp(p.c_sigma / p.d_sigma * (norm_p_sigma / p.chi_n - 1))
         if self._updates - self._eigen_updates >= self._eigen_gap:
             eigenvalues, self._B = np.linalg.eigh(self._C)
@@ -279,11 +285,12 @@ class CMAES(PopulationOptimizer):
         reasons: dict = {}
         if self._updates == 0:
             return reasons
-        std = float(np.max(self._sigma * np.sqrt(np.diag(self._C)) * self.scale))
+        std = float((self._sigma * np.sqrt(self._C.diagonal()) * self.scale).max())
         if std < self.tolx:
             reasons["tolx"] = std
         if len(self._best_history) == self._history_len:
-            f_range = max(float(np.ptp(self._last_f)), float(np.ptp(self._best_history)))
+            f_range = max(float(self._last_f.max() - self._last_f.min()),
+                          max(self._best_history) - min(self._best_history))
             if f_range < self.tolfun:
                 reasons["tolfun"] = f_range
         d_min = float(self._D.min())
