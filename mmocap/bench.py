@@ -379,7 +379,7 @@ def main(argv: list[str], prog: str) -> None:
     parser.add_argument("--budgets", default="500,1500,3000,5000")
     parser.add_argument("--cameras", type=int, default=7)
     parser.add_argument("--population", type=int, default=256, help="candidates per timing (table 2)")
-    parser.add_argument("--repeats", type=int, default=3, help="timings per backend (table 2), best kept")
+    parser.add_argument("--repeats", type=int, default=10, help="timings per backend (table 2), best kept")
     parser.add_argument("--frames", type=int, default=1, help="frames per budget, at least (table 1)")
     parser.add_argument("--seconds", type=float, default=2.0,
                         help=f"more frames (up to {MAX_FRAMES}) while they fit in this time")
