@@ -162,7 +162,9 @@ def _run(cfg: DictConfig, output_dir: Path, warning_messages: list[str]) -> dict
 
     rng = np.random.default_rng(int(cfg.seed))
     x0, start_facts = sequence.x0, {"method": "given"}
-    evaluator.warm_up(body, foreground, body.rest_pose() if x0 is None else x0)
+    start_pose = body.rest_pose() if x0 is None else x0
+    evaluator.warm_up(body, foreground, start_pose)
+    fidelity.warm_up(body, foreground.cameras, foreground.masks(0), start_pose)
     if auto_start.wanted(has_x0=x0 is not None):
         found = auto_start.find(body, foreground.cameras, foreground.masks(0), evaluator, optimizer, strategy, rng,
                                 fit_height=cfg.body.get("height_mm") is None, fit_girth=cfg.body.get("girth") is None)

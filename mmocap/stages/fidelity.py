@@ -199,6 +199,17 @@ class Fidelity:
             evaluator.setup(self.level_body(body, level.vertices), small,
                             [shrunk_mask(m, cam.width, cam.height) for m, cam in zip(masks, small)])
 
+    def warm_up(self, body, cameras, masks, x0: np.ndarray) -> None:
+        """One untimed evaluation of the start pose x0 (51,) at every level on frame 0 (C
+        cameras, C (H_c, W_c) masks), as :meth:`~mmocap.evaluators.timed.TimedEvaluator.warm_up`
+        does for the exact fitness: the levels' kernels (a program per culling block size) are
+        built before tracking, not in its first frame (230 ms of it, measured)."""
+        if not self.levels:
+            return
+        self.setup(body, cameras, masks)
+        for level, evaluator in zip(self.levels, self._evaluators):
+            evaluator(self.level_body(body, level.vertices).clip(np.asarray(x0)[None]))
+
     def estimate(self, strategy, body, x_prev: np.ndarray, exact, optimizer, budget: int,
                  rng) -> tuple[np.ndarray, float, int]:
         """One frame from ``x_prev`` (51,): the levels, then ``budget`` exact evaluations by

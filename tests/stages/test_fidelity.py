@@ -103,12 +103,15 @@ def test_the_cheap_levels_lead_the_exact_search_which_scores_the_frame(scene, ca
     fidelity.close()
 
 
-def test_a_level_may_search_with_its_own_optimiser_settings(scene):
-    class Counting(NumpyEvaluator):
-        def __call__(self, X):
-            self.sizes = [*getattr(self, "sizes", []), len(X)]
-            return super().__call__(X)
+class Counting(NumpyEvaluator):
+    """The NumPy evaluator, noting the size of each call in ``sizes``."""
 
+    def __call__(self, X):
+        self.sizes = [*getattr(self, "sizes", []), len(X)]
+        return super().__call__(X)
+
+
+def test_a_level_may_search_with_its_own_optimiser_settings(scene):
     fidelity = Fidelity([{"scale": 0.5, "vertices": 3000, "evaluations": 301, "optimizer": {"popsize": 30}}],
                         evaluator=Counting, optimizer=lambda **settings: CMAES(**settings), carry=False)
     result, _ = track_one_frame(scene, 150, fidelity)
@@ -134,3 +137,14 @@ def test_carrying_on_needs_the_holistic_strategy():
     Fidelity([{"scale": 0.5, "evaluations": 100}], evaluator=NumpyEvaluator, carry=False).check(Hierarchical())
     with pytest.raises(ConfigError, match="fidelity.carry must be true or false"):
         Fidelity([], carry="yes")
+
+
+def test_warming_up_evaluates_the_start_pose_once_at_every_level(scene):
+    fidelity = Fidelity([{"scale": 0.5, "vertices": 3000, "evaluations": 100}, {"scale": 0.25, "evaluations": 100}],
+                        evaluator=Counting)
+    fidelity.warm_up(scene.body, scene.cameras, scene.masks, scene.body.rest_pose())
+    assert [level.sizes for level in fidelity._evaluators] == [[1], [1]]
+    assert [level.body.n_vertices for level in fidelity._evaluators] == [3000, 13695]
+    assert [c.width for c in fidelity._evaluators[1].cameras] == [80, 80]
+    fidelity.close()
+    Fidelity().warm_up(scene.body, scene.cameras, scene.masks, scene.body.rest_pose())  # no levels: nothing to do
