@@ -270,9 +270,9 @@ class CMAES(PopulationOptimizer):
         C = (1 - p.c_cov) * self._C
         C += c_one * rank_one
         C += c_mu * (y.T * p.weights) @ y
-        self._C = C
-        C += C.T
+        C += C.T  # symmetric despite rounding
         C /= 2
+        self._C = C
         self._sigma *= math.exp(p.c_sigma / p.d_sigma * (norm_p_sigma / p.chi_n - 1))
         if self._updates - self._eigen_updates >= self._eigen_gap:
             eigenvalues, self._B = np.linalg.eigh(self._C)

@@ -434,7 +434,7 @@ void silhouette_counts(
                     // set the bits of the previous vector's centres, then hold this vector's:
                     // its lanes are read back from memory one by one (extracting them from
                     // registers is slower, measured) when the store has long completed (read
-                    // right after it, every load waited for the store: 1.4x the kernel's time)
+                    // right after it, every load waited for the store: 1.5x the kernel's time)
                     set_bits(words, &pending);
                     pending = in ? layer_bit + py * (32 * pstride) + px : sink;
                 }
