@@ -42,6 +42,8 @@ BYTES_PER_VERTEX = 12
 FACING = 0.5
 #: work-groups per microbenchmark call: many per compute unit
 GROUPS = 256
+#: float32 lanes per vector of the arithmetic benchmark (float16 in ``kernels/roofline.cl``)
+ARITHMETIC_LANES = 16
 #: words of local memory the scatter benchmark clears and ORs into: 16 KB (a power of two), which
 #: the first-level cache holds, for the best rate (a floor takes the best)
 SCATTER_WORDS = 4096
@@ -99,7 +101,7 @@ def measure(platform=None, array_bytes: int = 768 * 1024, repeats: int = 10) -> 
     local, ors = cl.LocalMemory(4 * SCATTER_WORDS), 64 * SCATTER_WORDS
     clear_s = seconds(scatter, np.int32(SCATTER_WORDS), np.int32(0), local)
     scatter_s = seconds(scatter, np.int32(SCATTER_WORDS), np.int32(ors), local)
-    return Rates(flops=GROUPS * iterations * 2 * 8 * 16 / arithmetic_s,
+    return Rates(flops=GROUPS * iterations * 2 * 8 * ARITHMETIC_LANES / arithmetic_s,
                  read_bytes=GROUPS * 32 * n8 / reads_s,
                  clear_words=GROUPS * SCATTER_WORDS / clear_s,
                  ors=GROUPS * ors / max(scatter_s - clear_s, 1e-9)), device.name.strip()
