@@ -10,7 +10,7 @@ PLUGINS       := plugins/mmocap-pycma plugins/template-optimizer plugins/templat
 PLUGIN_FILES  := $(shell find $(PLUGINS) -name '*.py' -o -name '*.toml' -o -name '*.yaml')
 
 .DEFAULT_GOAL := help
-.PHONY: help install demo foreground optimizers test test-all test-wheel lint golden clean bench table1 table2 autostart
+.PHONY: help install demo foreground optimizers test test-all test-wheel lint docs golden clean bench table1 table2 autostart
 .PHONY: tables table4 table5 table6 table7 fig7 fig10 cano_table3 fig4 fig5
 
 help: ## Show this help
@@ -119,5 +119,8 @@ golden: $(STAMP) ## Rewrite the golden results of tests/golden/data/ (after a ch
 lint: $(STAMP) ## ruff, with the rules of pyproject.toml
 	$(VENV)/bin/ruff check mmocap tests plugins
 
+docs: $(STAMP) ## Build the documentation site (docs/ and the API reference) into site/, warnings as errors
+	NO_MKDOCS_2_WARNING=1 $(VENV)/bin/mkdocs build --strict --quiet
+
 clean: ## Remove generated outputs (keeps .venv)
-	rm -rf outputs/*
+	rm -rf outputs/* site

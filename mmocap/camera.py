@@ -236,16 +236,18 @@ def checked_camera(source: str, name: str, K, dist, R, t, width, height, colour=
     Args:
         source: where the values come from, for messages (``"calibration file <path>"``).
         name: the camera's name.
-        K: (3, 3) intrinsics in pixels: ``fx, fy > 0``, any finite skew ``K[0, 1]``,
+        K (np.ndarray): (3, 3) intrinsics in pixels: ``fx, fy > 0``, any finite skew ``K[0, 1]``,
             ``K[1, 0] = K[2, 0] = K[2, 1] = 0`` and ``K[2, 2] = 1``, the principal point
             at most :data:`PRINCIPAL_POINT_MARGIN` of the image size outside the image.
-        dist: (5,) finite ``k1, k2, p1, p2, k3``.
-        R: (3, 3) world-to-camera rotation: orthonormal with determinant +1, within
-            :data:`ROTATION_TOLERANCE`.
-        t: (3,) finite translation in mm.
-        width, height: integers in 1..:data:`MAX_IMAGE_SIDE_PX` pixels, checked first, so
-            that an absurd size is refused before anything allocates.
-        colour: a bool.
+        dist (np.ndarray): (5,) finite ``k1, k2, p1, p2, k3``.
+        R (np.ndarray): (3, 3) world-to-camera rotation: orthonormal with determinant +1,
+            within :data:`ROTATION_TOLERANCE`.
+        t (np.ndarray): (3,) finite translation in mm.
+        width (int): the image width, an integer in 1..:data:`MAX_IMAGE_SIDE_PX` pixels,
+            checked first (as the height), so that an absurd size is refused before anything
+            allocates.
+        height (int): the image height, likewise.
+        colour (bool): True for a colour sensor, False for greyscale.
         keys: the reader's names for the keys ``K``, ``dist``, ``R``, ``t_mm``, ``width``,
             ``height`` and ``colour`` where they differ (e.g. HumanEva's ``kc`` for ``dist``).
 

@@ -108,8 +108,8 @@ def view_geometry(body, cameras, X: np.ndarray,
     rounded, in the order written here (the OpenCL kernel computes the same).
 
     Args:
-        body: the body model (``transforms``, ``joint_rest_positions``, ``patch_mm``).
-        cameras: C cameras.
+        body (BodyModel): the body model (``transforms``, ``joint_rest_positions``, ``patch_mm``).
+        cameras (list[Camera]): C cameras.
         X: (n, P) poses.
         patch_scale: factor on ``body.patch_mm``.
 

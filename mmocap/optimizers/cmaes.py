@@ -57,8 +57,9 @@ class BoxTransform:
     """Periodic linear-quadratic map of unbounded genotypes onto the box ``[lower, upper]``.
 
     Args:
-        lower, upper: (D,) finite bounds, ``lower < upper``, in the units of the genotypes
+        lower: (D,) finite lower bounds, ``lower < upper``, in the units of the genotypes
             (the optimiser's normalised coordinates).
+        upper: (D,) finite upper bounds, in the same units.
 
     Per coordinate, with margins ``a_l, a_u = min(width / 2, (1 + |bound|) / 20)``: the
     identity on ``[lower + a_l, upper - a_u]``; ``lower + (y - lower + a_l)^2 / (4 a_l)`` on
