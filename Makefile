@@ -120,7 +120,7 @@ lint: $(STAMP) ## ruff, with the rules of pyproject.toml
 	$(VENV)/bin/ruff check mmocap tests plugins
 
 docs: $(STAMP) ## Build the documentation site (docs/ and the API reference) into site/, warnings as errors
-	NO_MKDOCS_2_WARNING=1 $(VENV)/bin/mkdocs build --strict --quiet
+	$(VENV)/bin/mkdocs build --strict --quiet
 
 clean: ## Remove generated outputs (keeps .venv)
 	rm -rf outputs/* site

@@ -1,6 +1,6 @@
 """Bad start poses (``x0`` in ``sequence.json``, the first frame's pose of 51 numbers in mm
 and rad): each stops the run with one line naming ``x0`` and the file, before any tracking
-(the README lists a NaN pose as a one-line error)."""
+(docs/usage.md lists a NaN pose as a one-line error)."""
 import json
 
 import pytest
