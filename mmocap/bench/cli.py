@@ -19,8 +19,8 @@ backends default to every installed evaluator that can run here
 
 Usage::
 
-    mmocap bench table2 --vertices 27393,20544,13695
-    mmocap bench table1 --budgets 500,1500,3000,5000
+    mmocap bench table2
+    mmocap bench table1 --vertices 13695 --budgets 500,1500
     mmocap bench roofline --backends opencl --vertices 27393
     mmocap bench all --vertices 27393 --budgets 500,1500 --prefix bench_
     mmocap bench fidelity --exact 500,1000,1500 --schedule 0.25:3000:1200+300
