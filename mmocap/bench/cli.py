@@ -36,7 +36,7 @@ from mmocap import registry
 from mmocap.analysis.figures import plot_frames_per_second, plot_pareto_front
 from mmocap.bench import fidelity, roofline
 from mmocap.bench.backends import backends
-from mmocap.bench.output import Tables, machine, update_page
+from mmocap.bench.output import TableWriter, machine, update_page
 from mmocap.bench.tables import MAX_FRAMES, table1, table2
 from mmocap.body.model import VERTICES_RANGE
 from mmocap.config import load
@@ -99,7 +99,7 @@ def parser(prog: str) -> argparse.ArgumentParser:
 def main(argv: list[str], prog: str) -> None:
     parser_ = parser(prog)
     args = parser_.parse_args(argv)
-    tables = Tables(args.out, args.prefix)
+    tables = TableWriter(args.out, args.prefix)
     if args.table == "fidelity":
         fidelity_command(args, tables)
     else:
@@ -108,7 +108,7 @@ def main(argv: list[str], prog: str) -> None:
         update_page(args.page, tables.sections, TABLES[args.table])
 
 
-def fidelity_command(args: argparse.Namespace, tables: Tables) -> None:
+def fidelity_command(args: argparse.Namespace, tables: TableWriter) -> None:
     """``fidelity``: the searches of ``--exact`` and ``--schedule``, table and figure."""
     searches = (fidelity.parse_exact(args.exact)
                 + [fidelity.parse_schedule(text) for text in args.schedule or fidelity.DEFAULT_SCHEDULES])
@@ -136,7 +136,7 @@ def chosen_backends(text: str | None, parser: argparse.ArgumentParser) -> list[s
     return names
 
 
-def timings_command(args: argparse.Namespace, tables: Tables, parser: argparse.ArgumentParser) -> None:
+def timings_command(args: argparse.Namespace, tables: TableWriter, parser: argparse.ArgumentParser) -> None:
     """``table1``, ``table2``, ``roofline`` and ``all``: every argument checked before anything
     is built, then the scenes and evaluators, closed at the end."""
     names = chosen_backends(args.backends, parser)
@@ -165,7 +165,7 @@ def timings_command(args: argparse.Namespace, tables: Tables, parser: argparse.A
             ev.close()
 
 
-def write_roofline(args: argparse.Namespace, tables: Tables, evaluators: dict, scenes: dict,
+def write_roofline(args: argparse.Namespace, tables: TableWriter, evaluators: dict, scenes: dict,
                    times: pd.DataFrame | None = None) -> None:
     """The roofline at the largest vertex level, beside the opencl kernel's Table 2 time
     there (from ``times``, Table 2, else timed now)."""
@@ -177,7 +177,7 @@ def write_roofline(args: argparse.Namespace, tables: Tables, evaluators: dict, s
                  f"Roofline of the silhouette kernel: one 640x480 model-view at {vertices} vertices, microseconds")
 
 
-def write_table2(args: argparse.Namespace, tables: Tables, evaluators: dict, scenes: dict) -> pd.DataFrame:
+def write_table2(args: argparse.Namespace, tables: TableWriter, evaluators: dict, scenes: dict) -> pd.DataFrame:
     """Table 2 of every backend and vertex level, and the roofline when opencl is timed;
     returns Table 2."""
     times = table2(evaluators, scenes, args.population, args.repeats)
@@ -188,7 +188,7 @@ def write_table2(args: argparse.Namespace, tables: Tables, evaluators: dict, sce
     return times
 
 
-def write_table1(args: argparse.Namespace, tables: Tables, evaluators: dict, scenes: dict, budgets: list[int],
+def write_table1(args: argparse.Namespace, tables: TableWriter, evaluators: dict, scenes: dict, budgets: list[int],
                  times: pd.DataFrame | None = None) -> None:
     """Table 1 and Fig. 3; naive's frame times extrapolated from its Table 2 ``times`` (when
     not given, naive alone is timed for them)."""

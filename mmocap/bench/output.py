@@ -60,7 +60,7 @@ def update_page(page: Path, written: dict[str, str], replaced: Iterable[str]) ->
 
 
 @dataclass
-class Tables:
+class TableWriter:
     """Writes tables as ``{prefix}{name}.csv`` and ``.md`` into ``out``, and keeps each
     one's section of a page (:func:`update_page`) in ``sections``, by name."""
 

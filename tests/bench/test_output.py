@@ -6,7 +6,7 @@ import pandas as pd
 import pytest
 
 from mmocap.bench import output
-from mmocap.bench.output import Tables, sections, update_page
+from mmocap.bench.output import TableWriter, sections, update_page
 
 
 @pytest.fixture(autouse=True)
@@ -15,7 +15,7 @@ def a_machine(monkeypatch):
 
 
 def test_a_table_is_written_as_csv_and_markdown_and_kept_as_a_section(tmp_path):
-    tables = Tables(tmp_path / "out", "t_")
+    tables = TableWriter(tmp_path / "out", "t_")
     df = pd.DataFrame({"backend": ["numpy"], "us": [1.23456]})
     tables.write(df, "table2", "Time per model-view")
     pd.testing.assert_frame_equal(pd.read_csv(tmp_path / "out" / "t_table2.csv"), df)
