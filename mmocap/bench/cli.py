@@ -63,7 +63,7 @@ def integer_list(option: str, text: str, low: int, high: int) -> list[int]:
     return [check_number(option, v, low, high, integer=True) for v in values]
 
 
-def parser(prog: str) -> argparse.ArgumentParser:
+def build_parser(prog: str) -> argparse.ArgumentParser:
     """The command's arguments; the levels and budgets default to the paper scale's."""
     paper = load("scale/paper.yaml").scale
     parser = argparse.ArgumentParser(prog=prog, description="Evaluator benchmark: the Cano paper's Tables 1 and "
@@ -97,13 +97,14 @@ def parser(prog: str) -> argparse.ArgumentParser:
 
 
 def main(argv: list[str], prog: str) -> None:
-    parser_ = parser(prog)
-    args = parser_.parse_args(argv)
+    """``mmocap bench ARGUMENTS`` (``argv``): the subcommand's tables, and their page."""
+    parser = build_parser(prog)
+    args = parser.parse_args(argv)
     tables = TableWriter(args.out, args.prefix)
     if args.table == "fidelity":
         fidelity_command(args, tables)
     else:
-        timings_command(args, tables, parser_)
+        timings_command(args, tables, parser)
     if args.page is not None:
         update_page(args.page, tables.sections, TABLES[args.table])
 

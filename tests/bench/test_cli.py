@@ -2,7 +2,7 @@
 import pandas as pd
 import pytest
 
-from mmocap.bench.cli import parser
+from mmocap.bench.cli import build_parser
 from mmocap.bench.output import sections
 from mmocap.config import compose
 from tests.conftest import run_cli
@@ -54,7 +54,7 @@ def test_bench_rejects_an_unknown_backend(capsys):
 
 @pytest.mark.parametrize("scale", ["default", "paper"])
 def test_the_mesh_levels_and_budgets_are_the_paper_scales_for_the_sweeps_and_the_benchmark_alike(scale):
-    args = parser("mmocap bench").parse_args(["table1"])
+    args = build_parser("mmocap bench").parse_args(["table1"])
     swept = compose(["+experiment=cano_table3", f"scale={scale}"]).scale
     assert (args.vertices, args.budgets) == (swept.meshes, swept.cano_budgets) == ("27393,20544,13695",
                                                                                    "500,1500,3000,5000")
