@@ -125,8 +125,9 @@ class BodyModel:
         girth: thickness of limbs and trunk relative to the base mesh (1 = as is; None = the
             preset's).
         dof: 39 (Table 1), 28 (its reduction) or 51 (every axis).
-        vertices: skin sample count, evenly spread (Cano's levels: 27393, 20544, 13695, the
-            default); None keeps the mesh's 13 380 unevenly spaced vertices.
+        vertices: skin sample count, evenly spread (Cano's levels: ``scale.meshes`` of
+            ``conf/scale/paper.yaml``; the default is the smallest); None keeps the mesh's
+            13 380 unevenly spaced vertices.
         seed: seed of the resampling.
 
     Attributes used by the evaluators: ``rest_vertices`` (N, 3) mm, ``rest_normals``

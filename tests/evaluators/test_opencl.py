@@ -252,7 +252,7 @@ def test_a_body_with_a_kinematic_chain_gets_its_transforms_on_the_device_bit_for
     import pyopencl as cl
 
     from mmocap import registry
-    from mmocap.bench import Scene
+    from mmocap.testing.scene import Scene
     scene = Scene(13695, cameras=3)
     rng = np.random.default_rng(7)
     X = scene.body.clip(scene.pose + rng.normal(0, 0.3, (9, 51)) * scene.body.mask

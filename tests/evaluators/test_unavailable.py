@@ -130,10 +130,10 @@ def test_a_plugin_says_why_it_is_unavailable(monkeypatch):
 
 
 def test_bench_backends_are_the_registered_ones_that_can_run(monkeypatch):
-    from mmocap import bench
+    from mmocap.bench.backends import backends
 
     fake_entry_points(monkeypatch)
-    names = bench.backends()
+    names = backends()
     assert names[0] == "naive" and {"numpy", "plain"} <= set(names)
     assert "auto" not in names and "warp" not in names
     for name in names:

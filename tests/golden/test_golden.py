@@ -20,7 +20,7 @@ import pytest
 
 from mmocap import registry
 from mmocap.api import SearchSpace
-from mmocap.bench import Scene
+from mmocap.testing.scene import Scene
 
 DATA = Path(__file__).with_name("data")
 REGENERATE = os.environ.get("MMOCAP_REGEN_GOLDEN") == "1"

@@ -22,6 +22,7 @@ floor is a lower bound.
 
 The rates are measured with every compute unit busy (:data:`GROUPS` work-groups of one
 work-item, as the silhouette kernel runs on CPUs), best of ``repeats`` timings.
+:func:`table` puts the kernel's own time per model-view (Cano Table 2) beside the floor.
 """
 from __future__ import annotations
 
@@ -30,6 +31,7 @@ from dataclasses import dataclass
 from importlib import resources
 
 import numpy as np
+import pandas as pd
 
 from mmocap.evaluators.opencl_devices import context, pyopencl, select_platform
 
@@ -83,7 +85,7 @@ def measure(platform=None, array_bytes: int = 768 * 1024, repeats: int = 10) -> 
     device = select_platform(platform).get_devices()[0]
     ctx = context((device,))
     queue = cl.CommandQueue(ctx, device)
-    source = (resources.files("mmocap.evaluators") / "kernels" / "roofline.cl").read_text()
+    source = (resources.files("mmocap.bench") / "kernels" / "roofline.cl").read_text()
     program = cl.Program(ctx, source).build()
     arithmetic, reads, scatter = (cl.Kernel(program, name) for name in ("arithmetic", "reads", "scatter"))
     out = cl.Buffer(ctx, cl.mem_flags.WRITE_ONLY, 4 * GROUPS)
@@ -123,3 +125,28 @@ def floor_us(rates: Rates, vertices: int, width: int, height: int) -> dict[str, 
           "scatter": need["ors"] / rates.ors + need["words"] / rates.clear_words}
     us = {name: seconds * 1e6 for name, seconds in us.items()}
     return {**us, "floor": max(us.values())}
+
+
+def table(vertices: int, kernel_us: float) -> pd.DataFrame:
+    """The silhouette kernel's roofline on the default OpenCL device at ``vertices`` and
+    640x480: per resource what a model-view needs, the measured rate and the microseconds
+    that follow; the floor (the largest); and the kernel as measured (``kernel_us``, Table
+    2), each with its ratio to the floor."""
+    rates, device = measure()
+    us, need = floor_us(rates, vertices, 640, 480), needs(vertices, 640, 480)
+    rows = [{"resource": "float32 arithmetic", "need_per_model_view": f"{need['flops']} flop",
+             "measured_rate": f"{rates.flops / 1e9:.1f} Gflop/s", "us_per_model_view": us["arithmetic"]},
+            {"resource": "reads (cache-resident)", "need_per_model_view": f"{need['bytes'] / 1e3:.0f} kB",
+             "measured_rate": f"{rates.read_bytes / 1e9:.1f} GB/s", "us_per_model_view": us["reads"]},
+            {"resource": "local memory: clear, scattered ORs",
+             "need_per_model_view": f"{need['words']} words, {need['ors']} ORs",
+             "measured_rate": f"{rates.clear_words / 1e9:.2f} Gword/s, {rates.ors / 1e9:.2f} GOR/s",
+             "us_per_model_view": us["scatter"]},
+            {"resource": "floor (the largest)", "need_per_model_view": "", "measured_rate": "",
+             "us_per_model_view": us["floor"]},
+            {"resource": "silhouette kernel (Table 2)", "need_per_model_view": "", "measured_rate": "",
+             "us_per_model_view": kernel_us}]
+    df = pd.DataFrame(rows)
+    df["ratio_to_floor"] = df.us_per_model_view / us["floor"]
+    print(f"roofline: {device}: floor {us['floor']:.1f} us, kernel {kernel_us:.1f} us per model-view", flush=True)
+    return df

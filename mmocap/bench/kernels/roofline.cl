@@ -1,12 +1,12 @@
 // Microbenchmarks of the resources the silhouette kernel (silhouette.cl) spends per
-// model-view, for its roofline (mmocap/evaluators/roofline.py): float32 arithmetic, reads of
+// model-view, for its roofline (mmocap/bench/roofline.py): float32 arithmetic, reads of
 // a cache-resident global array, and scattered ORs into a bit mask in local memory. Like the
 // silhouette kernel on a CPU, each work-group is one work-item working on vectors, and
 // multiplications and additions are not fused.
 #pragma OPENCL FP_CONTRACT OFF
 
 // ARITHMETIC: 8 independent chains of x = x * m + c on float16 (the widest vector: one
-// register with AVX-512, two with AVX2, 1.5x the rate of float8 on an AVX-512 Xeon),
+// register with AVX-512, two with AVX2, and a higher rate than float8 where measured),
 // `iterations` times: 2 * 8 * 16 float operations per iteration; the sum of every lane is
 // written, so that nothing is optimised away.
 __kernel __attribute__((reqd_work_group_size(1, 1, 1)))
@@ -41,7 +41,7 @@ void reads(__global const float8 *data, const int n8, __global float *out)
 // one bit into `ors` (a multiple of 32) words at pseudo-random places, as the silhouette
 // kernel ORs one bit per kept vertex into a layer. The places come from 32 linear
 // congruential sequences in four independent uint8 (one would make the multiplication's
-// latency, not the ORs, set the pace: 1.4 cycles per OR). Like the silhouette kernel, each
+// latency, not the ORs, set the pace). Like the silhouette kernel, each
 // vector of bit addresses is stored and its lanes read back one round later, when the store
 // has completed; one word is written out.
 __kernel __attribute__((reqd_work_group_size(1, 1, 1)))
