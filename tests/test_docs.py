@@ -447,7 +447,11 @@ def tables(path: Path, header: str) -> list[list[list[str]]]:
 
 
 def module_of(name: str) -> str:
-    """``cli.py`` -> ``mmocap.cli``, ``report/`` -> ``mmocap.report``, ``__init__.py`` -> ``mmocap``."""
+    """``cli.py`` -> ``mmocap.cli``, ``report/`` -> ``mmocap.report``, ``__init__.py`` -> ``mmocap``;
+    the file or folder must exist as written."""
+    assert (REPO / "mmocap" / name).is_dir() == name.endswith("/") and (REPO / "mmocap" / name).exists(), (
+        f"the layer table names {name}, but mmocap/{name} does not exist as written (a module ends "
+        "in .py, a package in /)")
     stem = name.removesuffix(".py").removesuffix("/").replace("/", ".")
     return "mmocap" if stem == "__init__" else f"mmocap.{stem}"
 
