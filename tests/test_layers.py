@@ -20,6 +20,7 @@ LAYERS = [
                     "mmocap.camera"]),
     ("foundations", ["mmocap.api", "mmocap.registry", "mmocap.errors", "mmocap.io",
                      "mmocap.validate", "mmocap.bitmask", "mmocap.config", "mmocap.provenance", "mmocap.video",
+                     "mmocap.run_folder",
                      "mmocap"]),
 ]
 __doc__ += "\n".join(f"{i}. {name}: {', '.join(prefixes)}" for i, (name, prefixes) in enumerate(LAYERS))
