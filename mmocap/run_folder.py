@@ -174,4 +174,4 @@ def read_summary(folder: str | Path) -> Summary:
     path = Path(folder) / SUMMARY
     if not path.is_file():
         raise DataError(f"{path} is missing: {Path(folder)} holds no finished run; run it again")
-    return Summary.from_json(read_json_object(path, what=f"{path}", fix=RUN_AGAIN), str(path))
+    return Summary.from_json(read_json_object(path, wanted="a run summary (a JSON object)", fix=RUN_AGAIN), str(path))
