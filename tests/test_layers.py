@@ -14,7 +14,7 @@ LAYERS = [
     ("command line", ["mmocap.cli", "mmocap.__main__"]),
     ("jobs", ["mmocap.pipeline", "mmocap.preflight", "mmocap.sweep", "mmocap.bench", "mmocap.report",
               "mmocap.testing"]),
-    ("analysis", ["mmocap.analysis"]),
+    ("analysis and run outputs", ["mmocap.analysis", "mmocap.outputs"]),
     ("stages", ["mmocap.stages"]),
     ("components", ["mmocap.evaluators", "mmocap.optimizers", "mmocap.data", "mmocap.body",
                     "mmocap.camera"]),
