@@ -147,14 +147,14 @@ class Tracking:
 
 
 def _run(cfg: DictConfig, output_dir: Path, warning_messages: list[str]) -> dict:
+    """:func:`run`, in the locked run folder ``output_dir``: the summary's ``warnings`` is
+    ``warning_messages``."""
     output_dir.mkdir(parents=True, exist_ok=True)
     store = ResultsStore(store_folder(cfg, sweep_folder() or output_dir))
     run_id = run_key(cfg)
-    done = store.get(run_id) or store.adopt(run_id, cfg.results.reuse)
+    done = finished_summary(store, run_id, cfg.results.reuse)
     if done is not None:
-        log.info("run %s already finished (record %s): skipped; delete the record to run it again",
-                 run_id, store.path(run_id))
-        return done["summary"]
+        return done
     clear_outputs(output_dir)
     store.clear_unfinished(run_id)
     started = provenance.now()
@@ -172,6 +172,17 @@ def _run(cfg: DictConfig, output_dir: Path, warning_messages: list[str]) -> dict
                                  parts.evaluator.seconds, tracking.foreground_seconds, started, output_dir))
     log.info("run %s recorded in %s", run_id, path)
     return summary.to_json()
+
+
+def finished_summary(store: ResultsStore, run_id: str, reuse) -> dict | None:
+    """The summary of the record of ``run_id`` in ``store``, or in the first of the stores
+    ``reuse`` that has it (copied into ``store``); None if the run has not finished."""
+    done = store.get(run_id) or store.adopt(run_id, reuse)
+    if done is None:
+        return None
+    log.info("run %s already finished (record %s): skipped; delete the record to run it again",
+             run_id, store.path(run_id))
+    return done["summary"]
 
 
 def build_components(cfg: DictConfig) -> Components:
