@@ -21,6 +21,7 @@ import cv2
 import numpy as np
 
 from mmocap.errors import DataError
+from mmocap.io import read_json_object
 from mmocap.validate import is_integer
 
 #: Largest image side, in pixels, that a calibration may give: a bigger size is taken for a
@@ -211,13 +212,7 @@ class Camera:
         if not path.is_file():
             raise DataError(f"camera {path.stem}: calibration file not found: {path}")
         where = f"camera {path.stem}: calibration file {path}"
-        try:
-            d = json.loads(path.read_text())
-        except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-            raise DataError(f"{where} is not valid JSON: {exc}") from None
-        if not isinstance(d, dict):
-            raise DataError(f"{where} must hold a JSON object with the keys {', '.join(JSON_KEYS)}, "
-                            f"got {type(d).__name__}")
+        d = read_json_object(path, name=where, wanted=f"a JSON object with the keys {', '.join(JSON_KEYS)}")
         missing = [key for key in JSON_KEYS if key not in d]
         if missing:
             raise DataError(f"{where} lacks the field '{missing[0]}' (it needs {', '.join(JSON_KEYS)})")

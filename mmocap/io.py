@@ -229,6 +229,29 @@ def read_json_lines(path: str | Path) -> list[dict]:
     return records
 
 
+def read_json_object(path: str | Path, *, name: str | None = None, wanted: str = "a JSON object",
+                     fix: str = "") -> dict:
+    """The JSON object in the file ``path``: the one reader of every JSON file mmocap reads.
+
+    A DataError of one line when the file cannot be read (an OSError: missing, a folder, no
+    permission), is not UTF-8 JSON, or holds something other than an object: it names the
+    file as ``name`` (default: the path), says what is wrong (``is not {wanted} but list``
+    for a non-object) and ends with ``fix``, how to put it right, when given."""
+    path = Path(path)
+    name = str(path) if name is None else name
+    tail = f"; {fix}" if fix else ""
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise DataError(f"{name} is not valid JSON ({exc}){tail}") from None
+    except OSError as exc:
+        problem, how = _FAULTS.get(exc.errno, (exc.strerror or str(exc), "check the path"))
+        raise DataError(f"cannot read {name}: {problem}; {how}") from None
+    if not isinstance(data, dict):
+        raise DataError(f"{name} is not {wanted} but {type(data).__name__}{tail}")
+    return data
+
+
 def check_writable_folder(folder: str | Path) -> Path:
     """Create ``folder`` (and its parents) if need be and write and remove a small file in
     it; returns it. A :class:`WriteError` naming it when that fails: a read-only file

@@ -1,8 +1,9 @@
 """The main job: build every stage from the config, track a sequence, write the results.
 
-Outputs in ``output_dir``: ``frames.csv`` (one row per frame, written as it goes),
-``traces.csv`` (each frame's convergence: :mod:`mmocap.report.ioh`), ``error_per_frame.png``,
-``overlays/*.png`` and ``summary.json``; and the run's record in
+Outputs in ``output_dir`` (their names: :mod:`mmocap.run_folder`): ``frames.csv`` (one row
+per frame, written as it goes), ``traces.csv`` (each frame's convergence:
+:mod:`mmocap.outputs.traces`), the exports, ``error_per_frame.png``, ``overlays/*.png``, the
+videos (:mod:`mmocap.outputs`) and ``summary.json``; and the run's record in
 the results store (:mod:`mmocap.analysis.results`). A run whose record is already in the
 store, or in one of ``results.reuse``, is not run again.
 
@@ -22,9 +23,10 @@ from __future__ import annotations
 import logging
 import warnings
 from contextlib import ExitStack, contextmanager
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
-import cv2
 import numpy as np
 from hydra.core.hydra_config import HydraConfig
 from hydra.types import RunMode
@@ -33,25 +35,22 @@ from omegaconf import DictConfig, OmegaConf
 from tqdm.auto import tqdm
 
 from mmocap import provenance
-from mmocap.analysis.figures import overlay, plot_error_per_frame
 from mmocap.analysis.results import ResultsStore, make_record, run_key, store_folder
 from mmocap.errors import ConfigError, DataError, MmocapWarning
 from mmocap.evaluators.timed import TimedEvaluator
-from mmocap.io import LockBusy, exclusive, locked, write_image, write_json_atomic, writing
+from mmocap.io import LockBusy, exclusive, locked, writing
+from mmocap.outputs.export import export_motion, exported_files, read_poses
+from mmocap.outputs.overlays import write_overlays
+from mmocap.outputs.plots import plot_error_per_frame
+from mmocap.outputs.traces import write_traces
+from mmocap.outputs.videos import run_video_files, write_run_videos
 from mmocap.preflight import check_config
-from mmocap.report.export import EXPORT_FOLDER, export_motion, exported_files, read_poses
-from mmocap.report.ioh import TRACES, write_traces
-from mmocap.report.videos import run_video_files, write_run_videos
+from mmocap.run_folder import ERROR_PLOT, EXPORT_FOLDER, FRAMES, OVERLAYS, RUN_LOCK, RUN_OUTPUTS, TRACES, Summary
 from mmocap.stages.evaluation import FrameLog, marker_error
 from mmocap.stages.foreground import Foreground
 from mmocap.stages.tracking import track
 
 log = logging.getLogger(__name__)
-
-#: the lock file a run holds in its folder
-RUN_LOCK = ".run.lock"
-#: the files a run writes into its folder (besides ``overlays/*.png``)
-RUN_OUTPUTS = ("frames.csv", "frames.csv.partial", TRACES, "error_per_frame.png", "summary.json")
 
 
 @contextmanager
@@ -100,9 +99,9 @@ def run_folder_lock(output_dir: Path, wait: bool):
 
 def clear_outputs(output_dir: Path) -> None:
     """Remove what an earlier run that left no record wrote into ``output_dir`` (its
-    :data:`RUN_OUTPUTS`, overlays and temporary files), so that no file of another run lies
-    beside this run's."""
-    overlays = output_dir / "overlays"
+    :data:`~mmocap.run_folder.RUN_OUTPUTS`, overlays, exports, videos and temporary files), so
+    that no file of another run lies beside this run's."""
+    overlays = output_dir / OVERLAYS
     with writing(output_dir):
         for path in [*(output_dir / name for name in RUN_OUTPUTS), *output_dir.glob(".*.tmp"),
                      *overlays.glob("frame_*.png"), *overlays.glob(".*.tmp"),
@@ -110,133 +109,218 @@ def clear_outputs(output_dir: Path) -> None:
             path.unlink(missing_ok=True)
 
 
+@dataclass
+class Components:
+    """The parts of a run, built from the config groups of the same names
+    (:func:`build_components`); ``start`` is the automatic start (``start:``), ``evaluator``
+    times its calls, and ``body`` is replaced by the fitted one when an automatic start fits it."""
+
+    optimizer: Any
+    strategy: Any
+    evaluator: TimedEvaluator
+    body: Any
+    coverage: Any
+    start: Any
+    recovery: Any
+    fidelity: Any
+
+
+@dataclass
+class Tracking:
+    """What tracking the frames gave: the FrameResults in order, each frame's marker error
+    (mm, NaN where the frame has no ground truth) and the record's rows of the frames
+    (:func:`mmocap.analysis.results.make_record`)."""
+
+    results: list
+    errors_mm: list[float]
+    frame_rows: list[dict]
+
+    @property
+    def search_seconds(self) -> float:
+        """The wall time of the frames' searches, s."""
+        return sum(r.seconds for r in self.results)
+
+    @property
+    def foreground_seconds(self) -> float:
+        """The time spent reading the frames' foreground, s."""
+        return sum(r.foreground_seconds for r in self.results)
+
+
 def _run(cfg: DictConfig, output_dir: Path, warning_messages: list[str]) -> dict:
+    """:func:`run`, in the locked run folder ``output_dir``: the summary's ``warnings`` is
+    ``warning_messages``."""
     output_dir.mkdir(parents=True, exist_ok=True)
     store = ResultsStore(store_folder(cfg, sweep_folder() or output_dir))
     run_id = run_key(cfg)
-    done = store.get(run_id) or store.adopt(run_id, cfg.results.reuse)
+    done = finished_summary(store, run_id, cfg.results.reuse)
     if done is not None:
-        log.info("run %s already finished (record %s): skipped; delete the record to run it again",
-                 run_id, store.path(run_id))
-        return done["summary"]
+        return done
     clear_outputs(output_dir)
     store.clear_unfinished(run_id)
     started = provenance.now()
+    parts = build_components(cfg)  # first: a bad value fails before any data is rendered or read
+    sequence, truth, foreground = open_sequence(cfg, parts.body)
+    rng = np.random.default_rng(int(cfg.seed))
+    x0, start_facts = find_start(cfg, parts, sequence, foreground, rng)
+    tracking = track_frames(cfg, output_dir, parts, sequence, foreground, truth, x0, rng)
+    summary = make_summary(cfg, run_id, parts, sequence, tracking, start_facts, warning_messages)
+    write_outputs(cfg, output_dir, parts, sequence, foreground, truth, tracking, summary)
+    summary.write(output_dir)  # the last output: the run is complete
+    parts.evaluator.close()
+    parts.fidelity.close()
+    path = store.put(make_record(cfg, summary.to_json(), tracking.frame_rows, tracking.search_seconds,
+                                 parts.evaluator.seconds, tracking.foreground_seconds, started, output_dir))
+    log.info("run %s recorded in %s", run_id, path)
+    return summary.to_json()
 
-    # Components first: a bad value fails before any data is rendered or read.
-    optimizer = instantiate(cfg.optimizer)
-    strategy = instantiate(cfg.strategy)
-    evaluator = TimedEvaluator(instantiate(cfg.evaluator))
-    body = instantiate(cfg.body)
-    coverage = instantiate(cfg.coverage)
-    auto_start = instantiate(cfg.start)
-    recovery = instantiate(cfg.recovery)
-    fidelity = instantiate(cfg.fidelity, evaluator=lambda: instantiate(cfg.evaluator),
-                           optimizer=lambda **settings: instantiate(cfg.optimizer, **settings))
-    missing_markers = str(cfg.evaluation.missing_markers)
-    strategy.check(body, optimizer, int(cfg.tracking.evaluations))
-    fidelity.check(strategy)
+
+def finished_summary(store: ResultsStore, run_id: str, reuse) -> dict | None:
+    """The summary of the record of ``run_id`` in ``store``, or in the first of the stores
+    ``reuse`` that has it (copied into ``store``); None if the run has not finished."""
+    done = store.get(run_id) or store.adopt(run_id, reuse)
+    if done is None:
+        return None
+    log.info("run %s already finished (record %s): skipped; delete the record to run it again",
+             run_id, store.path(run_id))
+    return done["summary"]
+
+
+def build_components(cfg: DictConfig) -> Components:
+    """The run's components from the config, checked against each other (the strategy against
+    the body, optimiser and budget; the fidelity levels against the strategy)."""
+    parts = Components(
+        optimizer=instantiate(cfg.optimizer), strategy=instantiate(cfg.strategy),
+        evaluator=TimedEvaluator(instantiate(cfg.evaluator)), body=instantiate(cfg.body),
+        coverage=instantiate(cfg.coverage), start=instantiate(cfg.start), recovery=instantiate(cfg.recovery),
+        fidelity=instantiate(cfg.fidelity, evaluator=lambda: instantiate(cfg.evaluator),
+                             optimizer=lambda **settings: instantiate(cfg.optimizer, **settings)))
+    parts.strategy.check(parts.body, parts.optimizer, int(cfg.tracking.evaluations))
+    parts.fidelity.check(parts.strategy)
+    return parts
+
+
+def open_sequence(cfg: DictConfig, body) -> tuple[Any, np.ndarray, Foreground]:
+    """The configured sequence (rendered first if need be, once among parallel jobs), the
+    ground truth of the frames to track ((frames, M, 3) mm, NaN where a frame has none) and
+    its foreground; a ConfigError if the sequence shows another subject than ``body``'s."""
     dataset = instantiate(cfg.dataset)
     with exclusive(getattr(dataset, "path", None)):  # parallel jobs render a sequence once
         sequence = dataset.open(progress=cfg.progress)
     if sequence.subject is not None and body.subject.name != sequence.subject:
         raise ConfigError(f"body.subject is {body.subject.name} but the sequence shows {sequence.subject}")
     n_frames = sequence.n_frames if cfg.tracking.frames is None else int(cfg.tracking.frames)
-    truth = sequence.ground_truth(n_frames, missing_markers)  # NaN where a frame has none
+    truth = sequence.ground_truth(n_frames, str(cfg.evaluation.missing_markers))
     foreground = Foreground(sequence, instantiate(cfg.background), cache_dir=cfg.foreground_cache)
+    return sequence, truth, foreground
 
-    frame_log = FrameLog(output_dir / "frames.csv")
-    errors, frame_rows = [], []
-    bar = tqdm(total=n_frames, desc=f"track {cfg.optimizer.name}", unit="frame", disable=not cfg.progress)
+
+def find_start(cfg: DictConfig, parts: Components, sequence, foreground: Foreground,
+               rng: np.random.Generator) -> tuple[np.ndarray | None, dict]:
+    """Warm the evaluators up and find the first frame's pose: the sequence's own (``x0``,
+    mm and rad), or, when the automatic start is wanted, the one it finds (its body, fitted,
+    replaces ``parts.body``). Returns the start pose (None: the tracker's default) and the facts
+    the summary records about it."""
+    x0, start_facts = sequence.x0, {"method": "given"}
+    start_pose = parts.body.rest_pose() if x0 is None else x0
+    parts.evaluator.warm_up(parts.body, foreground, start_pose)
+    parts.fidelity.warm_up(parts.body, foreground.cameras, foreground.masks(0), start_pose)
+    if parts.start.wanted(has_x0=x0 is not None):
+        found = parts.start.find(parts.body, foreground.cameras, foreground.masks(0), parts.evaluator,
+                                 parts.optimizer, parts.strategy, rng, fit_height=cfg.body.get("height_mm") is None,
+                                 fit_girth=cfg.body.get("girth") is None)
+        parts.body, x0, start_facts = found.body, found.pose, found.summary()
+        parts.evaluator.seconds = 0.0  # the tracking's evaluation time from here on; the start's is in start_facts
+        log.info("automatic start: %.1f s, %d evaluations; body %.0f mm tall, girth %.2f", found.seconds,
+                 found.evaluations, parts.body.subject.height_mm, parts.body.subject.girth)
+    return x0, start_facts
+
+
+def track_frames(cfg: DictConfig, output_dir: Path, parts: Components, sequence, foreground: Foreground,
+                 truth: np.ndarray, x0: np.ndarray | None, rng: np.random.Generator) -> Tracking:
+    """Track the frames of ``truth`` ((frames, M, 3) mm) from ``x0``, writing each frame's row
+    to ``frames.csv`` as it is tracked (``frames.csv.partial`` until the last one, where a
+    stopped run leaves it)."""
+    body = parts.body
+    frame_log = FrameLog(output_dir / FRAMES)
+    tracking = Tracking([], [], [])
+    bar = tqdm(total=len(truth), desc=f"track {cfg.optimizer.name}", unit="frame", disable=not cfg.progress)
 
     def on_frame(result):
         err = float(marker_error(body.markers(result.pose[None]), truth[result.frame][None])[0])
-        errors.append(err)
-        frame_rows.append({"frame": int(result.frame), "marker_error_mm": err, "fitness": float(result.fitness),
-                           "evaluations": int(result.evaluations), "seconds": float(result.seconds),
-                           "foreground_seconds": float(result.foreground_seconds)})
+        tracking.errors_mm.append(err)
+        tracking.frame_rows.append({
+            "frame": int(result.frame), "marker_error_mm": err, "fitness": float(result.fitness),
+            "evaluations": int(result.evaluations), "seconds": float(result.seconds),
+            "foreground_seconds": float(result.foreground_seconds)})
         frame_log.write(result.frame, err, result.fitness, result.evaluations, result.seconds, result.pose)
-        scored_so_far = [e for e in errors if not np.isnan(e)]
+        scored_so_far = [e for e in tracking.errors_mm if not np.isnan(e)]
         bar.set_postfix(error_mm=f"{err:.1f}", mean_mm=f"{np.mean(scored_so_far):.1f}" if scored_so_far else "-")
         bar.update()
 
-    rng = np.random.default_rng(int(cfg.seed))
-    x0, start_facts = sequence.x0, {"method": "given"}
-    start_pose = body.rest_pose() if x0 is None else x0
-    evaluator.warm_up(body, foreground, start_pose)
-    fidelity.warm_up(body, foreground.cameras, foreground.masks(0), start_pose)
-    if auto_start.wanted(has_x0=x0 is not None):
-        found = auto_start.find(body, foreground.cameras, foreground.masks(0), evaluator, optimizer, strategy, rng,
-                                fit_height=cfg.body.get("height_mm") is None, fit_girth=cfg.body.get("girth") is None)
-        body, x0, start_facts = found.body, found.pose, found.summary()
-        evaluator.seconds = 0.0  # the tracking's evaluation time from here on; the start's is in start_facts
-        log.info("automatic start: %.1f s, %d evaluations; body %.0f mm tall, girth %.2f", found.seconds,
-                 found.evaluations, body.subject.height_mm, body.subject.girth)
     try:
-        results = track(sequence, body, foreground, evaluator, optimizer, strategy,
-                        evaluations=int(cfg.tracking.evaluations), seed=int(cfg.seed),
-                        frames=cfg.tracking.frames, on_frame=on_frame, coverage=coverage, x0=x0, rng=rng,
-                        recovery=recovery, fidelity=fidelity)
+        tracking.results = track(sequence, body, foreground, parts.evaluator, parts.optimizer, parts.strategy,
+                                 evaluations=int(cfg.tracking.evaluations), seed=int(cfg.seed),
+                                 frames=cfg.tracking.frames, on_frame=on_frame, coverage=parts.coverage, x0=x0,
+                                 rng=rng, recovery=parts.recovery, fidelity=parts.fidelity)
     except BaseException:
         frame_log.close(complete=False)  # the frames tracked stay in frames.csv.partial
         raise
     finally:
         bar.close()
     frame_log.close()
-    write_traces(output_dir / TRACES, results)
-    search_seconds = sum(r.seconds for r in results)
-    foreground_seconds = sum(r.foreground_seconds for r in results)
-    export_motion(output_dir / EXPORT_FOLDER, cfg.export, body, read_poses(output_dir / "frames.csv"), sequence.fps)
+    return tracking
 
-    errors = np.asarray(errors)
+
+def make_summary(cfg: DictConfig, run_id: str, parts: Components, sequence, tracking: Tracking,
+                 start_facts: dict, warning_messages: list[str]) -> Summary:
+    """The run's summary. Its ``warnings`` is ``warning_messages`` itself, so that it holds the
+    warnings given until it is written."""
+    errors = np.asarray(tracking.errors_mm)
     scored = errors[~np.isnan(errors)]  # frames with ground truth; the statistics are over them, null if none
-    summary = {
-        "mean_marker_error_mm": float(np.mean(scored)) if scored.size else None,
-        "median_marker_error_mm": float(np.median(scored)) if scored.size else None,
-        "max_marker_error_mm": float(np.max(scored)) if scored.size else None,
-        "frames": len(results),
-        "frames_scored": int(scored.size),
-        "evaluations_per_frame": int(cfg.tracking.evaluations),  # the exact search's
-        "cheap_evaluations_per_frame": fidelity.evaluations,  # the cheaper fitness levels' (mmocap.stages.fidelity)
-        "evaluations_used": int(sum(r.evaluations for r in results)),
-        "seconds_per_frame": search_seconds / len(results),  # the search alone
-        "foreground_seconds_per_frame": foreground_seconds / len(results),
-        "optimizer": str(cfg.optimizer.name),
-        "strategy": strategy.name,
-        "dof": body.dof,
-        "backend": getattr(evaluator, "name", "") or str(cfg.evaluator.name),  # auto's choice
-        "evaluator_choice": str(cfg.evaluator.name),
-        "vertices": body.n_vertices,
-        "subject": sequence.subject or "unknown",  # a recording names nobody
-        "body": {"preset": body.subject.name, "height_mm": body.subject.height_mm, "girth": body.subject.girth},
-        "start": start_facts,
-        "recoveries": [event.summary() for event in recovery.events],
-        "action": sequence.meta.get("action"),
-        "cameras": [c.name for c in sequence.cameras],
-        "sequence": str(sequence.root),
-        "fps": float(sequence.fps),
-        "seed": int(cfg.seed),
-        "run_id": run_id,
-        "provenance": {**provenance.facts(), "components": provenance.components(
+    frames = len(tracking.results)
+    body = parts.body
+    return Summary(
+        mean_marker_error_mm=float(np.mean(scored)) if scored.size else None,
+        median_marker_error_mm=float(np.median(scored)) if scored.size else None,
+        max_marker_error_mm=float(np.max(scored)) if scored.size else None,
+        frames=frames, frames_scored=int(scored.size),
+        evaluations_per_frame=int(cfg.tracking.evaluations),
+        cheap_evaluations_per_frame=parts.fidelity.evaluations,
+        evaluations_used=int(sum(r.evaluations for r in tracking.results)),
+        seconds_per_frame=tracking.search_seconds / frames,
+        foreground_seconds_per_frame=tracking.foreground_seconds / frames,
+        optimizer=str(cfg.optimizer.name), strategy=parts.strategy.name, dof=body.dof,
+        backend=getattr(parts.evaluator, "name", "") or str(cfg.evaluator.name),  # auto's choice
+        evaluator_choice=str(cfg.evaluator.name), vertices=body.n_vertices,
+        subject=sequence.subject or "unknown",  # a recording names nobody
+        body={"preset": body.subject.name, "height_mm": body.subject.height_mm, "girth": body.subject.girth},
+        start=start_facts, recoveries=[event.summary() for event in parts.recovery.events],
+        action=sequence.meta.get("action"), cameras=[c.name for c in sequence.cameras],
+        sequence=str(sequence.root), fps=float(sequence.fps), seed=int(cfg.seed), run_id=run_id,
+        provenance={**provenance.facts(), "components": provenance.components(
             {"optimizer": str(cfg.optimizer.name), "evaluator": str(cfg.evaluator.name)})},
-        "config": OmegaConf.to_container(cfg, resolve=True),
-        "warnings": warning_messages,
-    }
-    if scored.size:
-        plot_error_per_frame(errors, output_dir / "error_per_frame.png",
-                             f"{summary['subject']} {sequence.meta.get('action')}: {cfg.optimizer.name} "
-                             f"{strategy.name}, {body.dof} DOF, {cfg.tracking.evaluations} evaluations/frame")
-    write_overlays(output_dir / "overlays", sequence, foreground, evaluator, body, results, truth,
+        config=OmegaConf.to_container(cfg, resolve=True),
+        warnings=warning_messages,
+    )
+
+
+def write_outputs(cfg: DictConfig, output_dir: Path, parts: Components, sequence, foreground: Foreground,
+                  truth: np.ndarray, tracking: Tracking, summary: Summary) -> None:
+    """Every output of a tracked run but its summary: the traces, the exports, the error plot
+    (where a frame has ground truth), the overlays and, with ``video``, the videos."""
+    body, results = parts.body, tracking.results
+    write_traces(output_dir / TRACES, results)
+    export_motion(output_dir / EXPORT_FOLDER, cfg.export, body, read_poses(output_dir / FRAMES), sequence.fps)
+    errors = np.asarray(tracking.errors_mm)
+    if (~np.isnan(errors)).any():
+        plot_error_per_frame(errors, output_dir / ERROR_PLOT,
+                             f"{summary.subject} {summary.action}: {cfg.optimizer.name} "
+                             f"{summary.strategy}, {body.dof} DOF, {cfg.tracking.evaluations} evaluations/frame")
+    write_overlays(output_dir / OVERLAYS, sequence, foreground, parts.evaluator, body, results, truth,
                    int(cfg.overlays))
     if cfg.video:
-        write_run_videos(output_dir, sequence, foreground, evaluator, body, results, truth, progress=cfg.progress)
-    write_json_atomic(output_dir / "summary.json", summary)  # the last output: the run is complete
-    evaluator.close()
-    fidelity.close()
-    path = store.put(make_record(cfg, summary, frame_rows, search_seconds, evaluator.seconds, foreground_seconds,
-                                 started, output_dir))
-    log.info("run %s recorded in %s", run_id, path)
-    return summary
+        write_run_videos(output_dir, sequence, foreground, parts.evaluator, body, results, truth,
+                         progress=cfg.progress)
 
 
 def sweep_folder() -> Path | None:
@@ -244,36 +328,3 @@ def sweep_folder() -> Path | None:
     if HydraConfig.initialized() and HydraConfig.get().mode == RunMode.MULTIRUN:
         return Path(HydraConfig.get().sweep.dir)
     return None
-
-
-def write_overlays(folder: Path, sequence, foreground, evaluator, body, results, truth, count: int) -> None:
-    """The tracked model over undistorted camera images for ``count`` evenly spaced frames,
-    one PNG each, written atomically (a WriteError naming it if it cannot be)."""
-    if count == 0:
-        return
-    cameras = foreground.cameras
-    for k in np.unique(np.linspace(0, len(results) - 1, count).round().astype(int)):
-        result = results[k]
-        evaluator.setup(body, cameras, foreground.masks(result.frame))
-        joints = body.joint_positions(result.pose[None])[0]
-        tiles = []
-        for c, (cam, image) in enumerate(zip(sequence.cameras, sequence.images(result.frame))):
-            mx, my = cam.undistort_maps()
-            ideal_image = cv2.remap(image, mx, my, cv2.INTER_LINEAR)
-            tile = overlay(ideal_image, cameras[c], evaluator.render(result.pose, c), joints, truth[result.frame])
-            cv2.putText(tile, f"{cam.name} frame {result.frame}", (8, 20), cv2.FONT_HERSHEY_SIMPLEX,
-                        0.55, (255, 255, 255), 1, cv2.LINE_AA)
-            tiles.append(tile)
-        if not tiles:
-            raise DataError("no camera images to draw overlays on")
-        write_image(folder / f"frame_{result.frame:06d}.png", _grid(tiles))
-
-
-def _grid(tiles: list[np.ndarray]) -> np.ndarray:
-    """Tiles, resized to the first one's size, in a grid of two columns."""
-    h, w = tiles[0].shape[:2]
-    tiles = [t if t.shape[:2] == (h, w) else cv2.resize(t, (w, h)) for t in tiles]
-    if len(tiles) % 2:
-        tiles = tiles + [np.zeros_like(tiles[0])]
-    rows = [np.hstack(tiles[i:i + 2]) for i in range(0, len(tiles), 2)]
-    return np.vstack(rows)

@@ -19,7 +19,7 @@ from mmocap.body.model import check_body
 from mmocap.body.skeleton import dof_mask
 from mmocap.data.sequence import check_missing_markers
 from mmocap.errors import ConfigError
-from mmocap.report.export import check_formats
+from mmocap.outputs.export import check_formats
 from mmocap.stages.tracking import check_budget
 from mmocap.validate import check_flag, check_number
 

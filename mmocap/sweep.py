@@ -10,7 +10,7 @@ Configured in ``conf/config.yaml`` under ``hydra.callbacks``. For a multirun it
 - logs after each job how many runs of the sweep are done and about how long is left
   (jobs append a line to ``progress.jsonl``, so this works across processes and machines;
   a line torn by a crash or a full disk is skipped);
-- writes ``runs.csv`` and ``frames.csv`` (:func:`mmocap.analysis.results.export`) at the end.
+- writes ``runs.csv`` and ``frames.csv`` (:func:`mmocap.report.collect.collect`) at the end.
 """
 from __future__ import annotations
 
@@ -31,10 +31,11 @@ from hydra.types import RunMode
 from omegaconf import DictConfig
 
 from mmocap import provenance, registry
-from mmocap.analysis.results import ResultsStore, export, run_key, store_folder
+from mmocap.analysis.results import ResultsStore, run_key, store_folder
 from mmocap.errors import ConfigError
-from mmocap.io import WriteError, append_line, read_json_lines, write_json_atomic
+from mmocap.io import WriteError, append_line, read_json_lines, read_json_object, write_json_atomic
 from mmocap.preflight import check_config
+from mmocap.report.collect import collect
 
 log = logging.getLogger(__name__)
 
@@ -132,7 +133,7 @@ class SweepProgress(Callback):
         info_path = sweep_dir / "sweep.json"
         if not info_path.is_file():
             return
-        info = json.loads(info_path.read_text())
+        info = read_json_object(info_path)
         ran = not self.found and job_return.status == JobStatus.COMPLETED
         line = {"session": info["session"], "job": HydraConfig.get().job.num,
                 "status": job_return.status.name, "ran": ran}
@@ -146,7 +147,7 @@ class SweepProgress(Callback):
     def on_multirun_end(self, config: DictConfig, **kwargs) -> None:
         folder = store_folder(config, config.hydra.sweep.dir)
         if ResultsStore(folder).run_ids():
-            runs_csv, frames_csv = export(folder)
+            runs_csv, frames_csv = collect(folder)
             log.info("sweep done: %s, %s", runs_csv, frames_csv)
 
 

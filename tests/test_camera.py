@@ -233,7 +233,7 @@ def test_cal_errors_use_the_cal_names(tmp_path, camera):
 def test_a_json_that_is_not_an_object_or_lacks_a_key(tmp_path, camera):
     path = tmp_path / "BW3.json"
     path.write_text("[]")
-    with pytest.raises(DataError, match=r"camera BW3: .*BW3.json must hold a JSON object"):
+    with pytest.raises(DataError, match=r"camera BW3: .*BW3.json is not a JSON object"):
         Camera.load(path)
     path.write_text(json.dumps({k: v for k, v in camera.to_dict().items() if k != "height"}))
     with pytest.raises(DataError, match=r"camera BW3: .*BW3.json lacks the field 'height'"):

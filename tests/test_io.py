@@ -24,6 +24,7 @@ from mmocap.io import (
     exclusive,
     locked,
     read_json_lines,
+    read_json_object,
     write_image,
     write_json_atomic,
     write_text_atomic,
@@ -196,3 +197,28 @@ def test_exclusive_runs_without_a_lock_only_where_no_lock_file_can_be_made(tmp_p
         with pytest.raises(WriteError, match="disk is full"), exclusive(tmp_path / "S1_walking"):
             ran.append(True)
         assert ran == []
+
+
+def test_a_json_object_is_read_and_its_file_named_in_every_error(tmp_path):
+    path = tmp_path / "a.json"
+    path.write_text('{"x": [1, 2]}')
+    assert read_json_object(path) == {"x": [1, 2]}
+    for text, problem in (('{"x": ', "is not valid JSON"), ("[1]", "is not a JSON object but list")):
+        path.write_text(text)
+        with pytest.raises(DataError, match=rf"^{path} {problem}"):
+            read_json_object(path)
+    path.write_bytes(b"\xff\xfe{}")
+    with pytest.raises(DataError, match=rf"^{path} is not valid JSON"):
+        read_json_object(path)
+    with pytest.raises(DataError, match=rf"^cannot read {tmp_path / 'none.json'}: no such file or folder"):
+        read_json_object(tmp_path / "none.json")
+    with pytest.raises(DataError, match=rf"^cannot read {tmp_path}: it is a folder"):
+        read_json_object(tmp_path)
+
+
+def test_a_json_object_error_names_the_file_as_told_and_ends_with_the_fix(tmp_path):
+    path = tmp_path / "r.json"
+    path.write_text('"text"')
+    with pytest.raises(DataError, match=rf"^run record {path} is not a record \(a JSON object\) but str; "
+                                        "delete it$"):
+        read_json_object(path, name=f"run record {path}", wanted="a record (a JSON object)", fix="delete it")

@@ -14,12 +14,13 @@ LAYERS = [
     ("command line", ["mmocap.cli", "mmocap.__main__"]),
     ("jobs", ["mmocap.pipeline", "mmocap.preflight", "mmocap.sweep", "mmocap.bench", "mmocap.report",
               "mmocap.testing"]),
-    ("analysis", ["mmocap.analysis"]),
+    ("analysis and run outputs", ["mmocap.analysis", "mmocap.outputs"]),
     ("stages", ["mmocap.stages"]),
     ("components", ["mmocap.evaluators", "mmocap.optimizers", "mmocap.data", "mmocap.body",
                     "mmocap.camera"]),
     ("foundations", ["mmocap.api", "mmocap.registry", "mmocap.errors", "mmocap.io",
                      "mmocap.validate", "mmocap.bitmask", "mmocap.config", "mmocap.provenance", "mmocap.video",
+                     "mmocap.run_folder",
                      "mmocap"]),
 ]
 __doc__ += "\n".join(f"{i}. {name}: {', '.join(prefixes)}" for i, (name, prefixes) in enumerate(LAYERS))

@@ -27,7 +27,8 @@ where the record holds null; a run with a frame whose fitness is not finite has 
 left empty either way, and the statistics refuse them. A record missing an entry,
 or holding one of the wrong kind, is a DataError naming the record file and the entry.
 
-``mmocap collect FOLDER`` writes them as ``runs.csv`` and ``frames.csv``.
+``mmocap collect FOLDER`` (:mod:`mmocap.report.collect`) writes them as ``runs.csv`` and
+``frames.csv``.
 """
 from __future__ import annotations
 
@@ -42,7 +43,7 @@ from omegaconf import DictConfig, OmegaConf
 
 from mmocap import provenance
 from mmocap.errors import DataError, MmocapWarning
-from mmocap.io import write_json_atomic, write_text_atomic
+from mmocap.io import read_json_object, write_json_atomic
 from mmocap.validate import is_integer, is_real
 
 # Top-level config keys that do not change a run's result.
@@ -97,14 +98,7 @@ class ResultsStore:
         path = self.path(run_id)
         if not path.is_file():
             return None
-        try:
-            record = json.loads(path.read_text())
-        except ValueError as exc:  # not JSON, or not text at all
-            raise DataError(f"run record {path} is not valid JSON ({exc}); delete it to run again") from None
-        if not isinstance(record, dict):
-            raise DataError(f"run record {path} is not a JSON object but {type(record).__name__}; "
-                            "delete it to run again")
-        return record
+        return read_json_object(path, name=f"run record {path}", fix="delete it to run again")
 
     def clear_unfinished(self, run_id: str) -> None:
         """Remove what an interrupted write of ``run_id``'s record left (its temporaries);
@@ -313,21 +307,3 @@ def load_runs(folder) -> tuple[pd.DataFrame, pd.DataFrame]:
                           f"({', '.join(empty[:3])}{', ...' if len(empty) > 3 else ''}): their {column} is "
                           "left empty, and the statistics refuse such runs", MmocapWarning, stacklevel=2)
     return pd.DataFrame(rows, columns=RUN_COLUMNS), pd.DataFrame(frames, columns=FRAME_COLUMNS)
-
-
-def export(folder) -> tuple[Path, Path]:
-    """Write ``runs.csv`` and ``frames.csv`` into the store ``folder``; returns their paths."""
-    folder = Path(folder)
-    runs, frames = load_runs(folder)
-    return (write_text_atomic(folder / "runs.csv", runs.to_csv(index=False)),
-            write_text_atomic(folder / "frames.csv", frames.to_csv(index=False)))
-
-
-def main(argv: list[str], prog: str) -> None:
-    """``mmocap collect FOLDER``: write runs.csv and frames.csv of a results store."""
-    import argparse
-
-    parser = argparse.ArgumentParser(prog=prog, description="Write runs.csv and frames.csv of a results store.")
-    parser.add_argument("folder", type=Path, help="a sweep folder (holding records/)")
-    runs_csv, frames_csv = export(parser.parse_args(argv).folder)
-    print(f"{runs_csv} ({len(pd.read_csv(runs_csv))} runs), {frames_csv}")

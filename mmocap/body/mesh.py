@@ -19,6 +19,7 @@ import trimesh
 
 from mmocap.body.skeleton import JOINTS
 from mmocap.errors import ConfigError
+from mmocap.io import read_json_object
 
 ASSETS = Path(__file__).parent / "assets" / "makehuman"
 DM_TO_MM = 100.0
@@ -109,7 +110,7 @@ def load_makehuman() -> SkinMesh:
         all_vertices, groups = _read_obj(f.read())
     with gzip.open(ASSETS / "weights.cmu_mb.json.gz", "rt") as f:
         bone_weights = json.load(f)["weights"]
-    rig = json.loads((ASSETS / "rig.cmu_mb.json").read_text())
+    rig = read_json_object(ASSETS / "rig.cmu_mb.json")
     all_vertices = all_vertices * DM_TO_MM
 
     def cube_centre(bone: str, end: str) -> np.ndarray:

@@ -26,7 +26,6 @@ this folder layout and :class:`mmocap.data.humaneva.HumanEvaSequence` the HumanE
 """
 from __future__ import annotations
 
-import json
 import math
 import warnings
 from abc import ABC, abstractmethod
@@ -41,7 +40,7 @@ from mmocap.body.model import MARKER_NAMES
 from mmocap.body.skeleton import N_FULL
 from mmocap.camera import Camera
 from mmocap.errors import ConfigError, DataError, MmocapWarning
-from mmocap.io import atomic_writer
+from mmocap.io import atomic_writer, read_json_object
 from mmocap.validate import is_integer, is_real
 
 FORMAT = "mmocap-sequence/1"
@@ -94,13 +93,8 @@ def read_meta(path: Path) -> dict:
     order, ``x0`` 51 finite numbers in mm and rad). Errors name the file and the key."""
     if not path.is_file():
         raise DataError(f"not a sequence folder (no sequence.json): {path.parent}")
-    try:
-        meta = json.loads(path.read_text())
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise DataError(f"{path} is not valid JSON (truncated or damaged?): {exc}") from None
-    if not isinstance(meta, dict):
-        raise DataError(f"{path} must hold a JSON object with the keys {', '.join(META_KEYS)}, "
-                        f"got {type(meta).__name__}")
+    meta = read_json_object(path, wanted=f"a JSON object with the keys {', '.join(META_KEYS)}",
+                            fix="is it truncated or damaged?")
     missing = [key for key in META_KEYS if key not in meta]
     if missing:
         raise DataError(f"{path} lacks the key{'s' * (len(missing) > 1)} {', '.join(missing)}")

@@ -29,8 +29,8 @@ from mmocap.data import render
 from mmocap.data.motion import generate_motion
 from mmocap.data.realism import EXACT, Realism
 from mmocap.data.sequence import FORMAT, Sequence, write_markers
-from mmocap.errors import ConfigError
-from mmocap.io import write_image, write_text_atomic, writing
+from mmocap.errors import ConfigError, DataError
+from mmocap.io import read_json_object, write_image, write_text_atomic, writing
 from mmocap.validate import check_number
 
 log = logging.getLogger(__name__)
@@ -278,8 +278,8 @@ class SyntheticDataset:
         current = None
         if meta_path.is_file():
             try:
-                current = json.loads(meta_path.read_text())["generator"]["digest"]
-            except (ValueError, TypeError, KeyError) as exc:  # this class's own output, damaged: render again
+                current = read_json_object(meta_path)["generator"]["digest"]
+            except (DataError, TypeError, KeyError) as exc:  # this class's own output, damaged: render again
                 log.warning("%s is unreadable (%s); rendering the sequence again", meta_path, exc)
         if current != settings_digest({**self.settings, "realism": self.realism.as_dict()}):
             generate(self.path, progress=progress, realism=self.realism, **self.settings)

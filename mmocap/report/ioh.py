@@ -1,12 +1,7 @@
 """Per-frame convergence traces of tracking runs, in the IOHprofiler format for IOHanalyzer.
 
-A tracking run writes ``traces.csv`` into its folder (:func:`write_traces`): for every frame,
-the best fitness so far (Yeguas Eq. 5: in [0, 1], 0 = the model covers the foreground
-exactly, minimised) against the evaluations spent on the frame, counted from 1 (its start
-pose) in the order the candidates were evaluated, a recovery's included. Columns ``frame,
-evaluations, best_fitness``: one row at every evaluation that improved on all before it, and
-one at the frame's last evaluation, which is its ``evaluations`` and ``fitness`` in
-``frames.csv``.
+A tracking run writes ``traces.csv`` into its folder (:mod:`mmocap.outputs.traces`): for
+every frame, the best fitness so far against the evaluations spent on the frame.
 
 ``mmocap ioh FOLDER [--out DIR]`` reads every finished run below FOLDER (a run folder or a
 sweep folder: each folder holding ``summary.json`` and ``traces.csv``) and writes into DIR
@@ -42,8 +37,6 @@ files an earlier export left in DIR.
 from __future__ import annotations
 
 import argparse
-import json
-import math
 import re
 from dataclasses import dataclass
 from pathlib import Path
@@ -53,70 +46,13 @@ import numpy as np
 from mmocap.analysis.results import variant_names
 from mmocap.errors import DataError
 from mmocap.io import write_json_atomic, write_text_atomic, writing
-from mmocap.validate import is_integer
+from mmocap.outputs.traces import read_traces
+from mmocap.run_folder import SUMMARY, TRACES, read_summary, summary_paths
 
-#: a run folder's trace file
-TRACES = "traces.csv"
-TRACE_COLUMNS = ("frame", "evaluations", "best_fitness")
 #: the ioh release whose Analyzer files these are (IOHanalyzer reads those of 0.3.3 and later)
 IOH_VERSION = "0.4.2"
 SUITE = "mmocap"
 DAT_HEADER = "evaluations raw_y"
-#: what a summary.json must hold for the export: key -> (kind, allows null)
-SUMMARY_ENTRIES = {"subject": (str, False), "action": (str, True), "sequence": (str, False),
-                   "optimizer": (str, False), "strategy": (str, False), "dof": (int, False),
-                   "frames": (int, False), "evaluations_per_frame": (int, False)}
-
-
-def write_traces(path: str | Path, results) -> Path:
-    """Write the ``trace`` ((k, 2): evaluations, best fitness) of each of ``results``
-    (:class:`mmocap.stages.tracking.FrameResult`) to ``path`` atomically; returns it."""
-    lines = [",".join(TRACE_COLUMNS)]
-    for result in results:
-        lines += [f"{result.frame},{int(evaluations)},{float(fitness)!r}" for evaluations, fitness in result.trace]
-    return write_text_atomic(path, "\n".join(lines) + "\n")
-
-
-def read_traces(path: str | Path) -> dict[int, np.ndarray]:
-    """The traces of ``traces.csv``: frame -> (k, 2) float64 rows (evaluations, best fitness so
-    far). A DataError naming the file and line if it is missing or is not a trace table: the
-    columns of :data:`TRACE_COLUMNS`, integer frames and evaluations, finite fitness, each
-    frame's rows together with the evaluations rising from 1 and the fitness never rising."""
-    path = Path(path)
-    try:
-        lines = path.read_text(encoding="utf-8").splitlines()
-    except FileNotFoundError:
-        raise DataError(f"{path} is missing: that run was tracked before traces were recorded; "
-                        "track it again") from None
-    except UnicodeDecodeError:
-        raise DataError(f"{path} is not a text file") from None
-    if not lines or lines[0].strip() != ",".join(TRACE_COLUMNS):
-        raise DataError(f"{path}: the first line must be the header {','.join(TRACE_COLUMNS)}")
-    rows: dict[int, list[tuple[int, float]]] = {}
-    frame = None
-    for number, line in enumerate(lines[1:], start=2):
-        fields = line.split(",")
-        try:
-            if len(fields) != 3:
-                raise ValueError
-            row_frame, evaluations, fitness = int(fields[0]), int(fields[1]), float(fields[2])
-            if not math.isfinite(fitness):
-                raise ValueError
-        except ValueError:
-            raise DataError(f"{path} line {number}: {line!r:.60} is not 'frame,evaluations,best_fitness' "
-                            "(integers, then a finite number)") from None
-        if row_frame != frame:
-            if row_frame in rows:
-                raise DataError(f"{path} line {number}: the rows of frame {row_frame} are not together")
-            if evaluations != 1:
-                raise DataError(f"{path} line {number}: frame {row_frame}'s trace starts at evaluation "
-                                f"{evaluations}, not 1")
-            frame, rows[row_frame] = row_frame, []
-        elif evaluations <= rows[frame][-1][0] or fitness > rows[frame][-1][1]:
-            raise DataError(f"{path} line {number}: frame {frame}'s ({evaluations}, {fitness}) follows "
-                            f"{rows[frame][-1]}: the evaluations must rise, the best fitness must not")
-        rows[frame].append((evaluations, fitness))
-    return {frame: np.array(trace, dtype=np.float64) for frame, trace in rows.items()}
 
 
 @dataclass
@@ -133,36 +69,24 @@ class Run:
 
 
 def load_run(folder: str | Path) -> Run:
-    """The run in ``folder`` (its ``summary.json`` and ``traces.csv``); a DataError naming the
-    file and entry that is missing or wrong, or the frames missing from the traces."""
+    """The run in ``folder`` (its ``summary.json``, read by :func:`mmocap.run_folder.read_summary`,
+    and ``traces.csv``); a DataError naming the file and entry that is missing or wrong, or the
+    frames missing from the traces."""
     folder = Path(folder)
-    path = folder / "summary.json"
-    try:
-        summary = json.loads(path.read_text(encoding="utf-8"))
-    except ValueError as exc:  # not JSON, or not UTF-8 text
-        raise DataError(f"{path} is not valid JSON ({exc}); that run did not finish: delete its folder "
-                        "or run it again") from None
-    if not isinstance(summary, dict):
-        raise DataError(f"{path} is not a run summary (a JSON object)")
-    for key, (kind, nullable) in SUMMARY_ENTRIES.items():
-        value = summary.get(key)
-        if not ((value is None and nullable) or (is_integer(value) if kind is int else isinstance(value, kind))):
-            wanted = "an integer" if kind is int else "text"
-            raise DataError(f"{path}: {key} is {value!r:.40}, not {wanted}{' or null' if nullable else ''}")
-    preset, realism = variant_names(summary.get("config"))
-    algorithm = "-".join([summary["optimizer"], summary["strategy"], *([str(preset)] if preset else [])])
-    action = summary["action"]
-    function = f"{summary['subject']}_{action}" if action is not None else Path(summary["sequence"]).name
+    summary = read_summary(folder)
+    preset, realism = variant_names(summary.config)
+    algorithm = "-".join([summary.optimizer, summary.strategy, *([str(preset)] if preset else [])])
+    action = summary.action
+    function = f"{summary.subject}_{action}" if action is not None else Path(summary.sequence).name
     if realism not in (None, "exact"):
         function += f"_{realism}"
     traces = read_traces(folder / TRACES)
-    missing = sorted(set(range(int(summary["frames"]))) - set(traces))
-    extra = sorted(set(traces) - set(range(int(summary["frames"]))))
+    missing = sorted(set(range(summary.frames)) - set(traces))
+    extra = sorted(set(traces) - set(range(summary.frames)))
     if missing or extra:
-        raise DataError(f"{folder / TRACES} does not hold the {summary['frames']} frames of {path}: "
+        raise DataError(f"{folder / TRACES} does not hold the {summary.frames} frames of {folder / SUMMARY}: "
                         f"missing {missing[:5] or 'none'}, unknown {extra[:5] or 'none'}")
-    return Run(folder, algorithm, function, int(summary["dof"]), int(summary["evaluations_per_frame"]),
-               dict(sorted(traces.items())))
+    return Run(folder, algorithm, function, summary.dof, summary.evaluations_per_frame, dict(sorted(traces.items())))
 
 
 def find_runs(folder: str | Path) -> list[Run]:
@@ -171,9 +95,9 @@ def find_runs(folder: str | Path) -> list[Run]:
     folder = Path(folder)
     if not folder.is_dir():
         raise DataError(f"no such folder: {folder}")
-    paths = sorted(folder.rglob("summary.json"))
+    paths = summary_paths(folder)
     if not paths:
-        raise DataError(f"no finished run (a folder holding summary.json) below {folder}")
+        raise DataError(f"no finished run (a folder holding {SUMMARY}) below {folder}")
     return [load_run(path.parent) for path in paths]
 
 

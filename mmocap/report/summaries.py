@@ -2,13 +2,12 @@
 
 ``mmocap summaries FOLDER [--csv OUT]`` prints a Markdown table (one row per run, best
 first) of every summary.json below FOLDER. A run without ground truth (a null mean marker
-error) is listed last, with a warning naming it; a summary that is not valid JSON, not an
-object, or whose marker errors are not numbers is an error naming the file.
+error) is listed last, with a warning naming it; a summary that
+:func:`mmocap.run_folder.read_summary` refuses is an error naming the file.
 """
 from __future__ import annotations
 
 import argparse
-import json
 import warnings
 from pathlib import Path
 
@@ -16,7 +15,7 @@ import pandas as pd
 
 from mmocap.errors import DataError, MmocapWarning
 from mmocap.io import write_text_atomic
-from mmocap.validate import is_real
+from mmocap.run_folder import SUMMARY, read_summary, summary_paths
 
 ERRORS = ["mean_marker_error_mm", "median_marker_error_mm", "max_marker_error_mm"]
 COLUMNS = ["optimizer", "strategy", "dof", "evaluations_per_frame", "subject", "action", "frames",
@@ -25,20 +24,11 @@ COLUMNS = ["optimizer", "strategy", "dof", "evaluations_per_frame", "subject", "
 
 
 def collect(folder: Path) -> pd.DataFrame:
-    """One row per summary.json below ``folder``, sorted by mean marker error."""
+    """One row per run summary below ``folder``, sorted by mean marker error."""
     rows = []
-    for path in sorted(Path(folder).rglob("summary.json")):
-        try:
-            summary = json.loads(path.read_text())
-        except ValueError as exc:
-            raise DataError(f"{path} is not valid JSON ({exc}); that run did not finish: delete its folder "
-                            "or run it again") from None
-        if not isinstance(summary, dict):
-            raise DataError(f"{path} is not a run summary (a JSON object)")
-        for key in ERRORS:
-            if summary.get(key) is not None and not is_real(summary[key]):
-                raise DataError(f"{path}: {key} is {summary[key]!r:.40}, not a number or null")
-        rows.append({**{k: summary.get(k) for k in COLUMNS}, "run": str(path.parent)})
+    for path in summary_paths(folder):
+        summary = read_summary(path.parent)
+        rows.append({**{k: getattr(summary, k) for k in COLUMNS}, "run": str(path.parent)})
     if not rows:
         return pd.DataFrame(columns=COLUMNS + ["run"])
     table = pd.DataFrame(rows).astype({key: float for key in ERRORS})
@@ -59,7 +49,7 @@ def main(argv: list[str], prog: str) -> None:
         raise DataError(f"no such folder: {args.folder}")
     table = collect(args.folder)
     if table.empty:
-        raise DataError(f"no summary.json below {args.folder}: has a sweep run into it?")
+        raise DataError(f"no {SUMMARY} below {args.folder}: has a sweep run into it?")
     if args.csv:
         write_text_atomic(args.csv, table.to_csv(index=False))
     print(table.drop(columns="run").to_markdown(index=False, floatfmt=".1f"))

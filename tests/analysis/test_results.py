@@ -13,14 +13,12 @@ from mmocap import config as mmocap_config
 from mmocap import provenance
 from mmocap.analysis.results import (
     ResultsStore,
-    export,
     load_runs,
     make_record,
     run_key,
 )
 from mmocap.errors import ConfigError, DataError, MmocapWarning
 from mmocap.sweep import check_sweep, format_seconds, progress_line, sweep_overrides
-from tests.conftest import run_cli
 
 SINGLE_RUNS = ("demo", "fig5")   # experiments that are one run, not a sweep
 EXPERIMENTS = [name for name in mmocap_config.options("experiment") if name not in SINGLE_RUNS]
@@ -225,18 +223,6 @@ def test_a_frame_without_its_fitness_entry_is_named(tmp_path):
     path = ResultsStore(tmp_path).put(record)
     with pytest.raises(DataError, match=rf"{path} lacks frames\[1\].fitness; delete it"):
         load_runs(tmp_path)
-
-
-def test_export_writes_csv_and_an_empty_store_is_an_error(tmp_path, capsys):
-    with pytest.raises(DataError, match=str(tmp_path / "records")):
-        load_runs(tmp_path)
-    assert run_cli("collect", *[str(tmp_path)]) == 2
-    assert "no run records" in capsys.readouterr().err
-    ResultsStore(tmp_path).put(record_of(config(), [4.0]))
-    runs_csv, frames_csv = export(tmp_path)
-    assert pd.read_csv(runs_csv)["mean_marker_error_mm"].tolist() == [4.0]
-    assert pd.read_csv(frames_csv).shape == (1, 4)
-    assert run_cli("collect", *[str(tmp_path)]) == 0
 
 
 # Jobs per experiment and scale: the product of the sweep's value counts.

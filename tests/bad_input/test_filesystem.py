@@ -19,7 +19,7 @@ import pandas as pd
 import pytest
 
 from mmocap.io import locked
-from mmocap.pipeline import RUN_LOCK
+from mmocap.run_folder import RUN_LOCK
 from tests.bad_input.conftest import assert_clean_error, mmocap, track_args
 
 #: what a read-only folder is called: root writes through permission bits, so

@@ -12,7 +12,8 @@ import numpy as np
 import pytest
 
 from mmocap.config import compose
-from mmocap.report.ioh import TRACES, find_runs, write_ioh
+from mmocap.report.ioh import find_runs, write_ioh
+from mmocap.run_folder import TRACES
 from tests.bad_input.conftest import Outcome, assert_clean_error
 from tests.conftest import run_cli
 

@@ -8,6 +8,7 @@ import json
 import math
 import subprocess
 import sys
+from pathlib import Path
 
 import bvhio
 import ezc3d
@@ -22,14 +23,16 @@ from mmocap.config import compose
 from mmocap.data.sequence import read_markers
 from mmocap.errors import ConfigError, DataError
 from mmocap.io import WriteError
+from mmocap.outputs import export
+from mmocap.outputs.export import FORMATS, export_motion, export_run, read_poses, write_c3d, write_trc
 from mmocap.preflight import check_config
-from mmocap.report import export
-from mmocap.report.export import FORMATS, export_motion, export_run, read_poses, write_c3d, write_trc
 from mmocap.stages.evaluation import FrameLog
 from tests.bad_input.conftest import Outcome, assert_clean_error
 from tests.conftest import run_cli
 
 FPS = 50.0
+#: a complete summary.json, of a run of the demo config on a tiny sequence
+SUMMARY_EXAMPLE = Path(__file__).parents[1] / "golden" / "data" / "summary.json"
 ROOT_YAW = 6.77  # rad: a subject that turned more than once; pose.csv wraps it to 6.77 - 2 pi
 
 
@@ -59,11 +62,12 @@ def write_run(folder, poses, *, fps: float | None = FPS, body_facts: dict | None
     for frame, pose in enumerate(poses):
         log.write(frame, 1.0, 0.5, 60, 0.01, pose)
     log.close()
-    summary = {"config": OmegaConf.to_container(compose(["body.vertices=1000"]), resolve=True)}
-    if fps is not None:
-        summary["fps"] = fps
-    if body_facts is not None:
-        summary["body"] = body_facts
+    summary = {**json.loads(SUMMARY_EXAMPLE.read_text()),
+               "config": OmegaConf.to_container(compose(["body.vertices=1000"]), resolve=True),
+               "fps": fps, "body": body_facts}
+    for key in ("fps", "body"):
+        if summary[key] is None:
+            del summary[key]
     (folder / "summary.json").write_text(json.dumps(summary))
     return folder
 

@@ -5,7 +5,7 @@ With ``video=true`` a run writes, besides its other outputs:
 - ``videos/<camera>.mp4``: every tracked frame of the camera, undistorted, with the pixels
   of the foreground only, of the model only and of both in three colours (a legend in the
   bottom corner), the skeleton and the true markers, and the camera, frame, fitness and
-  marker error written on it (:func:`mmocap.analysis.figures.comparison_overlay`);
+  marker error written on it (:func:`mmocap.outputs.overlays.comparison_overlay`);
 - ``skeleton.png``: stick figures of the tracked joints at evenly spaced frames;
 - ``skeleton.mp4``: the stick figure over the whole run.
 
@@ -19,14 +19,12 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from mmocap.analysis.figures import comparison_overlay, plot_skeleton_strip, write_skeleton_animation
 from mmocap.body.skeleton import PARENT_INDEX
+from mmocap.outputs.overlays import comparison_overlay
+from mmocap.outputs.skeleton import plot_skeleton_strip, write_skeleton_animation
+from mmocap.run_folder import SKELETON_FILES, VIDEOS
 from mmocap.stages.evaluation import marker_error
 from mmocap.video import write_video
-
-#: the files :func:`write_run_videos` writes into a run folder (besides ``videos/*.mp4``)
-SKELETON_FILES = ("skeleton.png", "skeleton.mp4")
-VIDEO_FOLDER = "videos"
 
 
 def camera_frames(sequence, foreground, evaluator, body, results, truth, camera_index: int):
@@ -63,7 +61,7 @@ def write_run_videos(folder: Path, sequence, foreground, evaluator, body, result
     written = []
     for c, camera in enumerate(sequence.cameras):
         frames = camera_frames(sequence, foreground, evaluator, body, results, truth, c)
-        written.append(write_video(folder / VIDEO_FOLDER / f"{camera.name}.mp4", frames, sequence.fps,
+        written.append(write_video(folder / VIDEOS / f"{camera.name}.mp4", frames, sequence.fps,
                                    count=len(results), progress=progress))
     joints = body.joint_positions(np.stack([r.pose for r in results]))
     title = f"{sequence.meta.get('action')}: tracked joints"
@@ -79,7 +77,7 @@ def run_video_files(folder: Path) -> list[Path]:
     with the temporaries a stopped run leaves beside them (``.<name>.<random>.tmp`` and the
     encoder's ``.<name>.<random>.mp4``)."""
     folder = Path(folder)
-    videos = folder / VIDEO_FOLDER
+    videos = folder / VIDEOS
     return [*videos.glob("*.mp4"), *videos.glob(".*.tmp"),  # "*.mp4" matches the hidden temporaries too
             *(folder / name for name in SKELETON_FILES),
             *(temporary for name in SKELETON_FILES for temporary in folder.glob(f".{name}.*"))]

@@ -6,11 +6,11 @@ import cv2
 import numpy as np
 import pytest
 
-from mmocap.analysis.figures import COMPARISON_COLOURS, comparison_overlay
 from mmocap.body.model import BodyModel
 from mmocap.data.sequence import Sequence
 from mmocap.evaluators.numpy_backend import NumpyEvaluator
-from mmocap.report.videos import camera_frames, frame_caption, run_video_files, write_run_videos
+from mmocap.outputs.overlays import COMPARISON_COLOURS, comparison_overlay
+from mmocap.outputs.videos import camera_frames, frame_caption, run_video_files, write_run_videos
 from mmocap.stages.background import GaussianBackground
 from mmocap.stages.foreground import Foreground
 from mmocap.stages.tracking import FrameResult

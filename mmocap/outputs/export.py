@@ -29,7 +29,6 @@ from __future__ import annotations
 import argparse
 import importlib
 import io
-import json
 import math
 import warnings
 from collections.abc import Iterable, Sequence
@@ -47,6 +46,7 @@ from mmocap.body.model import BodyModel
 from mmocap.data.sequence import write_markers
 from mmocap.errors import ConfigError, DataError, MmocapError, MmocapWarning
 from mmocap.io import atomic_writer, write_text_atomic
+from mmocap.run_folder import EXPORT_FOLDER, FRAMES, FRAMES_PARTIAL, SUMMARY, Summary, read_summary
 from mmocap.validate import check_number
 
 #: the formats :func:`export_run` writes, each into the files of :data:`FILES`
@@ -54,8 +54,6 @@ FORMATS = ("csv", "trc", "c3d", "bvh")
 #: format -> the names of the files it writes into the export folder
 FILES = {"csv": ("markers_mm.csv", "joints_mm.csv", "pose.csv"), "trc": ("motion.trc",),
          "c3d": ("motion.c3d",), "bvh": ("motion.bvh",)}
-#: the folder of a run folder that the exports go to unless told otherwise
-EXPORT_FOLDER = "export"
 #: the Euler order of every BVH rotation: channels ``Zrotation Xrotation Yrotation``, R = Rz Rx Ry
 BVH_ROTATION_ORDER = "ZXY"
 #: the pip command that installs the C3D writer
@@ -152,17 +150,16 @@ def export_run(run_dir: str | Path, formats: Sequence[str], out_dir: str | Path 
     if fps is not None:
         fps = check_number("--fps", fps, 0, low_open=True)
     run_dir = Path(run_dir)
-    summary_path, frames_path = run_dir / "summary.json", run_dir / "frames.csv"
+    summary_path, frames_path = run_dir / SUMMARY, run_dir / FRAMES
     if not run_dir.is_dir():
         raise DataError(f"run folder {run_dir} not found")
     if not summary_path.is_file() or not frames_path.is_file():
-        partial = frames_path.with_name(frames_path.name + ".partial")
-        what = (f"it holds {partial.name}, the frames of a run that stopped" if partial.is_file()
-                else "summary.json is missing" if not summary_path.is_file() else "frames.csv is missing")
+        what = (f"it holds {FRAMES_PARTIAL}, the frames of a run that stopped" if (run_dir / FRAMES_PARTIAL).is_file()
+                else f"{SUMMARY} is missing" if not summary_path.is_file() else f"{FRAMES} is missing")
         raise DataError(f"{run_dir} is not a finished run ({what}); export a folder where a tracking run "
-                        "wrote summary.json and frames.csv, or run it again")
-    summary = _read_summary(summary_path)
-    recorded_fps = summary.get("fps")
+                        f"wrote {SUMMARY} and {FRAMES}, or run it again")
+    summary = read_summary(run_dir)
+    recorded_fps = summary.fps
     if recorded_fps is not None:
         recorded_fps = check_number(f"fps in {summary_path}", recorded_fps, 0, low_open=True)
     if fps is None:
@@ -178,25 +175,16 @@ def export_run(run_dir: str | Path, formats: Sequence[str], out_dir: str | Path 
     return export_motion(run_dir / EXPORT_FOLDER if out_dir is None else Path(out_dir), formats, body, poses, fps)
 
 
-def _read_summary(path: Path) -> dict:
-    try:
-        summary = json.loads(path.read_text())
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise DataError(f"{path} is not valid JSON ({exc}); run the tracking again") from None
-    if not isinstance(summary, dict) or not isinstance(summary.get("config"), dict) \
-            or not isinstance(summary["config"].get("body"), dict):
-        raise DataError(f"{path} has no config.body, the run's body model; it is not the summary of a "
-                        "tracking run")
-    return summary
-
-
-def _rebuild_body(summary: dict, summary_path: Path) -> BodyModel:
+def _rebuild_body(summary: Summary, summary_path: Path) -> BodyModel:
     """The run's body model from the summary's ``config.body``, with the height and girth the
     run tracked with (``body`` in the summary: an automatic start may have fitted them)."""
-    fitted = summary.get("body")
+    if not isinstance(summary.config.get("body"), dict):
+        raise DataError(f"{summary_path} has no config.body, the run's body model; it is not the summary of a "
+                        "tracking run")
+    fitted = summary.body
     shape = {k: fitted[k] for k in ("height_mm", "girth") if k in fitted} if isinstance(fitted, dict) else {}
     try:
-        return instantiate(OmegaConf.create(summary["config"]["body"]), **shape)
+        return instantiate(OmegaConf.create(summary.config["body"]), **shape)
     except (MmocapError, InstantiationException) as exc:
         cause = exc.__cause__ if isinstance(exc, InstantiationException) and exc.__cause__ else exc
         raise DataError(f"{summary_path}: config.body does not build the body model: {cause}") from None
@@ -361,12 +349,12 @@ def main(argv: list[str], prog: str) -> None:
     parser = argparse.ArgumentParser(
         prog=prog, description="Write a finished run's motion as CSV, TRC (OpenSim), C3D and BVH (Blender) "
                                "files, in mmocap's Y-up world frame.")
-    parser.add_argument("run_dir", type=Path, help="a finished run folder (summary.json and frames.csv)")
+    parser.add_argument("run_dir", type=Path, help=f"a finished run folder ({SUMMARY} and {FRAMES})")
     parser.add_argument("--format", default=",".join(FORMATS),
                         help=f"comma-separated formats from {', '.join(FORMATS)} (default: all)")
     parser.add_argument("--out", type=Path, help="the folder to write into (default: RUN_DIR/export)")
     parser.add_argument("--fps", type=float,
-                        help="frames per second of the tracked sequence (default: summary.json's fps)")
+                        help=f"frames per second of the tracked sequence (default: {SUMMARY}'s fps)")
     args = parser.parse_args(argv)
     formats = [f.strip() for f in args.format.split(",") if f.strip()]
     if not formats:
