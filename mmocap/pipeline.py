@@ -42,7 +42,7 @@ from mmocap.preflight import check_config
 from mmocap.report.export import EXPORT_FOLDER, export_motion, exported_files, read_poses
 from mmocap.report.ioh import TRACES, write_traces
 from mmocap.report.videos import run_video_files, write_run_videos
-from mmocap.stages.evaluation import FrameLog, marker_error
+from mmocap.stages.accuracy import FrameLog, marker_error
 from mmocap.stages.foreground import Foreground
 from mmocap.stages.tracking import track
 

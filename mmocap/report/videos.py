@@ -21,7 +21,7 @@ import numpy as np
 
 from mmocap.analysis.figures import comparison_overlay, plot_skeleton_strip, write_skeleton_animation
 from mmocap.body.skeleton import PARENT_INDEX
-from mmocap.stages.evaluation import marker_error
+from mmocap.stages.accuracy import marker_error
 from mmocap.video import write_video
 
 #: the files :func:`write_run_videos` writes into a run folder (besides ``videos/*.mp4``)

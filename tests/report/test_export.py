@@ -25,7 +25,7 @@ from mmocap.io import WriteError
 from mmocap.preflight import check_config
 from mmocap.report import export
 from mmocap.report.export import FORMATS, export_motion, export_run, read_poses, write_c3d, write_trc
-from mmocap.stages.evaluation import FrameLog
+from mmocap.stages.accuracy import FrameLog
 from tests.bad_input.conftest import Outcome, assert_clean_error
 from tests.conftest import run_cli
 
