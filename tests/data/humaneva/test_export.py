@@ -2,11 +2,13 @@
 import subprocess
 import sys
 
+import cv2
 import numpy as np
 import pytest
 
 from mmocap.data.humaneva.export import export
 from mmocap.data.sequence import Sequence
+from mmocap.video import count_frames, frame_rate
 from tests.data.humaneva import FRAMES, LEAD_IN, open_he
 
 
@@ -16,6 +18,17 @@ def test_exported_layout_has_the_real_names(exported):
                  "S1/Sync_Data/Walking_1_(C1).ofs", "S1/Mocap_Data/Walking_1.mat",
                  "Background/Background_1_(C1).avi", "Background/Background_1_(BW1).avi"):
         assert (exported / path).is_file(), path
+
+
+@pytest.mark.parametrize("video, frames", [("S1/Image_Data/Walking_1_(C1).avi", LEAD_IN + FRAMES),
+                                           ("Background/Background_1_(BW1).avi", 3)])
+def test_exported_videos_are_ffv1_at_the_sequence_rate(synthetic, exported, video, frames):
+    """Lossless FFV1 in AVI, as :func:`mmocap.video.write_video` writes an .avi path."""
+    capture = cv2.VideoCapture(str(exported / video))
+    codec = int(capture.get(cv2.CAP_PROP_FOURCC)).to_bytes(4, "little").decode().upper()
+    capture.release()
+    assert codec == "FFV1" and count_frames(exported / video) == frames
+    assert frame_rate(exported / video) == pytest.approx(Sequence.open(synthetic).fps)
 
 
 @pytest.mark.parametrize("images", ["avi", "png"])
