@@ -1,4 +1,4 @@
-"""HumanEva-I's images: one camera's video, or folder of numbered image files, read by
+"""HumanEva-I's images: one camera's video, or a folder of numbered image files, read by
 1-based image index (:class:`FrameSource`)."""
 from __future__ import annotations
 

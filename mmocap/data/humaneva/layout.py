@@ -28,8 +28,9 @@ SPLITS = ("train", "validation", "test")
 # code v1.1, @he_dataset/he_dataset.m, where validation is called "Validate"; the trial 1 ranges
 # agree with facebookresearch/VideoPose3D, data/prepare_data_humaneva.py): (subject, action,
 # trial) -> split -> (first, last) toolbox frame, both included (1-based 60 Hz frames, numbered
-# as :func:`toolbox_frame_offsets` describes).  The toolbox also puts trial 3 (mocap only, no
-# video) into Train as a whole; having no images to read, it is not listed.
+# as :func:`mmocap.data.humaneva.synchronisation.toolbox_frame_offsets` describes).  The
+# toolbox also puts trial 3 (mocap only, no video) into Train as a whole; having no images to
+# read, it is not listed.
 PARTITIONS = {
     ("S1", "Walking", 1): {"validation": (6, 590), "train": (591, 1203)},
     ("S1", "Walking", 2): {"test": (6, 1004)},
@@ -76,5 +77,3 @@ PARTITIONS = {
 def is_colour(camera: str) -> bool:
     """HumanEva-I's C cameras are colour, its BW cameras greyscale."""
     return not camera.upper().startswith("BW")
-
-

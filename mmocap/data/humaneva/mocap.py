@@ -32,6 +32,7 @@ def default_marker_map() -> dict[str, list[str]]:
     """The marker map of ``conf/dataset/humaneva.yaml``."""
     return OmegaConf.to_container(config.load("dataset/humaneva.yaml").marker_map)
 
+
 def _as_list(x) -> list:
     """A value of ``loadmat(simplify_cells=True)`` as a list (single items come unwrapped)."""
     if isinstance(x, list):

@@ -12,4 +12,3 @@ FIRST = LEAD + 2 * LEAD_IN  # 0-based mocap frame of the sequence's first frame
 
 def open_he(root, **kwargs):
     return HumanEvaDataset(root, cameras=kwargs.pop("cameras", CAMERAS), **kwargs).open(progress=False)
-

@@ -24,4 +24,3 @@ def exported(synthetic, tmp_path_factory) -> Path:
 def damaged(exported, tmp_path) -> Path:
     """A private copy of the exported folder that a test may damage."""
     return Path(shutil.copytree(exported, tmp_path / "HumanEva"))
-
