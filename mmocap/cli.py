@@ -107,7 +107,8 @@ class SweepCallback(SweepProgress):
 def export_humaneva(args: list[str], prog: str) -> None:
     import argparse
 
-    from mmocap.data.humaneva import TRIALS, export
+    from mmocap.data.humaneva.export import export
+    from mmocap.data.humaneva.layout import TRIALS
 
     parser = argparse.ArgumentParser(
         prog=prog,
@@ -157,9 +158,9 @@ SUBCOMMANDS = {
     "list": (list_components, "the installed optimisers and evaluators, why any is unavailable, and "
                               "each OpenCL device's self-check"),
     "export-humaneva": (export_humaneva, "write a synthetic sequence folder in the HumanEva-I layout"),
-    "check-recording": (_main_of("mmocap.report.recording", "check_main"),
+    "check-recording": (_main_of("mmocap.data.recording.commands", "check_main"),
                         "check a recording folder (calibration, videos, sync, first frame) before tracking it"),
-    "to-recording": (_main_of("mmocap.report.recording", "convert_main"),
+    "to-recording": (_main_of("mmocap.data.recording.commands", "convert_main"),
                      "write a sequence folder as a user's recording (OpenCV YAML calibration, MP4 videos)"),
     "export": (_main_of("mmocap.outputs.export"), "a finished run's motion as TRC, C3D, BVH and CSV files"),
     "collect": (_main_of("mmocap.report.collect"), "write runs.csv and frames.csv of a sweep folder"),

@@ -9,7 +9,7 @@ never leaves a file that looks finished but is not:
   temporary file is removed (:func:`atomic_writer`). Only a crash (SIGKILL, power loss) can
   leave a ``.*.tmp`` behind; readers look for final names only, so it is ignored.
 - A file written as it goes (a run's per-frame table) is named ``<name>.partial`` until it
-  is complete, then renamed to ``<name>`` (:class:`mmocap.stages.evaluation.FrameLog`).
+  is complete, then renamed to ``<name>`` (:class:`mmocap.stages.accuracy.FrameLog`).
 - An append-only file (a sweep's ``progress.jsonl``) takes whole lines, one write each, each
   starting on a line of its own (:func:`append_line`); its readers skip a line that a crash
   or a full disk tore (:func:`read_json_lines`).

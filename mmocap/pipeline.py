@@ -46,7 +46,7 @@ from mmocap.outputs.traces import write_traces
 from mmocap.outputs.videos import run_video_files, write_run_videos
 from mmocap.preflight import check_config
 from mmocap.run_folder import ERROR_PLOT, EXPORT_FOLDER, FRAMES, OVERLAYS, RUN_LOCK, RUN_OUTPUTS, TRACES, Summary
-from mmocap.stages.evaluation import FrameLog, marker_error
+from mmocap.stages.accuracy import FrameLog, marker_error
 from mmocap.stages.foreground import Foreground
 from mmocap.stages.tracking import track
 

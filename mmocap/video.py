@@ -1,4 +1,4 @@
-"""Video files: frames read in decoding order, and MP4 files written atomically.
+"""Video files: frames read in decoding order, and MP4 and lossless AVI files written atomically.
 
 Reading uses OpenCV's FFmpeg build (in ``opencv-python-headless``). Frames are decoded one
 after another and never sought: seeking in videos with B-frames (XviD, H.264) can return a
@@ -10,8 +10,9 @@ an estimate.
 Writing (:func:`write_video`) uses ``imageio-ffmpeg`` (the ``video`` extra: ``pip install
 'mmocap[video]'``), which ships its own ffmpeg binary and writes H.264 MP4 files that
 browsers, players and Blender open; without it, OpenCV's MPEG-4 Part 2 (``mp4v``) encoder,
-which is lossy whatever the quality asked (a lossless video is then refused).
-Either way the file is written beside its target and renamed when complete
+which is lossy whatever the quality asked (a lossless video is then refused). A path
+ending in ``.avi`` is written losslessly in FFV1 by OpenCV (HumanEva-I's container; FFV1
+needs no extra). Either way the file is written beside its target and renamed when complete
 (:func:`mmocap.io.atomic_path`), and then decoded again to check its frame count.
 """
 from __future__ import annotations
@@ -35,6 +36,8 @@ VIDEO_SUFFIXES = (".mp4", ".avi", ".mov", ".mkv", ".m4v", ".webm", ".mpg", ".mpe
 H264_CRF = 16
 #: the constant rate factors libx264 takes
 CRF_RANGE = (0, 51)
+#: the suffix of videos written losslessly in FFV1 (as ``crf=0``) rather than as MP4
+LOSSLESS_AVI_SUFFIX = ".avi"
 
 
 def _open(path: Path) -> cv2.VideoCapture:
@@ -109,10 +112,15 @@ def write_video(path: str | Path, frames: Iterable[np.ndarray], fps: float, coun
     """Write ``frames`` ((H, W, 3) BGR or (H, W) grey uint8, all of one size) as an MP4 video
     at ``fps`` frames/s, atomically; returns the path. ``count`` (the number of frames, if
     known) sizes the progress bar. ``crf`` is the H.264 quality (0: lossless, coded in RGB,
-    which browsers do not play but FFmpeg-based readers do). The written file is
-    decoded again: a video that does not hold every frame is a WriteError (a full disk)."""
+    which browsers do not play but FFmpeg-based readers do). A path ending in ``.avi`` is an
+    FFV1 video, lossless, and takes ``crf=0`` only. The written file is decoded again: a
+    video that does not hold every frame is a WriteError (a full disk)."""
     path = Path(path)
     crf = check_number("crf", crf, *CRF_RANGE, integer=True)
+    avi = path.suffix.lower() == LOSSLESS_AVI_SUFFIX
+    if avi and crf != 0:
+        raise DataError(f"cannot write {path} with crf={crf}: an .avi video is written losslessly (FFV1); "
+                        "give crf=0, or an .mp4 path for a compressed video")
     frames = iter(frames)
     first = next(frames, None)
     if first is None:
@@ -121,9 +129,10 @@ def write_video(path: str | Path, frames: Iterable[np.ndarray], fps: float, coun
     written = 0
     bar = tqdm(total=count, desc=f"write {path.name}", unit="frame", disable=not progress)
     with atomic_path(path) as target:
-        encoded = target.with_suffix(".mp4")  # the encoders pick the container from the suffix
+        # the encoders pick the container from the suffix
+        encoded = target.with_suffix(LOSSLESS_AVI_SUFFIX if avi else ".mp4")
         try:
-            with _encoder(encoded, width, height, fps, crf) as write:
+            with _Encoder(encoded, width, height, fps, crf) as write:
                 for frame in itertools.chain([first], frames):
                     if frame.shape[:2] != (height, width):
                         raise DataError(f"{path}: frame {written} is {frame.shape[1]}x{frame.shape[0]}, "
@@ -141,14 +150,19 @@ def write_video(path: str | Path, frames: Iterable[np.ndarray], fps: float, coun
     return path
 
 
-class _encoder:
-    """Context manager yielding ``write(bgr_frame)``: imageio-ffmpeg's H.264 if installed,
-    else OpenCV's mp4v."""
+class _Encoder:
+    """Context manager yielding ``write(bgr_frame)``: OpenCV's FFV1 for an ``.avi`` path, else
+    imageio-ffmpeg's H.264 if installed, else OpenCV's mp4v."""
 
     def __init__(self, path: Path, width: int, height: int, fps: float, crf: int):
         self.path, self.size, self.fps, self.crf = path, (width, height), float(fps), int(crf)
 
     def __enter__(self):
+        if self.path.suffix == LOSSLESS_AVI_SUFFIX:
+            self._cv = cv2.VideoWriter(str(self.path), cv2.VideoWriter_fourcc(*"FFV1"), self.fps, self.size, True)
+            if not self._cv.isOpened():
+                raise DataError(f"cannot write video {self.path}")
+            return self._cv.write
         if importlib.util.find_spec("imageio_ffmpeg") is None:
             if self.crf == 0:
                 raise DataError(f"cannot write the lossless video {self.path}: OpenCV's own MP4 encoder is lossy; "

@@ -13,7 +13,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "mmocap"
 LAYERS = [
     ("command line", ["mmocap.cli", "mmocap.__main__"]),
     ("jobs", ["mmocap.pipeline", "mmocap.preflight", "mmocap.sweep", "mmocap.bench", "mmocap.report",
-              "mmocap.testing"]),
+              "mmocap.testing", "mmocap.data.recording.commands"]),
     ("analysis and run outputs", ["mmocap.analysis", "mmocap.outputs"]),
     ("stages", ["mmocap.stages"]),
     ("components", ["mmocap.evaluators", "mmocap.optimizers", "mmocap.data", "mmocap.body",

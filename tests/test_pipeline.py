@@ -8,8 +8,8 @@ from mmocap.body.model import BodyModel
 from mmocap.data.sequence import Sequence
 from mmocap.evaluators.numpy_backend import NumpyEvaluator
 from mmocap.optimizers.cmaes import CMAES
+from mmocap.stages.accuracy import FrameLog, marker_error
 from mmocap.stages.background import GaussianBackground
-from mmocap.stages.evaluation import FrameLog, marker_error
 from mmocap.stages.foreground import Foreground
 from mmocap.stages.tracking import Holistic, track
 

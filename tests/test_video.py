@@ -1,4 +1,5 @@
-"""mmocap.video: frames decoded in order, MP4 files written whole or not at all."""
+"""mmocap.video: frames decoded in order, MP4 and lossless AVI files written whole or not at all."""
+import cv2
 import numpy as np
 import pytest
 
@@ -78,3 +79,34 @@ def test_without_imageio_ffmpeg_opencv_writes_a_lossy_video_and_refuses_a_lossle
     with pytest.raises(DataError, match="lossless .*pip install 'mmocap\\[video\\]'"):
         write_video(tmp_path / "w.mp4", ramp(2), fps=30, crf=0)
     assert not (tmp_path / "w.mp4").exists()
+
+
+def fourcc(path) -> str:
+    capture = cv2.VideoCapture(str(path))
+    code = int(capture.get(cv2.CAP_PROP_FOURCC))
+    capture.release()
+    return code.to_bytes(4, "little").decode().upper()
+
+
+def test_an_avi_video_is_lossless_ffv1_and_takes_no_other_quality(tmp_path):
+    frames = ramp(5)
+    path = write_video(tmp_path / "v.avi", frames, fps=60, crf=0)
+    assert fourcc(path) == "FFV1" and count_frames(path) == 5 and frame_rate(path) == pytest.approx(60)
+    reader = VideoReader(path)
+    for k in range(5):
+        np.testing.assert_array_equal(reader.read(k), frames[k])
+    assert list(tmp_path.iterdir()) == [path]
+    with pytest.raises(DataError, match=r"w.avi with crf=16: an .avi video is written losslessly \(FFV1\)"):
+        write_video(tmp_path / "w.avi", frames, fps=60)
+    assert list(tmp_path.iterdir()) == [path]
+
+
+def test_without_imageio_ffmpeg_an_avi_video_is_still_written(tmp_path, monkeypatch):
+    import importlib.util
+
+    real = importlib.util.find_spec
+    monkeypatch.setattr(importlib.util, "find_spec",
+                        lambda name, *a: None if name == "imageio_ffmpeg" else real(name, *a))
+    path = write_video(tmp_path / "v.avi", ramp(3), fps=30, crf=0)
+    assert fourcc(path) == "FFV1"
+    np.testing.assert_array_equal(VideoReader(path).read(2), ramp(3)[2])

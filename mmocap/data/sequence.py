@@ -22,7 +22,7 @@ sequence is opened), each image (:func:`read_image`) and ``markers_mm.csv``
 (:meth:`Sequence.markers`).
 
 :class:`SequenceBase` is what the pipeline reads from any dataset; :class:`Sequence` reads
-this folder layout and :class:`mmocap.data.humaneva.HumanEvaSequence` the HumanEva-I one.
+this folder layout and :class:`mmocap.data.humaneva.dataset.HumanEvaSequence` the HumanEva-I one.
 """
 from __future__ import annotations
 

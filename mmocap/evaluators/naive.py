@@ -1,7 +1,8 @@
 """Reference evaluator: the rule of :mod:`mmocap.evaluators.silhouette` as plain loops.
 
-Slow (about a tenth of a second per model-view for 13 700 vertices) and meant to be read
-and trusted: every other backend is tested against its pixel counts.
+Slow (a Python loop over every vertex of every view; ``make bench`` times it) and meant to
+be read and trusted: every other backend is tested against its pixel counts
+(:mod:`mmocap.testing.evaluators`).
 """
 from __future__ import annotations
 

@@ -48,7 +48,7 @@ def keep_freed_memory() -> None:
     Each batch allocates and frees arrays of a few megabytes. Left to itself, glibc serves
     such arrays with fresh mappings and returns them on free until an earlier, larger free
     happens to raise its threshold; when none has, the kernel zero-fills every page again
-    and a frame takes about 1.5x as long, half of it system time (measured on the demo).
+    and a frame takes markedly longer, much of it in system time.
     This sets the mmap threshold to 32 MiB and the trim threshold to 256 MiB; elsewhere
     than glibc it does nothing.
     """

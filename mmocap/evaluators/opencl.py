@@ -5,8 +5,8 @@ The host computes, once per body, the vertex arrays and culling cones
 (``body.transforms``), unless the body has a
 :class:`~mmocap.body.kinematics.KinematicChain` (``body.chain``, as ``BodyModel`` has): then
 the kernel ``joint_transforms`` computes them from the joint angles' cosines and sines in
-the chain's float64 order: the same bits, and 13 us of host time per call of 14 poses
-instead of about 200 (measured). The kernel ``silhouette_counts``
+the chain's float64 order: the same bits, for a fraction of the host time the transforms
+take on the host. The kernel ``silhouette_counts``
 (``kernels/silhouette.cl``) does the rest: steps 1-2 and the coefficients in the float64
 order of ``view_geometry``, steps 3-6 in the rule's float32 arithmetic, one work-group per
 (candidate, camera) pair, each with its own bit mask in local memory (1 bit per pixel:
@@ -105,8 +105,9 @@ def default_lanes(device) -> int:
     return 16 if device.native_vector_width_float >= 16 else 8
 
 
-class _Lane:
-    """One device with its queue, program and per-frame buffers."""
+class _DeviceQueue:
+    """One device with its command queue, program and per-frame buffers; ``simd_lanes`` is
+    the kernel's vector width there (the evaluator's ``lanes``: vertices per vector)."""
 
     def __init__(self, device, ctx, local_size: int | None, lanes: int | None):
         cl = self.cl = pyopencl()
@@ -127,7 +128,7 @@ class _Lane:
         if lanes not in (4, 8, 16):
             raise ConfigError(f"lanes must be 4, 8 or 16 (or null: the CPU's vector width, 4 on "
                               f"other devices), got {lanes!r}")
-        self.device, self.ctx, self.local_size, self.lanes = device, ctx, int(local_size), lanes
+        self.device, self.ctx, self.local_size, self.simd_lanes = device, ctx, int(local_size), lanes
         self.queue = cl.CommandQueue(ctx, device)
         self.frame: dict = {}  # name -> pyopencl.Buffer
         self.batch: dict = {}  # name -> (bytes, pyopencl.Buffer)
@@ -148,7 +149,7 @@ class _Lane:
         """Take the kernels built for culling blocks of ``block`` vertices (once per process,
         context and options; see :func:`~mmocap.evaluators.opencl_layout.block_size`)."""
         if block != self.block:
-            built = program(self.ctx, build_options(self.local_size, self.lanes, block))
+            built = program(self.ctx, build_options(self.local_size, self.simd_lanes, block))
             self.kernel = self.cl.Kernel(built, "silhouette_counts")
             self.kinematics = self.cl.Kernel(built, "joint_transforms")
             self.block = block
@@ -218,18 +219,18 @@ class OpenCLEvaluator(SilhouetteEvaluator):
                  local_size: int | None = None, lanes: int | None = None,
                  accept_inexact: bool = False):
         super().__init__(patch_scale)
-        self._lanes = self._make_lanes(platform, device, local_size, lanes)
+        self._device_queues = self._make_device_queues(platform, device, local_size, lanes)
         self._body_uploaded = None
         self._chain: KinematicChain | None = None
-        self._weights = np.array([lane.device.max_compute_units for lane in self._lanes], float)
+        self._weights = np.array([queue.device.max_compute_units for queue in self._device_queues], float)
         self.check = self._self_check(bool(accept_inexact))
 
     @property
     def where(self) -> str:
         """'device (platform), local_size k, lanes m' for each distinct device configuration."""
         return "; ".join(dict.fromkeys(
-            f"{lane.device.name.strip()} ({lane.device.platform.name.strip()}), local_size "
-            f"{lane.local_size}, lanes {lane.lanes}" for lane in self._lanes))
+            f"{device_queue.device.name.strip()} ({device_queue.device.platform.name.strip()}), local_size "
+            f"{device_queue.local_size}, lanes {device_queue.simd_lanes}" for device_queue in self._device_queues))
 
     def _self_check(self, accept_inexact: bool) -> str:
         """Count :func:`check_scene` here and with NumPy (once per process and
@@ -264,21 +265,21 @@ class OpenCLEvaluator(SilhouetteEvaluator):
         provenance.record_device_check(self.where, outcome)
         return outcome
 
-    def _make_lanes(self, platform, device, local_size, lanes) -> list[_Lane]:
+    def _make_device_queues(self, platform, device, local_size, lanes) -> list[_DeviceQueue]:
         dev = select_device(platform, device)
         log.info("OpenCL evaluator on %s (%s)", dev.name.strip(), dev.platform.name)
-        return [_Lane(dev, context([dev]), local_size, lanes)]
+        return [_DeviceQueue(dev, context([dev]), local_size, lanes)]
 
     @property
     def owns_cores(self) -> bool:
         """True on CPU devices (PoCL's threads use every core)."""
         cpu = pyopencl().device_type.CPU
-        return any(lane.device.type & cpu for lane in self._lanes)
+        return any(device_queue.device.type & cpu for device_queue in self._device_queues)
 
     @property
     def devices(self) -> list:
         """The OpenCL devices the population is split over."""
-        return [lane.device for lane in self._lanes]
+        return [device_queue.device for device_queue in self._device_queues]
 
     def setup(self, body, cameras, foreground) -> None:
         """As the base class; masks of the foreground stage (``ForegroundMask``) bring their
@@ -288,31 +289,31 @@ class OpenCLEvaluator(SilhouetteEvaluator):
         super().setup(body, cameras, foreground)
 
     def _prepare(self) -> None:
-        # the body's arrays only when the body is another object than last frame's (about
-        # 30 ms for 27 393 vertices); a body is not modified in place
+        # the body's arrays only when the body is another object than last frame's (making and
+        # uploading them takes a while); a body is not modified in place
         if self._body_uploaded is not self.body:
             block = block_size(len(self.body.vertex_joint))
             vertices, start = vertex_arrays(self.body, self.patch_scale, block)
             cones = culling_cones(vertices, block)
             joints = joint_rows(self.body, self.patch_scale)
-            for lane in self._lanes:
-                lane.build(block)
-                lane.upload(vertices=interleaved(vertices, lane.lanes), start=start, cones=cones,
-                            joints=joints)
+            for device_queue in self._device_queues:
+                device_queue.build(block)
+                device_queue.upload(vertices=interleaved(vertices, device_queue.simd_lanes), start=start,
+                                    cones=cones, joints=joints)
             self._chain = device_chain(self.body)
             if self._chain is not None:
-                for lane in self._lanes:
-                    lane.upload(chain=self._chain.rows())
+                for device_queue in self._device_queues:
+                    device_queue.upload(chain=self._chain.rows())
             self._body_uploaded = self.body
         # per camera: a mask with a spare word (see the kernel's stamp), rounded up to a
         # multiple of 8 words; in local memory that mask or as many padded layers (see PAD)
         # as fit, at most MAX_LAYERS
         mask = max(pitch(cam.width) * cam.height + 1 for cam in self.cameras)
-        layer = max(layer_words(cam, lane.local_size)
-                    for cam in self.cameras for lane in self._lanes)
+        layer = max(layer_words(cam, device_queue.local_size)
+                    for cam in self.cameras for device_queue in self._device_queues)
         self._mask_words = (mask + 7) // 8 * 8
         # words of local memory for the masks
-        small = min(self._lanes, key=lambda lane: lane.local_bytes)
+        small = min(self._device_queues, key=lambda device_queue: device_queue.local_bytes)
         room = small.local_bytes // 4
         if mask > room:
             big = max(self.cameras, key=lambda cam: pitch(cam.width) * cam.height)
@@ -328,8 +329,8 @@ class OpenCLEvaluator(SilhouetteEvaluator):
         fg = np.concatenate([pack_bits(m, self._mask_words, p)
                              for m, p in zip(self.foreground, packed)])
         cameras = camera_rows(self.cameras)
-        for lane in self._lanes:
-            lane.upload(shapes=shapes, fg=fg, cameras=cameras)
+        for device_queue in self._device_queues:
+            device_queue.upload(shapes=shapes, fg=fg, cameras=cameras)
 
     def _counts(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         counts, _ = self._run(X, write_masks=False)
@@ -353,51 +354,51 @@ class OpenCLEvaluator(SilhouetteEvaluator):
             rows_in = rows_in.reshape(n, J * 12)
         counts = np.empty((n * C, 2), np.int32)
         masks = np.empty((n * C if write_masks else 1, self._mask_words), np.uint32)
-        if len(self._lanes) == 1:
+        if len(self._device_queues) == 1:
             edges = [0, n]
         else:
             shares = np.r_[0, np.cumsum(self._weights)] / self._weights.sum()
             edges = np.round(shares * n).astype(int)
         events = []
-        for lane, a, b in zip(self._lanes, edges[:-1], edges[1:]):
+        for device_queue, a, b in zip(self._device_queues, edges[:-1], edges[1:]):
             if a == b:
                 continue
             views = slice(a * C, b * C)
             nV = (b - a) * C
-            # a new buffer, filled as it is made: about 1 us, where an enqueued write into a
-            # kept one took 45 us (PoCL runs it as a command of its own)
-            given = cl.Buffer(lane.ctx, cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR,
+            # a new buffer, filled as it is made: far quicker than an enqueued write into a
+            # kept one, which PoCL runs as a command of its own
+            given = cl.Buffer(device_queue.ctx, cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR,
                               hostbuf=rows_in[a:b])
             if self._chain is not None:
-                rows = lane.buffer("transforms", (b - a) * J * 12 * 8)
-                lane.bind(lane.kinematics, None, lane.frame["chain"], np.int32(b - a),
-                          np.int32(J), rows)
-                lane.kinematics.set_arg(_POSES_ARG, given)
-                cl.enqueue_nd_range_kernel(lane.queue, lane.kinematics, (b - a,), (1,))
+                rows = device_queue.buffer("transforms", (b - a) * J * 12 * 8)
+                device_queue.bind(device_queue.kinematics, None, device_queue.frame["chain"], np.int32(b - a),
+                                  np.int32(J), rows)
+                device_queue.kinematics.set_arg(_POSES_ARG, given)
+                cl.enqueue_nd_range_kernel(device_queue.queue, device_queue.kinematics, (b - a,), (1,))
             else:
                 rows = given
-            out = lane.buffer("counts", counts[views].nbytes)
-            img = lane.buffer("masks", masks[views].nbytes if write_masks else 4)
-            f = lane.frame
-            lane.bind(lane.kernel, f["vertices"], f["start"], f["cones"], None, f["cameras"],
-                      f["joints"], f["shapes"], f["fg"],
-                      np.int32(C), np.int32(J), cl.LocalMemory(4 * self._local_words),
-                      np.int32(self._max_layers), out,
-                      np.int32(write_masks), np.int32(self._mask_words), img)
-            lane.kernel.set_arg(_TRANSFORMS_ARG, rows)
-            cl.enqueue_nd_range_kernel(lane.queue, lane.kernel, (nV * lane.local_size,),
-                                       (lane.local_size,))
-            copies = [cl.enqueue_copy(lane.queue, counts[views], out, is_blocking=False)]
+            out = device_queue.buffer("counts", counts[views].nbytes)
+            img = device_queue.buffer("masks", masks[views].nbytes if write_masks else 4)
+            f = device_queue.frame
+            device_queue.bind(device_queue.kernel, f["vertices"], f["start"], f["cones"], None, f["cameras"],
+                              f["joints"], f["shapes"], f["fg"],
+                              np.int32(C), np.int32(J), cl.LocalMemory(4 * self._local_words),
+                              np.int32(self._max_layers), out,
+                              np.int32(write_masks), np.int32(self._mask_words), img)
+            device_queue.kernel.set_arg(_TRANSFORMS_ARG, rows)
+            cl.enqueue_nd_range_kernel(device_queue.queue, device_queue.kernel, (nV * device_queue.local_size,),
+                                       (device_queue.local_size,))
+            copies = [cl.enqueue_copy(device_queue.queue, counts[views], out, is_blocking=False)]
             if write_masks:
-                copies.append(cl.enqueue_copy(lane.queue, masks[views], img, is_blocking=False))
+                copies.append(cl.enqueue_copy(device_queue.queue, masks[views], img, is_blocking=False))
             events.append(copies)
         for copies in events:  # one wait per device: a wait may not mix contexts (platforms)
             cl.wait_for_events(copies)
         return counts.reshape(n, C, 2), masks
 
     def close(self) -> None:
-        for lane in self._lanes:
-            lane.frame = {}
+        for device_queue in self._device_queues:
+            device_queue.frame = {}
         self._body_uploaded = None
         self._chain = None
         super().close()
@@ -429,7 +430,7 @@ class MultiDeviceEvaluator(OpenCLEvaluator):
         self._measured_body = None
         super().__init__(patch_scale, platform, devices, local_size, lanes, accept_inexact)
 
-    def _make_lanes(self, platform, devices, local_size, lanes) -> list[_Lane]:
+    def _make_device_queues(self, platform, devices, local_size, lanes) -> list[_DeviceQueue]:
         several = not isinstance(platform, (str, int, np.integer, type(None)))
         if several and devices is not None:
             raise ConfigError("multidevice: devices picks devices of one platform; with a list of "
@@ -452,10 +453,10 @@ class MultiDeviceEvaluator(OpenCLEvaluator):
         for d in chosen:
             by_platform.setdefault(d.platform.int_ptr, []).append(d)
         contexts = {key: context(group) for key, group in by_platform.items()}
-        return [_Lane(d, contexts[d.platform.int_ptr], local_size, lanes) for d in chosen]
+        return [_DeviceQueue(d, contexts[d.platform.int_ptr], local_size, lanes) for d in chosen]
 
     def _counts(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        if len(self._lanes) > 1 and self._measured_body is not self.body:
+        if len(self._device_queues) > 1 and self._measured_body is not self.body:
             self.measure(X)
             self._measured_body = self.body
         return super()._counts(X)
@@ -466,8 +467,8 @@ class MultiDeviceEvaluator(OpenCLEvaluator):
         repeated); sets and returns the shares of the population (summing to 1), logged."""
         X = np.resize(np.asarray(X, np.float64), (SPEED_CANDIDATES, X.shape[1]))
         seconds = []
-        for k in range(len(self._lanes)):
-            self._weights = np.eye(len(self._lanes))[k]
+        for k in range(len(self._device_queues)):
+            self._weights = np.eye(len(self._device_queues))[k]
             self._run(X, write_masks=False)  # warm-up: the kernel's first launch on this device
             best = np.inf
             for _ in range(SPEED_REPEATS):
@@ -478,8 +479,8 @@ class MultiDeviceEvaluator(OpenCLEvaluator):
         speed = 1.0 / np.maximum(seconds, 1e-9)
         self._weights = speed / speed.sum()
         log.info("multidevice shares by measured speed: %s", ", ".join(
-            f"{lane.device.name.strip()} ({lane.device.platform.name.strip()}) {share:.2f}"
-            for lane, share in zip(self._lanes, self._weights)))
+            f"{device_queue.device.name.strip()} ({device_queue.device.platform.name.strip()}) {share:.2f}"
+            for device_queue, share in zip(self._device_queues, self._weights)))
         return self._weights
 
 

@@ -155,7 +155,7 @@ def vertex_table(body, patch_scale: float) -> np.ndarray:
     ``v = v_skin - (body.patch_mm[j] * patch_scale / 2) n``: a patch centred on a skin
     vertex reaches half a side beyond the skin, so that the union of the patches would be
     the skin's silhouette dilated all round, and the fitness would prefer a body thinner
-    than the person (by about 10 % in girth at 13695 vertices)."""
+    than the person."""
     n = np.asarray(body.rest_normals, np.float64)
     inset = np.asarray(body.patch_mm, np.float64)[np.asarray(body.vertex_joint)] * (patch_scale / 2)
     v = np.asarray(body.rest_vertices, np.float64) - inset[:, None] * n

@@ -63,10 +63,9 @@ from mmocap.optimizers.base import PopulationOptimizer
 from mmocap.validate import check_number
 
 #: fewest particles in a layer: with fewer, resampling often draws one particle for every
-#: slot, their covariance (Eq. 6) is zero and the layer evaluates identical copies (the
-#: demo's first 10 frames: 43, 41, 36 and 9 % of the evaluations with 2, 3, 4 and 5 particles
-#: per layer, none from 6; the 39-D ellipsoid of the tests: 45, 41, 36, 11 and 10 % with 2-6,
-#: none from 8). More would refuse psapf on a hierarchical arm step at 1500 evaluations
+#: slot, their covariance (Eq. 6) is zero and the layer evaluates identical copies (on the
+#: demo, none from 6 particles on). More would refuse psapf on a hierarchical arm step at
+#: 1500 evaluations
 MIN_PARTICLES = 6
 
 

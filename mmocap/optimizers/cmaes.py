@@ -33,7 +33,7 @@ generation, but it moves by at most ``c_cov`` per generation, so its eigendecomp
 redone only when ``LAZY_EIGEN / (c_cov D)`` generations have passed since the last one (about
 every 4 generations at 39 DOF and lambda 14; every generation in small dimensions), the lazy
 update of pycma; in between, candidates are sampled from the last decomposed ``C``. At 39 DOF
-the decomposition was about 40 % of CMA-ES's own time per generation.
+the decomposition, done every generation, would be a large share of CMA-ES's own time.
 """
 from __future__ import annotations
 

@@ -23,7 +23,7 @@ from mmocap.body.skeleton import PARENT_INDEX
 from mmocap.outputs.overlays import comparison_overlay
 from mmocap.outputs.skeleton import plot_skeleton_strip, write_skeleton_animation
 from mmocap.run_folder import SKELETON_FILES, VIDEOS
-from mmocap.stages.evaluation import marker_error
+from mmocap.stages.accuracy import marker_error
 from mmocap.video import write_video
 
 

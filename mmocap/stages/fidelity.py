@@ -18,9 +18,9 @@ and fitness are always the exact fitness's. Two ways:
   settings changed (a larger ``popsize`` spreads the per-call costs, which dominate a cheap
   level, over more candidates); the exact search starts from the last level's pose.
 
-Measured on the demo sequence (``mmocap bench fidelity``): carrying on was about 2 mm
-better than restarting at the same evaluations. With no levels (the default) a frame is
-searched exactly, as without this stage.
+Carrying on is the default as it was the more accurate at the same evaluations on the demo
+sequence (``mmocap bench fidelity`` compares the two). With no levels (the default) a frame
+is searched exactly, as without this stage.
 
 A level's evaluations are counted in the frame's ``evaluations``; its fitness values are
 not comparable with the exact ones and stay out of the frame's convergence trace, which
@@ -203,7 +203,7 @@ class Fidelity:
         """One untimed evaluation of the start pose x0 (51,) at every level on frame 0 (C
         cameras, C (H_c, W_c) masks), as :meth:`~mmocap.evaluators.timed.TimedEvaluator.warm_up`
         does for the exact fitness: the levels' kernels (a program per culling block size) are
-        built before tracking, not in its first frame (230 ms of it, measured)."""
+        built before tracking, not in its first frame, whose time they would inflate."""
         if not self.levels:
             return
         self.setup(body, cameras, masks)

@@ -5,7 +5,7 @@ from pathlib import Path
 
 import pytest
 
-from mmocap.data.recording import write_recording
+from mmocap.data.recording.reader import write_recording
 from mmocap.data.sequence import Sequence
 
 from .conftest import assert_clean_error, mmocap

@@ -10,7 +10,7 @@ from mmocap.data.motion import ACTIONS, generate_motion
 from mmocap.data.sequence import Sequence
 from mmocap.data.synthetic import generate
 from mmocap.errors import ConfigError, DataError
-from mmocap.stages.evaluation import marker_error
+from mmocap.stages.accuracy import marker_error
 
 
 def test_layout_on_disk(tiny_sequence):

@@ -75,8 +75,8 @@ def test_platform_by_name_and_program_built_once_per_process():
     a, b = opencl.OpenCLEvaluator(platform=name), opencl.OpenCLEvaluator(platform=0)
     assert a.devices == b.devices
     for ev in (a, b):  # one of them counted the small self-check body, in smaller blocks
-        ev._lanes[0].build(opencl_layout.LARGEST_BLOCK)
-    assert a._lanes[0].kernel.program.int_ptr == b._lanes[0].kernel.program.int_ptr
+        ev._device_queues[0].build(opencl_layout.LARGEST_BLOCK)
+    assert a._device_queues[0].kernel.program.int_ptr == b._device_queues[0].kernel.program.int_ptr
 
 
 def test_each_process_gets_its_own_pocl_cache_dir():
@@ -90,9 +90,9 @@ def test_each_process_gets_its_own_pocl_cache_dir():
     assert not os.path.exists(child)  # removed when the child exits
 
 
-def counting_bind(bind, lane, served, kernel, *args):
-    """``lane.bind`` that counts the calls in which ``lane`` is given work."""
-    served[id(lane)] += 1
+def counting_bind(bind, device_queue, served, kernel, *args):
+    """``device_queue.bind`` that counts the calls in which ``device_queue`` is given work."""
+    served[id(device_queue)] += 1
     return bind(kernel, *args)
 
 
@@ -105,9 +105,9 @@ def test_multidevice_split_and_work_group_sizes_give_one_devices_counts(local_si
     for ev in (single, multi):
         ev.setup(BlobBody(), RIGS[rig], masks(rig, "true"))
     X = test_poses()
-    served = {id(lane): 0 for lane in multi._lanes}
-    for lane in multi._lanes:  # count the candidates each device is given
-        lane.bind = functools.partial(counting_bind, lane.bind, lane, served)
+    served = {id(device_queue): 0 for device_queue in multi._device_queues}
+    for device_queue in multi._device_queues:  # count the candidates each device is given
+        device_queue.bind = functools.partial(counting_bind, device_queue.bind, device_queue, served)
     for n in (1, 2, 3, len(X)):
         for got, expected in zip(multi.counts(X[:n]), single.counts(X[:n])):
             np.testing.assert_array_equal(got, expected)
@@ -180,7 +180,7 @@ def test_a_device_without_what_the_kernel_needs_is_a_config_error(missing, messa
             return 0 if name == missing else getattr(real, name)
 
     with pytest.raises(ConfigError, match=message):
-        opencl._Lane(Device(), opencl_devices.context([real]), None, None)
+        opencl._DeviceQueue(Device(), opencl_devices.context([real]), None, None)
 
 
 @pytest.mark.parametrize("kind, native, lanes", [("CPU", 16, 16), ("CPU", 8, 8), ("CPU", 4, 8),
@@ -191,7 +191,7 @@ def test_a_cpu_gets_one_vector_register_of_lanes_by_default(kind, native, lanes)
     device = SimpleNamespace(type=getattr(cl.device_type, kind), native_vector_width_float=native)
     assert opencl.default_lanes(device) == lanes
     real = opencl_devices.select_device(None, 0)  # and the evaluator takes it
-    assert opencl.OpenCLEvaluator()._lanes[0].lanes == opencl.default_lanes(real)
+    assert opencl.OpenCLEvaluator()._device_queues[0].simd_lanes == opencl.default_lanes(real)
 
 
 @pytest.mark.parametrize("max_layers", [1, 2, 4])
@@ -264,10 +264,10 @@ def test_a_body_with_a_kinematic_chain_gets_its_transforms_on_the_device_bit_for
         reference.setup(scene.body, scene.cameras, scene.foreground)
         for got, expected in zip(ev.counts(X), reference.counts(X)):
             np.testing.assert_array_equal(got, expected)
-    if len(ev._lanes) == 1:  # the transforms themselves, read back from the device
-        lane = ev._lanes[0]
+    if len(ev._device_queues) == 1:  # the transforms themselves, read back from the device
+        device_queue = ev._device_queues[0]
         device = np.empty((len(X), 16, 12))
-        cl.enqueue_copy(lane.queue, device, lane.batch["transforms"][1], is_blocking=True)
+        cl.enqueue_copy(device_queue.queue, device, device_queue.batch["transforms"][1], is_blocking=True)
         host = scene.body.transforms(X)[:, :, :3].reshape(len(X), 16, 12)
         np.testing.assert_array_equal(device, host)
     ev.close()
@@ -309,7 +309,7 @@ def test_an_inexact_device_runs_only_within_the_tolerance_and_when_asked():
 def test_a_mask_larger_than_local_memory_says_what_to_change(monkeypatch):
     from mmocap.camera import Camera
     ev = opencl.OpenCLEvaluator()
-    monkeypatch.setattr(ev._lanes[0], "local_bytes", 32768)  # a GPU's 32 KB
+    monkeypatch.setattr(ev._device_queues[0], "local_bytes", 32768)  # a GPU's 32 KB
     hd = Camera.look_at("hd", (0, 500, 3000), (0, 400, 0), 1500.0, 1920, 1080)
     with pytest.raises(ConfigError, match=r"a 1920x1080 px mask needs 276484 bytes of OpenCL local memory; "
                                           r".* has 32768: use smaller masks, a device with more local "
@@ -328,7 +328,7 @@ def test_a_work_group_larger_than_the_kernel_allows_is_a_config_error(monkeypatc
 
     monkeypatch.setattr(cl, "Kernel", Kernel)
     with pytest.raises(ConfigError, match="local_size=32 is more than the kernel can run on .*at most 16"):
-        opencl._Lane(real, opencl_devices.context([real]), 32, None)
+        opencl._DeviceQueue(real, opencl_devices.context([real]), 32, None)
 
 
 def test_mmocap_list_shows_each_devices_self_check():

@@ -151,7 +151,7 @@ def test_full_hd_masks_on_32_kb_of_local_memory_say_what_to_change(folder):
             "from mmocap.testing.evaluators import BlobBody\n"
             "hd = Camera.look_at('hd', (0, 500, 3000), (0, 400, 0), 1500.0, 1920, 1080)\n"
             "ev = OpenCLEvaluator(platform='oclgrind')\n"
-            "print(ev._lanes[0].device.local_mem_size)\n"
+            "print(ev._device_queues[0].device.local_mem_size)\n"
             "ev.setup(BlobBody(), [hd], [np.zeros((1080, 1920), bool)])\n")
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                           env=child_env("oclgrind", folder), timeout=300)

@@ -9,7 +9,7 @@ A change that moves them on purpose regenerates the files with ``make golden``
 (``MMOCAP_REGEN_GOLDEN=1 pytest tests/golden``); the diff of ``tests/golden/data/`` then
 shows what moved. Tracked poses are not golden: CMA-ES's eigendecompositions make them
 differ from one BLAS kernel to another after the first frames (see
-``tests/e2e/test_pipeline.py``, which checks them statistically).
+``tests/test_pipeline.py``, which checks them statistically).
 """
 import json
 import os

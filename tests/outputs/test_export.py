@@ -26,7 +26,7 @@ from mmocap.io import WriteError
 from mmocap.outputs import export
 from mmocap.outputs.export import FORMATS, export_motion, export_run, read_poses, write_c3d, write_trc
 from mmocap.preflight import check_config
-from mmocap.stages.evaluation import FrameLog
+from mmocap.stages.accuracy import FrameLog
 from tests.bad_input.conftest import Outcome, assert_clean_error
 from tests.conftest import run_cli
 

@@ -1,4 +1,4 @@
-"""Stage "evaluation": tracking accuracy against ground-truth markers, written to disk.
+"""Stage "accuracy": tracking accuracy against ground-truth markers, written to disk.
 
 The error of a frame is Eq. 20 of the Yeguas paper: the mean Euclidean distance in mm
 between the estimated and true marker positions, over the markers present (NaN = missing);

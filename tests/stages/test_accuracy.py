@@ -1,11 +1,11 @@
-"""Stage "evaluation": the marker error, and the per-frame table written as a run goes."""
+"""Stage "accuracy": the marker error, and the per-frame table written as a run goes."""
 import numpy as np
 import pandas as pd
 import pytest
 
 from mmocap.body.skeleton import parameter_names
 from mmocap.io import WriteError
-from mmocap.stages.evaluation import FrameLog, marker_error
+from mmocap.stages.accuracy import FrameLog, marker_error
 
 
 def test_marker_error_is_the_mean_distance_over_the_markers_present():

@@ -1,4 +1,4 @@
-"""mmocap.data.recording: a sequence written as a user's recording reads back as the same
+"""mmocap.data.recording.reader: a sequence written as a user's recording reads back as the same
 cameras, frames and ground truth; every way a recording can be wrong is one clear error."""
 import shutil
 from pathlib import Path
@@ -7,7 +7,7 @@ import cv2
 import numpy as np
 import pytest
 
-from mmocap.data.recording import UP_AXES, RecordingDataset, turned, write_recording
+from mmocap.data.recording.reader import UP_AXES, RecordingDataset, turned, write_recording
 from mmocap.data.sequence import Sequence
 from mmocap.errors import ConfigError, DataError
 

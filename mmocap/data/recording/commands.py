@@ -1,4 +1,4 @@
-"""Commands for users' recordings (layout: :mod:`mmocap.data.recording`).
+"""Commands for users' recordings (layout: :mod:`mmocap.data.recording.reader`).
 
 ``mmocap check-recording DIR [overrides]`` opens the recording as a tracking run would
 (``dataset=recording dataset.root=DIR`` plus Hydra ``overrides`` such as
@@ -34,7 +34,7 @@ from hydra.errors import ConfigCompositionException
 from hydra.utils import instantiate
 
 from mmocap import config
-from mmocap.data.recording import write_recording
+from mmocap.data.recording.reader import write_recording
 from mmocap.data.sequence import Sequence
 from mmocap.errors import ConfigError, MmocapWarning
 from mmocap.stages.foreground import Foreground

@@ -1,0 +1,49 @@
+"""The ``.mat`` marker files as HumanEva-I's, markers between mocap frames, and the marker map."""
+import numpy as np
+import pytest
+import scipy.io
+
+from mmocap.body.model import MARKER_NAMES
+from mmocap.data.humaneva.mocap import read_mocap, sample_mocap, write_mocap
+from mmocap.data.sequence import Sequence
+from mmocap.errors import DataError
+from tests.data.humaneva import FIRST, FRAMES, LEAD, LEAD_IN, open_he
+
+
+def test_markers_at_fractional_mocap_indices_are_interpolated():
+    """Between neighbours; NaN where one is missing or outside the recording."""
+    mocap = np.arange(5, dtype=float)[:, None, None] * np.ones((1, 2, 3))
+    mocap[3, 1] = np.nan
+    out = sample_mocap(mocap, [1.0, 2.5, 4.0, 5.0, 5.5, 0.5])
+    np.testing.assert_allclose(out[:4, 0, 0], [0.0, 1.5, 3.0, 4.0])
+    assert np.isnan(out[2, 1]).all() and not np.isnan(out[1, 1]).any()   # row 3 is missing
+    assert np.isnan(out[4:]).all()                                          # outside the recording
+
+
+def test_mocap_file_has_the_real_structure(synthetic, exported):
+    mat = scipy.io.loadmat(str(exported / "S1/Mocap_Data/Walking_1.mat"))
+    groups = mat["ParameterGroup"]
+    point = groups[0, [str(g[0, 0][0]) for g in groups[0]["name"]].index("POINT")]
+    params = point["Parameter"]
+    names = [str(p[0, 0][0]) for p in params[0]["name"]]
+    labels = [str(x[0]) for x in params[0, names.index("LABELS")]["data"][0]]
+    rate = float(np.squeeze(params[0, names.index("RATE")]["data"]))
+    assert {"LFHD", "C7", "LSHO", "RANK"} <= set(labels) and rate == 120.0
+    # 120 Hz: the lead, stored as zeros (missing), the first frame held over the lead-in
+    # images, then (frames - 1) * 2 + 1 samples
+    assert mat["Markers"].shape == (FIRST + 2 * (FRAMES - 1) + 1, len(labels), 3)
+    assert np.all(mat["Markers"][:LEAD] == 0)
+    held = mat["Markers"][LEAD:FIRST + 1]
+    np.testing.assert_array_equal(held, np.repeat(mat["Markers"][FIRST:FIRST + 1], 2 * LEAD_IN + 1, axis=0))
+    truth = Sequence.open(synthetic).markers()
+    ankle = labels.index("RANK")
+    np.testing.assert_allclose(mat["Markers"][FIRST + 1, ankle], truth[:2, MARKER_NAMES.index("r_ankle")].mean(0))
+
+
+def test_mocap_without_a_mapped_label(damaged):
+    path = damaged / "S1/Mocap_Data/Walking_1.mat"
+    labels, markers = read_mocap(path)
+    labels[labels.index("LELB")] = "LELX"
+    write_mocap(path, labels, markers)
+    with pytest.raises(DataError, match=r"Walking_1.mat has no marker labelled LELB \(mapped to 'l_elbow'"):
+        open_he(damaged)
