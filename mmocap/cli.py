@@ -35,7 +35,7 @@ from mmocap.io import check_writable_folder, describe_os_error  # noqa: E402
 from mmocap.sweep import SweepProgress  # noqa: E402
 
 
-def _user_error(exc: BaseException) -> MmocapError | None:
+def _user_error(exc: BaseException | None) -> MmocapError | None:
     """The MmocapError behind ``exc`` (Hydra wraps errors raised while instantiating); a
     file-system fault (an OSError naming its path) becomes a DataError saying what is wrong."""
     while exc is not None:

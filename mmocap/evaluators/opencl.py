@@ -270,7 +270,7 @@ class OpenCLEvaluator(SilhouetteEvaluator):
         return [_Lane(dev, context([dev]), local_size, lanes)]
 
     @property
-    def owns_cores(self) -> bool:
+    def owns_cores(self) -> bool:  # type: ignore[override]  # read-only, as Evaluator's
         """True on CPU devices (PoCL's threads use every core)."""
         cpu = pyopencl().device_type.CPU
         return any(lane.device.type & cpu for lane in self._lanes)
