@@ -255,13 +255,13 @@ def exact_part(text: str, option: str) -> tuple[int, int | None]:
     naming ``option`` otherwise."""
     evaluations, _, popsize = text.partition(":")
     try:
-        evaluations, popsize = int(evaluations), int(popsize) if popsize else None
+        evaluations, popsize = int(evaluations), int(popsize) if popsize else None  # type: ignore[assignment]  # parsed
     except ValueError:
         raise ConfigError(f"{option} must be EVALUATIONS[:POPSIZE], e.g. 1500 or 1500:28, got {text!r}") from None
     check_number(option, evaluations, START_EVALUATIONS + 1, MAX_EVALUATIONS, integer=True)
     if popsize is not None:
         check_number(f"{option}'s popsize", popsize, 2, 10_000, integer=True)
-    return evaluations, popsize
+    return evaluations, popsize  # type: ignore[return-value]  # parsed above
 
 
 def parse_exact(text: str) -> list[Search]:
@@ -445,7 +445,7 @@ def main(argv: list[str], prog: str) -> None:
         elif "naive" in evaluators:  # for the extrapolated naive frame times
             t2 = table2({"naive": evaluators["naive"]}, scenes, args.population, args.repeats)
         if "naive" in evaluators:
-            naive = t2[t2.backend == "naive"]
+            naive = t2[t2.backend == "naive"]  # type: ignore[index,union-attr]  # timed just above
             naive_us = dict(zip(naive.vertices, naive.us_per_model_view))
         if args.table in ("table1", "all"):
             t1 = table1(evaluators, scenes, budgets, args.frames, naive_us, args.seconds)

@@ -188,7 +188,7 @@ def _run(cfg: DictConfig, output_dir: Path, warning_messages: list[str]) -> dict
     foreground_seconds = sum(r.foreground_seconds for r in results)
     export_motion(output_dir / EXPORT_FOLDER, cfg.export, body, read_poses(output_dir / "frames.csv"), sequence.fps)
 
-    errors = np.asarray(errors)
+    errors = np.asarray(errors)  # type: ignore[assignment]  # the list as an array from here on
     scored = errors[~np.isnan(errors)]  # frames with ground truth; the statistics are over them, null if none
     summary = {
         "mean_marker_error_mm": float(np.mean(scored)) if scored.size else None,
@@ -223,7 +223,7 @@ def _run(cfg: DictConfig, output_dir: Path, warning_messages: list[str]) -> dict
         "warnings": warning_messages,
     }
     if scored.size:
-        plot_error_per_frame(errors, output_dir / "error_per_frame.png",
+        plot_error_per_frame(errors, output_dir / "error_per_frame.png",  # type: ignore[arg-type]  # the array above
                              f"{summary['subject']} {sequence.meta.get('action')}: {cfg.optimizer.name} "
                              f"{strategy.name}, {body.dof} DOF, {cfg.tracking.evaluations} evaluations/frame")
     write_overlays(output_dir / "overlays", sequence, foreground, evaluator, body, results, truth,

@@ -140,7 +140,7 @@ def is_colour(camera: str) -> bool:
 
 def default_marker_map() -> dict[str, list[str]]:
     """The marker map of ``conf/dataset/humaneva.yaml``."""
-    return OmegaConf.to_container(config.load("dataset/humaneva.yaml").marker_map)
+    return OmegaConf.to_container(config.load("dataset/humaneva.yaml").marker_map)  # type: ignore[return-value]  # a mapping of lists
 
 
 # --- synchronisation ----------------------------------------------------------------------
@@ -230,7 +230,7 @@ class FrameSource:
             _check_numbering(self.files, camera)
             self.count = len(self.files)
         else:
-            self.files = None
+            self.files = None  # type: ignore[assignment]  # a video: no files
             capture = cv2.VideoCapture(str(self.path))
             self.count = int(capture.get(cv2.CAP_PROP_FRAME_COUNT))
             opened = capture.isOpened()
@@ -310,7 +310,7 @@ def write_video(path: Path, images, fps: float) -> None:
         if image.ndim == 2:
             image = cv2.cvtColor(image, cv2.COLOR_GRAY2BGR)
         if writer is None:
-            writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"FFV1"), fps,
+            writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"FFV1"), fps,  # type: ignore[attr-defined]
                                      (image.shape[1], image.shape[0]), True)
             if not writer.isOpened():
                 raise DataError(f"cannot write video {path}")
@@ -392,7 +392,7 @@ def write_mocap(path: Path, labels, markers: np.ndarray, rate_hz: float = MOCAP_
              {"name": _cell(["RATE"]), "data": float(rate_hz)},
              {"name": _cell(["UNITS"]), "data": _cell(["mm"])},
              {"name": _cell(["USED"]), "data": float(len(labels))}]
-    groups = _struct_array([{"name": _cell(["POINT"]), "Parameter": _struct_array(point)}])
+    groups = _struct_array([{"name": _cell(["POINT"]), "Parameter": _struct_array(point)}])  # type: ignore[arg-type]
     scipy.io.savemat(str(path), {"Markers": np.nan_to_num(markers, nan=0.0), "ParameterGroup": groups})
 
 
@@ -614,8 +614,8 @@ class HumanEvaDataset:
             source = open_frames(folder / "Image_Data", f"{self.stem}_({name})", name)
             sources.append(source)
             syncs.append(SyncOffsets.load(folder / "Sync_Data" / f"{self.stem}_({name}).ofs"))
-            cams.append(Camera.load_cal(folder / "Calibration_Data" / f"{name}.cal", source.width,
-                                        source.height, source.colour))
+            cams.append(Camera.load_cal(folder / "Calibration_Data" / f"{name}.cal", source.width,  # type: ignore[arg-type]
+                                        source.height, source.colour))  # type: ignore[arg-type]
         for name, source, sync in zip(self.cameras, sources, syncs):
             if sync.image_start > source.count:
                 raise DataError(f"sync file {folder / 'Sync_Data' / f'{self.stem}_({name}).ofs'} starts at "
@@ -722,7 +722,7 @@ class HumanEvaDataset:
         pattern = re.compile(rf"Background_(\d+)_\({camera}\)(\.avi)?$", re.IGNORECASE)
         found = {p: pattern.match(p.name) for p in folder.glob("Background_*")} if folder.is_dir() else {}
         paths = sorted((p for p, m in found.items() if m and (m.group(2) or p.is_dir())),
-                       key=lambda p: int(found[p].group(1)))
+                       key=lambda p: int(found[p].group(1)))  # type: ignore[union-attr]  # matched
         if not paths:
             raise DataError(f"camera {camera}: no background video {folder / f'Background_<k>_({camera}).avi'}")
         sources = [FrameSource(p, camera, is_colour(camera)) for p in paths]
