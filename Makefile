@@ -10,7 +10,7 @@ PLUGINS       := plugins/mmocap-pycma plugins/template-optimizer plugins/templat
 PLUGIN_FILES  := $(shell find $(PLUGINS) -name '*.py' -o -name '*.toml' -o -name '*.yaml')
 
 .DEFAULT_GOAL := help
-.PHONY: help install demo foreground optimizers test test-all test-wheel lint docs golden clean bench table1 table2 autostart
+.PHONY: help install demo foreground optimizers test test-all test-wheel lint typecheck docs golden clean bench table1 table2 autostart
 .PHONY: tables table4 table5 table6 table7 fig7 fig10 cano_table3 fig4 fig5
 
 help: ## Show this help
@@ -119,11 +119,14 @@ test-wheel: $(STAMP) ## Build the wheels of mmocap and plugins/*, install them i
 golden: $(STAMP) ## Rewrite the golden results of tests/golden/data/ (after a change that moves them on purpose; review the diff)
 	MMOCAP_REGEN_GOLDEN=1 $(PY) -m pytest -q tests/golden
 
-lint: $(STAMP) ## ruff, with the rules of pyproject.toml
+lint: $(STAMP) typecheck ## ruff and mypy, with the settings of pyproject.toml
 	$(VENV)/bin/ruff check mmocap tests plugins
 
 docs: $(STAMP) ## Build the documentation site (docs/ and the API reference) into site/, warnings as errors
 	$(VENV)/bin/mkdocs build --strict --quiet
+
+typecheck: $(STAMP) ## mypy over mmocap/, strict on api, registry, the optimisers and tests/test_api_types.py
+	$(VENV)/bin/mypy
 
 clean: ## Remove generated outputs (keeps .venv)
 	rm -rf outputs/* site

@@ -5,8 +5,9 @@ Optimisers and evaluators are found through the entry-point groups
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Protocol, Self, runtime_checkable
+from typing import Any, Protocol, Self, runtime_checkable
 
 import numpy as np
 
@@ -18,7 +19,7 @@ class SearchSpace:
     Attributes:
         x0: (D,) start point, usually the previous frame's estimate.
         lower, upper: (D,) bounds, lower < upper element-wise.
-        sigma0: (D,) search radius per coordinate in its own units (rad, mm): the unit
+        radius: (D,) search radius per coordinate in its own units (rad, mm): the unit
             of the optimisers' normalised coordinates and the scale of their first step.
         budget: maximum number of fitness evaluations for this search.
         partitions: optional groups of coordinate indices (each an int array into the D
@@ -31,7 +32,7 @@ class SearchSpace:
     x0: np.ndarray
     lower: np.ndarray
     upper: np.ndarray
-    sigma0: np.ndarray
+    radius: np.ndarray
     budget: int
     partitions: tuple[np.ndarray, ...] | None = None
 
@@ -48,7 +49,7 @@ class Result:
     fbest: float
     evaluations: int
     iterations: int
-    stop_reasons: dict = field(default_factory=dict)
+    stop_reasons: dict[str, float] = field(default_factory=dict)
 
 
 @runtime_checkable
@@ -67,7 +68,7 @@ class Optimizer(Protocol):
 
     def tell(self, X: np.ndarray, f: np.ndarray) -> None: ...
 
-    def stop(self) -> dict: ...
+    def stop(self) -> dict[str, float]: ...
 
     @property
     def result(self) -> Result: ...
@@ -104,11 +105,16 @@ class Evaluator(Protocol):
             cannot run inside a launcher's daemon workers; the sweep checks this).
     """
 
-    name: str
-    owns_cores: bool
-    starts_processes: bool
+    @property
+    def name(self) -> str: ...
 
-    def setup(self, body, cameras, foreground) -> None:
+    @property
+    def owns_cores(self) -> bool: ...
+
+    @property
+    def starts_processes(self) -> bool: ...
+
+    def setup(self, body: Any, cameras: Sequence[Any], foreground: Sequence[np.ndarray]) -> None:
         """Upload one frame: the body, C cameras and their C foreground masks."""
 
     def __call__(self, X: np.ndarray) -> np.ndarray:
@@ -127,5 +133,5 @@ class Evaluator(Protocol):
 
     def __enter__(self) -> Self: ...
 
-    def __exit__(self, *exc) -> None:
+    def __exit__(self, *exc: object) -> None:
         """Close."""

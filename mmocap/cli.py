@@ -1,10 +1,11 @@
 """The command line, ``mmocap <subcommand> [arguments]``: the top layer of mmocap.
 
 ``mmocap [hydra overrides]`` (or ``mmocap track ...``) tracks a sequence; ``mmocap --help``
-lists the subcommands. This is the one place that turns errors into exit codes: an error the
-user can fix (:class:`mmocap.errors.MmocapError`, also when Hydra wraps it, or a file-system
-fault: an ``OSError`` naming its path) prints one line naming the culprit and exits with
-status 2, without a traceback; warnings print as one ``mmocap: warning: ...`` line each.
+lists the subcommands and ``mmocap --version`` prints the installed version (the package
+metadata's). This is the one place that turns errors into exit codes: an error the user can
+fix (:class:`mmocap.errors.MmocapError`, also when Hydra wraps it, or a file-system fault: an
+``OSError`` naming its path) prints one line naming the culprit and exits with status 2,
+without a traceback; warnings print as one ``mmocap: warning: ...`` line each.
 """
 from __future__ import annotations
 
@@ -18,6 +19,7 @@ import contextlib  # noqa: E402
 import importlib  # noqa: E402
 import sys  # noqa: E402
 import warnings  # noqa: E402
+from importlib.metadata import version  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import hydra  # noqa: E402
@@ -33,7 +35,7 @@ from mmocap.io import check_writable_folder, describe_os_error  # noqa: E402
 from mmocap.sweep import SweepProgress  # noqa: E402
 
 
-def _user_error(exc: BaseException) -> MmocapError | None:
+def _user_error(exc: BaseException | None) -> MmocapError | None:
     """The MmocapError behind ``exc`` (Hydra wraps errors raised while instantiating); a
     file-system fault (an OSError naming its path) becomes a DataError saying what is wrong."""
     while exc is not None:
@@ -181,7 +183,7 @@ def usage() -> str:
              "overrides of a tracking run; `mmocap track --help` shows its config, `--hydra-help` Hydra's.",
              "", "subcommands:"]
     lines += [f"  {name:<{width}}  {text}" for name, (_, text) in SUBCOMMANDS.items()]
-    lines += ["", "`mmocap SUBCOMMAND --help` describes one."]
+    lines += ["", "`mmocap SUBCOMMAND --help` describes one; `mmocap --version` prints the version."]
     return "\n".join(lines)
 
 
@@ -287,6 +289,9 @@ def main(argv: list[str] | None = None) -> None:
     args = sys.argv[1:] if argv is None else list(argv)
     if args and args[0] in ("-h", "--help"):
         print(usage())
+        return
+    if args and args[0] == "--version":
+        print(f"mmocap {version('mmocap')}")
         return
     name = args.pop(0) if args and args[0] in SUBCOMMANDS else "track"
     command, _ = SUBCOMMANDS[name]

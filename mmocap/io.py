@@ -47,7 +47,7 @@ log = logging.getLogger(__name__)
 #: free space under which a write that failed without saying why is put down to a full disk
 NEARLY_FULL_BYTES = 1 << 20
 #: errno -> (what is wrong, how to fix it)
-_FAULTS = {
+_FAULTS: dict[int | None, tuple[str, str]] = {
     errno.ENOSPC: ("the disk is full", "free some space on it or write somewhere else"),
     errno.EDQUOT: ("your disk quota is used up", "free some space or write somewhere else"),
     errno.EROFS: ("the file system is read-only", "write to a writable folder instead"),

@@ -8,22 +8,28 @@ A registered class may say that it cannot run here with a classmethod
 ``unavailable() -> str | None`` (a missing library or device, and what to install; None
 when it can run): ``mmocap list`` shows the reason, and building it is a ConfigError that
 gives it. A class without that method is taken to be available.
+
+What is built is typed as the Protocol of its kind (:class:`mmocap.api.Optimizer`,
+:class:`mmocap.api.Evaluator`): a plugin is not checked against it statically, the
+built-in components are (``tests/test_api_types.py``).
 """
 from __future__ import annotations
 
-from importlib.metadata import entry_points
+from importlib.metadata import EntryPoint, entry_points
+from typing import Any, cast
 
+from mmocap.api import Evaluator, Optimizer
 from mmocap.errors import ConfigError
 
 GROUPS = {"optimizer": "mmocap.optimizers", "evaluator": "mmocap.evaluators"}
 
 
-def available(kind: str) -> dict:
+def available(kind: str) -> dict[str, EntryPoint]:
     """Installed entry points of one kind (``optimizer`` or ``evaluator``), by name."""
     return {ep.name: ep for ep in entry_points(group=GROUPS[kind])}
 
 
-def load(kind: str, name: str):
+def load(kind: str, name: str) -> Any:
     """The class registered as ``name``; a ConfigError lists what is installed."""
     eps = available(kind)
     if name not in eps:
@@ -47,7 +53,7 @@ def unavailable(kind: str, name: str) -> str | None:
     return check() if check is not None else None
 
 
-def _build(kind: str, name: str, params: dict):
+def _build(kind: str, name: str, params: dict[str, Any]) -> object:
     cls = load(kind, name)
     check = getattr(cls, "unavailable", None)
     reason = check() if check is not None else None
@@ -59,14 +65,14 @@ def _build(kind: str, name: str, params: dict):
         raise ConfigError(f"{kind} '{name}': bad parameters {sorted(params)}: {exc}") from None
 
 
-def make_optimizer(name: str, **params):
+def make_optimizer(name: str, **params: Any) -> Optimizer:
     """Build the optimiser registered as ``name`` with its config parameters."""
-    return _build("optimizer", name, params)
+    return cast(Optimizer, _build("optimizer", name, params))
 
 
-def make_evaluator(name: str, **params):
+def make_evaluator(name: str, **params: Any) -> Evaluator:
     """Build the evaluator registered as ``name`` with its config parameters."""
-    return _build("evaluator", name, params)
+    return cast(Evaluator, _build("evaluator", name, params))
 
 
 def describe() -> str:

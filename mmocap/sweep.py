@@ -123,7 +123,7 @@ class SweepProgress(Callback):
         if HydraConfig.get().mode != RunMode.MULTIRUN:
             return
         run_id = run_key(config)
-        stores = [store_folder(config, HydraConfig.get().sweep.dir), *config.results.reuse]
+        stores = [store_folder(config, HydraConfig.get().sweep.dir), *config.results.reuse]  # type: ignore[arg-type]  # a str folder
         self.found = any(ResultsStore(folder).path(run_id).is_file() for folder in stores)
 
     def on_job_end(self, config: DictConfig, job_return: JobReturn, **kwargs) -> None:

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 import numbers
+from typing import Any, Literal, overload
 
 import numpy as np
 
@@ -25,8 +26,14 @@ def is_integer(value) -> bool:
     return isinstance(value, numbers.Integral) and not isinstance(value, (bool, np.bool_))
 
 
-def check_number(key: str, value, low: float = -math.inf, high: float = math.inf, *,
-                 low_open: bool = False, high_open: bool = False, integer: bool = False):
+@overload
+def check_number(key: str, value: Any, low: float = ..., high: float = ..., *,
+                 low_open: bool = ..., high_open: bool = ..., integer: Literal[False] = ...) -> float: ...
+@overload
+def check_number(key: str, value: Any, low: float = ..., high: float = ..., *,
+                 low_open: bool = ..., high_open: bool = ..., integer: Literal[True]) -> int: ...
+def check_number(key: str, value: Any, low: float = -math.inf, high: float = math.inf, *,
+                 low_open: bool = False, high_open: bool = False, integer: bool = False) -> float:
     """``value`` as float (int with ``integer``) if it is a finite number in the interval
     from ``low`` to ``high`` (ends excluded with ``low_open`` / ``high_open``), else a
     ConfigError naming ``key``."""
@@ -42,7 +49,7 @@ def check_number(key: str, value, low: float = -math.inf, high: float = math.inf
     return int(value) if integer else float(value)
 
 
-def check_flag(key: str, value) -> bool:
+def check_flag(key: str, value: Any) -> bool:
     """``value`` as a bool if it is one, else a ConfigError naming ``key``."""
     if not isinstance(value, (bool, np.bool_)):
         raise ConfigError(f"{key} must be true or false, got {value!r}")

@@ -81,7 +81,7 @@ class VideoReader:
 
     def __init__(self, path: str | Path):
         self.path = Path(path)
-        self._capture = None
+        self._capture: cv2.VideoCapture | None = None
         self._next = 0  # index of the frame the next decode returns
 
     def read(self, index: int) -> np.ndarray:
@@ -96,7 +96,7 @@ class VideoReader:
         if not ok:
             raise DataError(f"video {self.path} ends before frame {index} (0-based): it has {self._next} frames")
         self._next += 1
-        return frame
+        return frame  # type: ignore[return-value]  # ok: a frame
 
     def close(self) -> None:
         if self._capture is not None:

@@ -3,6 +3,7 @@ import json
 import shutil
 import subprocess
 import sys
+from importlib.metadata import version
 
 import cv2
 import numpy as np
@@ -36,6 +37,12 @@ def data_root(tiny_sequence, tmp_path):
     root = tmp_path / "data"
     shutil.copytree(tiny_sequence, root / "S1_walking")
     return root
+
+
+def test_version_is_the_installed_distribution_s(tmp_path):
+    out = mmocap("--version", cwd=tmp_path)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout == f"mmocap {version('mmocap')}\n"
 
 
 def test_list_shows_builtin_plugins(tmp_path):

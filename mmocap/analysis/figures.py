@@ -186,7 +186,7 @@ def legend_below(fig: Figure, handles, labels, fontsize: float = 8) -> Legend:
     """A legend for the whole figure, below its axes (so that it hides none of their data), in
     as many columns as its width holds; the figure is widened to hold the widest entry and made
     taller by the legend's height, so that the axes keep theirs (constrained layout)."""
-    renderer = fig.canvas.get_renderer()
+    renderer = fig.canvas.get_renderer()  # type: ignore[attr-defined]  # Agg canvas
     one_column = fig.legend(handles, labels, loc="outside lower center", fontsize=fontsize, ncols=1)
     column_px = one_column.get_window_extent(renderer).width
     one_column.remove()

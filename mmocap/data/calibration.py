@@ -352,8 +352,8 @@ def _read_storages(roots: list, paths: list[Path], single_name: str | None, form
         for root in roots:
             for key in root.keys():
                 node = root.getNode(key)
-                if node.isMap() and not _is_matrix(node) and _holds_camera(lambda k, n=node: _child_value(n, k)):
-                    cameras.append(_camera(source, key, _MapKeys(lambda k, n=node: _child_value(n, k), key)))
+                if node.isMap() and not _is_matrix(node) and _holds_camera(lambda k, n=node: _child_value(n, k)):  # type: ignore[misc]  # a lambda's default
+                    cameras.append(_camera(source, key, _MapKeys(lambda k, n=node: _child_value(n, k), key)))  # type: ignore[misc]
     return _Parsed(cameras, stated, format_name,
                    "looked for a sequence 'names', a camera matrix (K, camera_matrix, ...) at the top level, "
                    "and maps holding camera keys")

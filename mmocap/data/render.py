@@ -96,7 +96,7 @@ def make_background(camera: Camera, rng: np.random.Generator) -> np.ndarray:
         cv2.polylines(img, [pts.astype(np.int32)], False, colour(), int(rng.integers(1, 4)),
                       cv2.LINE_AA)
 
-    texture = cv2.resize(rng.normal(0, 5, (h // 4 + 1, w // 4 + 1, 3)).astype(np.float32),
+    texture: np.ndarray = cv2.resize(rng.normal(0, 5, (h // 4 + 1, w // 4 + 1, 3)).astype(np.float32),
                          (w, h), interpolation=cv2.INTER_LINEAR)
     texture += rng.standard_normal((h, w, 3), dtype=np.float32) * 3
     texture += img
@@ -122,7 +122,7 @@ def _sensor_image(image: np.ndarray, camera: Camera, rng: np.random.Generator,
                   noise_sigma: float, gain: float = 1.0, shot_noise: float = 0.0) -> np.ndarray:
     """BGR (H, W, 3) scene -> what the camera records: the scene times the light's ``gain``,
     greyscale if needed, then noise (see :func:`_add_noise`), uint8."""
-    scene = np.asarray(image, dtype=np.float32)
+    scene: np.ndarray = np.asarray(image, dtype=np.float32)
     if gain != 1.0:
         scene = scene * np.float32(gain)
     if not camera.colour:
@@ -177,7 +177,7 @@ def floor_shadow(camera: Camera, vertices_mm: np.ndarray, faces: np.ndarray, lig
     vertices = np.asarray(vertices_mm, dtype=np.float64)
     height = np.maximum(vertices[:, 1:2], 0.0)
     hw, hh = (w + 1) // 2, (h + 1) // 2
-    cover = np.zeros(hh * hw, np.float32)
+    cover: np.ndarray = np.zeros(hh * hw, np.float32)
     dirs = light_directions(light_dir, light_radius, samples)
     for d in dirs:
         if d[1] >= 0:

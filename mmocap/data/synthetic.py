@@ -15,6 +15,7 @@ import json
 import logging
 import shutil
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from tqdm.auto import tqdm
@@ -267,7 +268,7 @@ class SyntheticDataset:
         level = "" if self.realism.name == "exact" else f"_{self.realism.name}"
         self.path = Path(root) / f"{subject}_{action}{level}"
         self.cameras = list(cameras)
-        self.settings = dict(subject=subject, action=action, frames=frames, cameras=list(all_cameras),
+        self.settings: dict[str, Any] = dict(subject=subject, action=action, frames=frames, cameras=list(all_cameras),
                              width=width, height=height, fps=fps, seed=seed,
                              background_frames=background_frames, noise_sigma=noise_sigma,
                              shot_noise=shot_noise, flicker=flicker, shadow_strength=shadow_strength,

@@ -161,7 +161,7 @@ def _serve(conn, inner: str, patch_scale: float) -> None:
                     masks.append(pixels[start:start + size].reshape(cam.height, cam.width))
                     start += size
                 evaluator.setup(body, cameras, masks)
-                reply = None
+                reply: object = None
             elif message[0] == "counts":
                 reply = evaluator.counts(message[1])
             else:

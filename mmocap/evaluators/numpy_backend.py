@@ -153,7 +153,7 @@ class NumpyEvaluator(SilhouetteEvaluator):
                                         self._table, self._joint)
                  for view in np.flatnonzero(big)}
 
-        side = np.where(big[:, None], 0, side)                      # sides on the dilation path
+        side = np.where(big[:, None], 0, side)  # type: ignore[index]  # sides on the dilation path
         coefficients[side == 0, 8:12] = 0                           # depth 0: never kept
         coefficients = np.ascontiguousarray(coefficients.transpose(1, 2, 0))[..., None]  # (J, 16, nV, 1)
 

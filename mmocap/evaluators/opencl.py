@@ -271,7 +271,7 @@ class OpenCLEvaluator(SilhouetteEvaluator):
         return [_DeviceQueue(dev, context([dev]), local_size, lanes)]
 
     @property
-    def owns_cores(self) -> bool:
+    def owns_cores(self) -> bool:  # type: ignore[override]  # read-only, as Evaluator's
         """True on CPU devices (PoCL's threads use every core)."""
         cpu = pyopencl().device_type.CPU
         return any(device_queue.device.type & cpu for device_queue in self._device_queues)

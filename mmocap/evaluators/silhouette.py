@@ -64,6 +64,8 @@ silhouette through :meth:`SilhouetteEvaluator.render`; the conformance suite
 """
 from __future__ import annotations
 
+from typing import Any, Self
+
 import numpy as np
 from threadpoolctl import threadpool_limits
 
@@ -330,7 +332,7 @@ class SilhouetteEvaluator:
         if not (np.isfinite(patch_scale) and patch_scale > 0):
             raise ConfigError(f"patch_scale must be a finite number > 0, got {patch_scale}")
         self.patch_scale = patch_scale
-        self.body = None
+        self.body: Any = None  # the frame's body model (see setup), duck-typed
         self.cameras: list = []
         self.foreground: list[np.ndarray] = []
         self.fg_px = np.zeros(0, dtype=np.int64)
@@ -397,7 +399,7 @@ class SilhouetteEvaluator:
             _BLAS.release()
             self._claimed_cores = False
 
-    def __enter__(self):
+    def __enter__(self) -> Self:
         return self
 
     def __exit__(self, *exc) -> None:

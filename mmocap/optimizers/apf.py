@@ -2,7 +2,7 @@
 minimisers (Yeguas et al. 2014, Sec. 4.1.1-4.1.2, Fig. 3, Eq. 6-8, Table 3; Deutscher and
 Reid; Bandouch et al.).
 
-Units. Particles live in normalised coordinates ``z = (x - space.x0) / space.sigma0`` (one
+Units. Particles live in normalised coordinates ``z = (x - space.x0) / space.radius`` (one
 unit = the search radius of each coordinate, rad or mm); asked candidates and the result are
 in the original units. The particles are the evaluated (clipped) points.
 
@@ -54,10 +54,13 @@ of the noise added to the round's particles over the diffused coordinates, norma
 from __future__ import annotations
 
 import math
+from typing import cast
 
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy.optimize import brentq
 
+from mmocap.api import SearchSpace
 from mmocap.errors import ConfigError
 from mmocap.optimizers.base import PopulationOptimizer
 from mmocap.validate import check_number
@@ -138,7 +141,7 @@ class AnnealedParticleFilter(PopulationOptimizer):
         return self.population_size(dim) * self.layers * (partitions if self.partitioned else 1)
 
     def _start(self) -> None:
-        parts = self._space.partitions
+        parts = cast(SearchSpace, self._space).partitions  # set by setup
         if not self.partitioned or parts is None:
             parts = (np.arange(self.dim),)
         parts = tuple(np.asarray(p, dtype=int) for p in parts)
@@ -155,7 +158,7 @@ class AnnealedParticleFilter(PopulationOptimizer):
         self.survival_rates: list[float] = []
         self.diffusion_std: list[float] = []
 
-    def _split_budget(self, dims: list[int]) -> list[tuple[int, int, int]]:
+    def _split_budget(self, dims: ArrayLike) -> list[tuple[int, int, int]]:
         """(partition, layer, particles) of every round: per partition ``MIN_PARTICLES L`` plus a share of
         the rest proportional to its dimension, per layer an equal share; remainders one
         each to the first partitions and layers."""

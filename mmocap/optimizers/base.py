@@ -11,7 +11,7 @@ A subclass implements four hooks and inherits the :class:`mmocap.api.Optimizer` 
 - ``_learn(X, f)``: update from the clipped candidates X (n, D) and their fitness f (n,);
 - optionally ``_reasons()``: extra stop reasons (dict), asked only after the first ``tell``.
 
-Normalised coordinates ``z = (x - x0) / scale`` (``scale = space.sigma0``, the search radius
+Normalised coordinates ``z = (x - x0) / scale`` (``scale = space.radius``, the search radius
 of each coordinate) make one unit the search radius in every coordinate (rad or mm alike);
 :meth:`PopulationOptimizer.to_unit` and :meth:`PopulationOptimizer.from_unit` convert.
 """
@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
+from typing import cast
 
 import numpy as np
 
@@ -32,7 +33,7 @@ class PopulationOptimizer(ABC):
     #: name used in error messages; subclasses set their registry name
     name = "optimizer"
 
-    def __init__(self):
+    def __init__(self) -> None:
         self._space: SearchSpace | None = None
 
     # -- hooks -------------------------------------------------------------------------------
@@ -52,7 +53,7 @@ class PopulationOptimizer(ABC):
     def _learn(self, X: np.ndarray, f: np.ndarray) -> None:
         """Update from the evaluated candidates X (n, D) and their fitness f (n,)."""
 
-    def _reasons(self) -> dict:
+    def _reasons(self) -> dict[str, float]:
         return {}
 
     # -- protocol ----------------------------------------------------------------------------
@@ -68,9 +69,9 @@ class PopulationOptimizer(ABC):
             raise ConfigError(f"search space x0 must have shape (D,), got {x0.shape}")
         dim = x0.shape[0]
         lower, upper, scale = (np.broadcast_to(np.asarray(a, dtype=float), (dim,)).copy()
-                               for a in (space.lower, space.upper, space.sigma0))
+                               for a in (space.lower, space.upper, space.radius))
         if not np.all(scale > 0):
-            raise ConfigError(f"search space sigma0 must be > 0, got {scale}")
+            raise ConfigError(f"search space radius must be > 0, got {scale}")
         if not np.all(lower < upper):
             raise ConfigError("search space bounds must satisfy lower < upper")
         n_parts = 1 if space.partitions is None else len(space.partitions)
@@ -99,7 +100,7 @@ class PopulationOptimizer(ABC):
         remaining = self.budget - self.evaluations
         if remaining <= 0:
             raise RuntimeError(f"evaluation budget of {self.budget} is exhausted")
-        X = np.asarray(self._propose(remaining), dtype=float)
+        X: np.ndarray = np.asarray(self._propose(remaining), dtype=float)
         if X.ndim != 2 or X.shape[1] != self.dim or not 1 <= X.shape[0] <= remaining:
             raise RuntimeError(f"{type(self).__name__} proposed an array of shape {X.shape}; "
                                f"expected (n, {self.dim}) with 1 <= n <= {remaining}")
@@ -131,11 +132,11 @@ class PopulationOptimizer(ABC):
             self._xbest = asked[best].copy()
         self._learn(asked, f)
 
-    def stop(self) -> dict:
+    def stop(self) -> dict[str, float]:
         """``{}`` to go on, else the reasons: ``budget`` (evaluations used) and the
         subclass's own."""
         self._require_setup()
-        reasons: dict = {}
+        reasons: dict[str, float] = {}
         if self.evaluations >= self.budget:
             reasons["budget"] = self.evaluations
         if self.iterations > 0:
@@ -154,11 +155,11 @@ class PopulationOptimizer(ABC):
     # -- helpers for subclasses --------------------------------------------------------------
     def to_unit(self, X: np.ndarray) -> np.ndarray:
         """Original units -> normalised coordinates (one unit = the search radius)."""
-        return (X - self.x0) / self.scale
+        return cast(np.ndarray, (X - self.x0) / self.scale)
 
     def from_unit(self, Z: np.ndarray) -> np.ndarray:
         """Normalised coordinates -> original units."""
-        return self.x0 + self.scale * Z
+        return cast(np.ndarray, self.x0 + self.scale * Z)
 
     def _require_setup(self) -> None:
         if self._space is None:

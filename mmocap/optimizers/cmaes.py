@@ -1,10 +1,10 @@
 """CMA-ES (Yeguas et al. 2014, Sec. 4.2.1, Fig. 4, Table 2) as a batch ask/tell minimiser.
 
-Units. The search runs in normalised coordinates ``z = (x - space.x0) / space.sigma0``
-(``space.sigma0`` holds the search radius of each coordinate): the mean starts at ``z = 0``
+Units. The search runs in normalised coordinates ``z = (x - space.x0) / space.radius``
+(``space.radius`` holds the search radius of each coordinate): the mean starts at ``z = 0``
 (the start point), the covariance at the identity and the internal step size ``sigma`` at
 the constructor's ``sigma0``, so coordinate ``j`` is first sampled with standard deviation
-``sigma0 * space.sigma0[j]`` in its own units (rad for rotations, mm for translations).
+``sigma0 * space.radius[j]`` in its own units (rad for rotations, mm for translations).
 This is the per-coordinate scaling of pycma's ``scaling_of_variables``.
 Candidates returned by :meth:`CMAES.ask` and the result are in the original units.
 
@@ -39,6 +39,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import cast
 
 import numpy as np
 
@@ -172,11 +173,12 @@ class CMAES(PopulationOptimizer):
 
     Args:
         popsize: lambda; ``None`` uses Table 2, ``4 + floor(3 ln D)``. At least 2.
-        sigma0: initial step size as a fraction of the search radius ``space.sigma0``.
-            1.0 is Yeguas Table 3 (step = radius = 0.5 rad); smaller values suit the small
-            motion between video frames better. Must be > 0.
+        sigma0: initial step size (pycma's name), unitless: a fraction of the search radius
+            ``space.radius``, not a length or an angle. 1.0 is Yeguas Table 3 (step =
+            radius = 0.5 rad); smaller values suit the small motion between video frames
+            better. Must be > 0.
         tolx: stop when every coordinate's standard deviation ``sigma * sqrt(C_jj) *
-            space.sigma0[j]`` (original units) is below this. Must be >= 0.
+            space.radius[j]`` (original units) is below this. Must be >= 0.
         tolfun: stop when the range of f in the last generation and of the best f over the
             last ``10 + ceil(30 D / lambda)`` generations is below this. Must be >= 0.
         bounds: ``"transform"`` or ``"clip"``, the boundary handling of the module docstring.
@@ -222,8 +224,9 @@ class CMAES(PopulationOptimizer):
 
     def _propose(self, n_max: int) -> np.ndarray:
         """lambda samples of N(m, sigma^2 C), fewer in a last generation cut by the budget."""
-        n = min(self.params.lam, n_max)
-        normal = self.rng.standard_normal((n, self.params.dim))
+        p = cast(StrategyParameters, self.params)  # set by _start
+        n = min(p.lam, n_max)
+        normal = self.rng.standard_normal((n, p.dim))
         self._z = self._mean + self._sigma * (normal * self._D) @ self._B.T
         self._x = self.from_unit(self._box(self._z) if self.bounds == "transform" else self._z)
         return self._x
@@ -237,8 +240,9 @@ class CMAES(PopulationOptimizer):
         self._last_f = f
         self._best_history.append(float(f[order[0]]))
         del self._best_history[:-self._history_len]
-        if X.shape[0] >= self.params.mu:
-            self._update(z[order[: self.params.mu]])
+        mu = cast(StrategyParameters, self.params).mu
+        if X.shape[0] >= mu:
+            self._update(z[order[:mu]])
             if self.bounds == "transform":
                 self._mean = self._box.base_period(self._mean)
 
@@ -250,7 +254,7 @@ class CMAES(PopulationOptimizer):
         define H_sigma; it is Hansen's: ||p_sigma|| / sqrt(1 - (1 - c_sigma)^(2(g+1)))
         < (1.4 + 2 / (D + 1)) E||N(0, I)||.
         """
-        p = self.params
+        p = cast(StrategyParameters, self.params)
         y = (z_sel - self._mean) / self._sigma
         y_w = p.weights @ y
         self._mean = self._mean + self._sigma * y_w
@@ -280,10 +284,10 @@ class CMAES(PopulationOptimizer):
             self._D = np.sqrt(np.maximum(eigenvalues, 0.0))
             self._eigen_updates = self._updates
 
-    def _reasons(self) -> dict:
+    def _reasons(self) -> dict[str, float]:
         """``tolx`` (largest coordinate std, original units), ``tolfun`` (f range),
         ``conditioncov`` (cond(C))."""
-        reasons: dict = {}
+        reasons: dict[str, float] = {}
         if self._updates == 0:
             return reasons
         std = float((self._sigma * np.sqrt(self._C.diagonal()) * self.scale).max())

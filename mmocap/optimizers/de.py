@@ -1,13 +1,13 @@
 """Differential Evolution with role differentiation and malleable mating (Yeguas et al. 2014,
 Sec. 4.2.2, Fig. 5, Table 3; Garcia-Martinez et al. 2010) as a batch ask/tell minimiser.
 
-Units. The population lives in normalised coordinates ``z = (x - space.x0) / space.sigma0``
+Units. The population lives in normalised coordinates ``z = (x - space.x0) / space.radius``
 (one unit = the search radius of each coordinate, rad or mm); candidates returned by
 :meth:`DifferentialEvolution.ask` and the result are in the original units. Distances used
 by assortative mating are Euclidean in normalised coordinates.
 
 Initial population (generation 0, ``N`` evaluations). Uniform random vectors in the search
-space ``[x0 - s * sigma0, x0 + s * sigma0]`` intersected with the bounds, where ``s`` is
+space ``[x0 - s * radius, x0 + s * radius]`` intersected with the bounds, where ``s`` is
 ``init_spread`` (1.0 = the paper's "random vectors within the search space"); with
 ``include_x0`` the first member is the start point itself.
 
@@ -43,7 +43,7 @@ split of step 1 is the cause, as published: with ``N_P = N_L = N / 2`` the placi
 leading vectors are the same best half and the correcting vectors the worst half, so every
 donor is a best-half member moved by F times a worst-to-best difference, and the worst half
 never places a donor. Mean spread on the 39-D tracking-like sphere (``x0 = 0``, box +-1,
-``sigma0 = 1``, seeds 0-4), initial -> after 1500 evaluations: defaults 0.15 -> 5.5e-4,
+``radius = 1``, seeds 0-4), initial -> after 1500 evaluations: defaults 0.15 -> 5.5e-4,
 Table 3 (cr 0.9, init_spread 1.0, no start point) 0.54 -> 2.0e-6; without the split
 (``N_P = N_L = N_C = N``) 0.15 -> 3.2e-3 and 0.54 -> 2.0e-3. On a flat function, with no
 selection pressure, the defaults still fall to 8.7e-4 (0.21 without the split): all
@@ -59,6 +59,7 @@ take part in selection, the other members stay as they are.
 from __future__ import annotations
 
 import logging
+from typing import cast
 
 import numpy as np
 
@@ -154,6 +155,7 @@ class DifferentialEvolution(PopulationOptimizer):
         """Steps 1-4 for every receiving vector i: indices (N, 3) of its placing, leading and
         correcting vectors, and the altered (alpha_L', alpha_C') (N, 2) of its trial."""
         n, rng = self.popsize, self.rng
+        Z = cast(np.ndarray, self._Z)  # evaluated: generation 0 has been told
         order = np.argsort(self._fit, kind="stable").tolist()
         placing, leading, correcting = (order[:self.n_placing], order[:self.n_leading],
                                         order[n - self.n_correcting:])
@@ -172,9 +174,9 @@ class DifferentialEvolution(PopulationOptimizer):
             candidates = pool(placing, (i,))
             p = candidates[int(pick[i] * len(candidates))]
             alpha[i] = np.where(reset[i], fresh[i], self._alpha[p])
-            ref = self._Z[p]
-            l = assortative_mating(pool(leading, (i, p)), self._Z, ref, alpha[i, 0], keys[i, 0])
-            c = assortative_mating(pool(correcting, (i, p, l)), self._Z, ref, alpha[i, 1],
+            ref = Z[p]
+            l = assortative_mating(pool(leading, (i, p)), Z, ref, alpha[i, 0], keys[i, 0])
+            c = assortative_mating(pool(correcting, (i, p, l)), Z, ref, alpha[i, 1],
                                    keys[i, 1])
             idx[i] = p, l, c
         return idx, alpha
@@ -183,7 +185,7 @@ class DifferentialEvolution(PopulationOptimizer):
         """Trial vectors U (N, D), normalised, and their alphas (N, 2): mutation (Eq. 15)
         and binomial crossover (Eq. 16) of every member with its mates."""
         idx, alpha = self.mates()
-        Z = self._Z
+        Z = cast(np.ndarray, self._Z)
         V = Z[idx[:, 0]] + self.f * (Z[idx[:, 1]] - Z[idx[:, 2]])
         take = self.rng.random(Z.shape) <= self.cr
         take[np.arange(self.popsize), self.rng.integers(0, self.dim, self.popsize)] = True
@@ -196,7 +198,7 @@ class DifferentialEvolution(PopulationOptimizer):
         0 has been told."""
         if self._Z is None:
             raise RuntimeError("the population is not evaluated yet: tell() generation 0 first")
-        return self._Z.std(axis=0)
+        return cast(np.ndarray, self._Z.std(axis=0))
 
     def _learn(self, X: np.ndarray, f: np.ndarray) -> None:
         Z = self.to_unit(X)

@@ -2,11 +2,11 @@
 2014, Sec. 4.2.3, Fig. 6, Eq. 17-19, Table 3; John et al. 2010) as a batch ask/tell minimiser.
 
 Units. Positions and velocities live in normalised coordinates ``z = (x - space.x0) /
-space.sigma0`` (one unit = the search radius of each coordinate, rad or mm); candidates
+space.radius`` (one unit = the search radius of each coordinate, rad or mm); candidates
 returned by :meth:`ParticleSwarm.ask` and the result are in the original units.
 
 Initial swarm (generation 0, ``N`` evaluations). Positions uniform in the search space
-``[x0 - s * sigma0, x0 + s * sigma0]`` intersected with the bounds and velocities uniform in
+``[x0 - s * radius, x0 + s * radius]`` intersected with the bounds and velocities uniform in
 ``[-s, s]`` per coordinate, where ``s`` is ``init_spread`` (1.0 = the paper's random
 positions in the search space); with ``include_x0`` the first particle starts at the start
 point. Each particle's best ``p_i`` is its start position.
@@ -34,6 +34,7 @@ position and velocity.
 from __future__ import annotations
 
 import math
+from typing import cast
 
 import numpy as np
 
@@ -48,7 +49,7 @@ def inertia_schedule(w_max: float, w_min: float, moves: int) -> np.ndarray:
     if moves <= 1:
         return np.full(max(moves, 0), w_max)
     delta_c = math.log(w_max / w_min) / (moves - 1)
-    return w_max / np.exp(delta_c * np.arange(moves))
+    return cast(np.ndarray, w_max / np.exp(delta_c * np.arange(moves)))
 
 
 class ParticleSwarm(PopulationOptimizer):

@@ -17,14 +17,14 @@ from pathlib import Path
 import pandas as pd
 
 from mmocap.analysis.statistics import FriedmanHolm, friedman_holm, read_table
-from mmocap.analysis.tables import format_p, to_markdown, write_table
+from mmocap.analysis.tables import Format, format_p, to_markdown, write_table
 from mmocap.errors import ConfigError
 from mmocap.io import check_writable_folder
 from mmocap.validate import check_number
 
 COLUMN_NAMES = {"algorithm": "Algorithm", "rank": "Rank", "z": "z", "p": "p-value",
                 "holm_alpha": "Holm alpha", "holm_p": "Holm p", "significant": "Significant"}
-P_FORMATS = {"p-value": format_p, "Holm p": format_p, "Holm alpha": ".4f"}
+P_FORMATS: dict[str, Format] = {"p-value": format_p, "Holm p": format_p, "Holm alpha": ".4f"}
 
 
 def comparisons_table(result: FriedmanHolm) -> pd.DataFrame:

@@ -258,14 +258,16 @@ class HorprasertBackground(BackgroundModel):
         self.std: np.ndarray | None = None           # (H, W, ch) s, grey levels
         self.alpha_rms: np.ndarray | None = None     # (H, W) rms(alpha - 1)
         self.cd_rms: np.ndarray | None = None        # (H, W) rms(CD)
-        self.tau_cd = self.tau_alpha_low = self.tau_alpha_high = None
+        self.tau_cd: float | None = None
+        self.tau_alpha_low: float | None = None
+        self.tau_alpha_high: float | None = None
 
     def _smooth(self, x: np.ndarray) -> np.ndarray:
         """(H, W) per-pixel mean squares -> their mean over about RMS_SMOOTHING_PX around."""
         return cv2.GaussianBlur(x, (0, 0), self.RMS_SMOOTHING_PX, borderType=cv2.BORDER_REFLECT)
 
     def _window(self) -> int:
-        return self.grey_window_px if self.mean.shape[2] == 1 else 1
+        return self.grey_window_px if self.mean.shape[2] == 1 else 1  # type: ignore[union-attr]  # after fit
 
     def _window_sums(self, x: np.ndarray, kernels) -> np.ndarray:
         """(H, W) -> (H, W, K): per pixel, the sum over its window of ``x`` times each of the
@@ -276,7 +278,7 @@ class HorprasertBackground(BackgroundModel):
 
     def _prepare(self) -> None:
         """Per-pixel terms of alpha and CD that depend on the background only."""
-        self._inv_var = 1.0 / (self.std * self.std)
+        self._inv_var = 1.0 / (self.std * self.std)  # type: ignore[operator]  # after fit
         self._e_over_var = self.mean * self._inv_var
         e2 = (self.mean * self._e_over_var).sum(axis=2)
         self._e2 = np.maximum(e2, 1e-6)
@@ -374,7 +376,7 @@ class OpenCVBackground(BackgroundModel):
         self.threshold = check_number("background.threshold", threshold, 0, low_open=True)
         self.detect_shadows = detect_shadows
         super().__init__(open_px, close_px, min_area_px, largest_only)
-        self.subtractor = None
+        self.subtractor: cv2.BackgroundSubtractor = None  # type: ignore[assignment]  # set by fit
 
     def _fit(self, frames: list[np.ndarray]) -> None:
         n = len(frames)

@@ -107,7 +107,7 @@ class MaskCache:
             return
         try:
             with atomic_writer(self.path(frame), "wb") as f:
-                np.savez(f, **{cam.name: m.packed for cam, m in zip(self.cameras, masks)})
+                np.savez(f, **{cam.name: m.packed for cam, m in zip(self.cameras, masks)})  # type: ignore[arg-type]  # packed: masks from a frame
         except OSError as exc:
             log.warning("foreground cache %s not writable (%s); masks will not be cached",
                         self.folder, exc)
@@ -155,13 +155,13 @@ class Foreground:
         (which replace the sequence's) are given."""
         use_cache = self.cache is not None and images is None
         if use_cache:
-            cached = self.cache.load(frame)
+            cached = self.cache.load(frame)  # type: ignore[union-attr]  # use_cache: a cache
             if cached is not None:
                 return cached
         masks = [ForegroundMask(cam.undistort_mask(mask))
                  for cam, mask in zip(self.sequence.cameras, self.detect(frame, images))]
         if use_cache:
-            self.cache.save(frame, masks)
+            self.cache.save(frame, masks)  # type: ignore[union-attr]  # use_cache: a cache
         return masks
 
 

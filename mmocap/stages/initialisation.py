@@ -42,6 +42,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mmocap.body.mesh import GIRTH_RANGE, HEIGHT_RANGE_MM
+from mmocap.body.model import BodyModel
 from mmocap.errors import ConfigError, DataError
 from mmocap.validate import check_choice, check_number
 
@@ -66,7 +67,7 @@ class StartResult:
 
     pose: np.ndarray
     fitness: float
-    body: object
+    body: BodyModel
     evaluations: int
     seconds: float
     height_mm: float

@@ -3,7 +3,7 @@
 Each frame starts from the previous frame's estimate (the sequence's ``x0`` for the first
 frame) and searches a box of ``rotation_radius`` rad around every active rotation and
 ``translation_radius_mm`` around the root position, intersected with the joint limits.
-The box's half-widths are passed to the optimiser as ``SearchSpace.sigma0``.
+The box's half-widths are passed to the optimiser as ``SearchSpace.radius``.
 
 Strategies (Yeguas Sec. 3.3): :class:`Holistic` searches every degree of freedom at once;
 :class:`Hierarchical` searches the ``steps`` one after another (by default the paper's six:
@@ -200,7 +200,7 @@ class Strategy(ABC):
         upper = np.maximum(upper, lower + 1e-9)
         bounds = np.cumsum([0] + [len(p) for p in parts])
         space = SearchSpace(x0=np.clip(x_base[indices], lower, upper), lower=lower, upper=upper,
-                            sigma0=radius[indices], budget=int(budget),
+                            radius=radius[indices], budget=int(budget),
                             partitions=tuple(np.arange(a, b) for a, b in zip(bounds[:-1], bounds[1:])))
 
         def full(active: np.ndarray) -> np.ndarray:

@@ -149,7 +149,7 @@ def test_poses() -> np.ndarray:
     return np.vstack([X, TRUE_POSE, partly_outside, behind])
 
 
-test_poses.__test__ = False  # a helper, not a test
+test_poses.__test__ = False  # type: ignore[attr-defined]  # a helper, not a test (pytest reads __test__)
 
 
 @cache

@@ -48,11 +48,11 @@ TRACKING_LIKE = {
 }
 
 
-def box(dim: int = D, x0: float = 0.0, bound: float = 1.0, sigma0: float = 1.0, budget: int = 1500,
+def box(dim: int = D, x0: float = 0.0, bound: float = 1.0, radius: float = 1.0, budget: int = 1500,
         partitions=None) -> SearchSpace:
-    """Start ``x0``, bounds +-``bound`` and radius ``sigma0`` in every one of ``dim`` coordinates."""
+    """Start ``x0``, bounds +-``bound`` and radius ``radius`` in every one of ``dim`` coordinates."""
     ones = np.ones(dim)
-    return SearchSpace(x0=x0 * ones, lower=-bound * ones, upper=bound * ones, sigma0=sigma0 * ones,
+    return SearchSpace(x0=x0 * ones, lower=-bound * ones, upper=bound * ones, radius=radius * ones,
                        budget=budget, partitions=partitions)
 
 

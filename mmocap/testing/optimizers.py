@@ -34,7 +34,7 @@ def asymmetric_box(dim: int, budget: int, partitions=None) -> SearchSpace:
     """An asymmetric box around a start point near its upper bounds, radius 0.5."""
     x0 = np.linspace(-0.3, 0.3, dim)
     return SearchSpace(x0=x0, lower=x0 - 0.5, upper=np.minimum(x0 + 0.5, 0.35),
-                       sigma0=np.full(dim, 0.5), budget=budget, partitions=partitions)
+                       radius=np.full(dim, 0.5), budget=budget, partitions=partitions)
 
 
 class OptimizerConformance:

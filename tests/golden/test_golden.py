@@ -62,7 +62,7 @@ def test_pixel_counts_of_fixed_poses(scene, name):
 def test_first_proposals_at_a_fixed_seed(name):
     dim = 12
     space = SearchSpace(x0=np.linspace(-0.2, 0.3, dim), lower=np.full(dim, -1.0), upper=np.full(dim, 1.0),
-                        sigma0=np.full(dim, 0.5), budget=600,
+                        radius=np.full(dim, 0.5), budget=600,
                         partitions=(np.arange(0, 3), np.arange(3, 7), np.arange(7, 12)))
     optimizer = registry.make_optimizer(name)
     optimizer.setup(space, np.random.default_rng(7))

@@ -158,7 +158,7 @@ def test_psapf_budget_split_over_partitions_and_layers():
 
 def test_points_stay_in_an_asymmetric_box():
     space = SearchSpace(x0=np.full(D, 0.9), lower=-np.ones(D), upper=np.ones(D),
-                        sigma0=np.full(D, 2.0), budget=600, partitions=PARTS)
+                        radius=np.full(D, 2.0), budget=600, partitions=PARTS)
     for cls in (AnnealedParticleFilter, PartitionedAnnealedParticleFilter):
         asked, _, r = minimise(cls(init_spread=0.5), ellipsoid01, space, seed=2)
         X = np.concatenate(asked)

@@ -91,7 +91,7 @@ def test_budget_smaller_than_one_generation_is_a_config_error(budget):
 def test_asked_points_stay_in_bounds_and_optimum_on_bound_is_found(bounds):
     # The unconstrained optimum (2, ..., 2) lies outside the box.
     space = SearchSpace(x0=np.full(5, 0.9), lower=-np.ones(5), upper=np.ones(5),
-                        sigma0=np.full(5, 2.0), budget=3000)
+                        radius=np.full(5, 2.0), budget=3000)
     run = minimise(CMAES(bounds=bounds), lambda X: np.sum((X - 2.0) ** 2, axis=1), space, 3)
     X = np.concatenate(run.asked)
     assert np.all(X >= space.lower) and np.all(X <= space.upper)
@@ -131,7 +131,7 @@ def test_box_transform_maps_each_point_alike_whatever_else_is_in_the_call():
 
 def test_transform_needs_finite_bounds():
     space = SearchSpace(x0=np.zeros(3), lower=np.full(3, -np.inf), upper=np.ones(3),
-                        sigma0=np.ones(3), budget=100)
+                        radius=np.ones(3), budget=100)
     with pytest.raises(ConfigError, match="finite search bounds; use optimizer.bounds=clip"):
         CMAES().setup(space, np.random.default_rng(0))
     CMAES(bounds="clip").setup(space, np.random.default_rng(0))
@@ -241,7 +241,7 @@ def test_zero_budget_raises_config_error():
 
 def test_sigma0_is_the_first_step_as_a_fraction_of_the_radius():
     space = SearchSpace(x0=np.zeros(6), lower=np.full(6, -100.0), upper=np.full(6, 100.0),
-                        sigma0=np.array([1, 1, 1, 10, 10, 10.0]), budget=10_000)
+                        radius=np.array([1, 1, 1, 10, 10, 10.0]), budget=10_000)
     spreads = []
     for sigma0 in (1.0, 0.1):
         opt = CMAES(popsize=4000, sigma0=sigma0)

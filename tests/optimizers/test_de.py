@@ -78,7 +78,7 @@ def test_assortative_mating():
 
 
 def started(seed=0, budget=1000, bound=100.0, **kw):
-    """Optimiser after generation 0 on the sphere; x0 = 0 and sigma0 = 1, so normalised
+    """Optimiser after generation 0 on the sphere; x0 = 0 and radius = 1, so normalised
     coordinates are the original ones."""
     opt = DifferentialEvolution(**kw)
     opt.setup(box(D, 0.0, bound, 1.0, budget), np.random.default_rng(seed))
@@ -153,7 +153,7 @@ def test_selection_keeps_the_better_of_receiver_and_trial_in_a_truncated_generat
 
 def spread_trace(f, checkpoints, seed=0, **kw):
     """Mean spread (search radii) after each number of evaluations in ``checkpoints`` on
-    ``f`` in the tracking-like box (x0 = 0, bounds +-1, sigma0 = 1, 1500 evaluations)."""
+    ``f`` in the tracking-like box (x0 = 0, bounds +-1, radius = 1, 1500 evaluations)."""
     opt = DifferentialEvolution(**kw)
     opt.setup(box(D, 0.0, 1.0, 1.0, 1500), np.random.default_rng(seed))
     trace = []
@@ -240,7 +240,7 @@ def test_budget_smaller_than_the_population_is_a_config_error():
 
 def test_asked_points_stay_in_bounds_and_optimum_on_bound_is_found():
     space = SearchSpace(x0=np.full(5, 0.9), lower=-np.ones(5), upper=np.ones(5),
-                        sigma0=np.full(5, 2.0), budget=2000)
+                        radius=np.full(5, 2.0), budget=2000)
     run = minimise(DifferentialEvolution(), lambda X: np.sum((X - 2.0) ** 2, axis=1), space, 3)
     asked = run.asked
     r = run.result

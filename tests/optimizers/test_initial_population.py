@@ -11,7 +11,7 @@ from mmocap.testing.objectives import D
 @pytest.mark.parametrize("cls", [DifferentialEvolution, ParticleSwarm])
 def test_initial_population_holds_x0_and_spreads_init_spread_radii(cls):
     space = SearchSpace(x0=np.full(D, 0.5), lower=-np.ones(D), upper=np.ones(D),
-                        sigma0=np.full(D, 2.0), budget=100)
+                        radius=np.full(D, 2.0), budget=100)
     for spread, lo, hi in [(1.0, -1.0, 1.0), (0.1, 0.3, 0.7)]:
         opt = cls(init_spread=spread)
         opt.setup(space, np.random.default_rng(0))

@@ -122,7 +122,7 @@ def test_v_max_clamps_every_velocity_component():
 
 def test_coordinates_leaving_the_box_stop_on_the_bound_with_zero_velocity():
     space = SearchSpace(x0=np.full(5, 0.9), lower=-np.ones(5), upper=np.ones(5),
-                        sigma0=np.full(5, 2.0), budget=2000)
+                        radius=np.full(5, 2.0), budget=2000)
     opt = ParticleSwarm(**PAPER)
     opt.setup(space, np.random.default_rng(3))
     f = lambda X: np.sum((X - 2.0) ** 2, axis=1)  # noqa: E731

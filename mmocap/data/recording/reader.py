@@ -85,7 +85,7 @@ class FrameSource:
             self.count = len(self.files)
             self.fps = None
         else:
-            self.files = None
+            self.files = None  # type: ignore[assignment]  # read() uses files only without a video
             self.video = VideoReader(path)
             self.count = count_frames(path)
             self.fps = frame_rate(path)
@@ -139,12 +139,13 @@ class RecordingSequence(SequenceBase):
     indices per camera, ``markers_path`` the ground truth or None, ``world`` the (3, 3) turn
     applied to the calibration's world."""
 
-    sources: list = None
-    offsets: list = None
-    background_sources: list = None
-    background_frames: list = None
+    # None only as dataclass defaults after SequenceBase's: open() gives every one
+    sources: list = None  # type: ignore[assignment]
+    offsets: list = None  # type: ignore[assignment]
+    background_sources: list = None  # type: ignore[assignment]
+    background_frames: list = None  # type: ignore[assignment]
     markers_path: Path | None = None
-    world: np.ndarray = None
+    world: np.ndarray = None  # type: ignore[assignment]
 
     @property
     def subject(self):

@@ -59,8 +59,8 @@
 #define as_uintV CAT(as_uint, LANES)
 
 // PoCL (3.0) calls builtins such as vload, vstore, any, min, max, clamp and popcount as
-// functions instead of inlining them, which made the loops below about twice as slow
-// (measured); they use plain operators instead. MIN and MAX work on scalars and vectors.
+// functions instead of inlining them, so the loops below use plain operators instead. MIN
+// and MAX work on scalars and vectors.
 #define MIN(a, b) ((a) < (b) ? (a) : (b))
 #define MAX(a, b) ((a) > (b) ? (a) : (b))
 #if LANES == 16
@@ -112,8 +112,8 @@
 #define CLAMP_PX 1048576.0f
 
 // floor(t) as int, t clamped to [-CLAMP_PX, CLAMP_PX] (NaN, from a rejected vertex, to 0:
-// converting NaN to int is undefined); exact, and on PoCL much faster than the floor, clamp
-// and convert builtins together (measured).
+// converting NaN to int is undefined); exact, and on PoCL faster than the floor, clamp and
+// convert builtins together.
 inline intV floor_int(floatV t)
 {
     t = t != t ? (floatV)(0.0f) : t;
@@ -154,8 +154,9 @@ inline int max_lane(const intV x)
 // Sets the bits of the patch of one kept vertex; widens the row range [*lo, *hi] it touched.
 // A clipped patch row of at most 32 pixels spans words w0 and w0 + 1 (the latter maybe
 // with no bit to set: the mask has a spare word at its end for that).
-// Inlined: a call in the vertex loop would make every vector it keeps in registers live on
-// the stack instead (all vector registers are caller-saved): 4-6 % of the kernel's time.
+// Inlined, as are the steps of silhouette_counts: a call in the vertex loop would make every
+// vector it keeps in registers live on the stack instead (all vector registers are
+// caller-saved).
 __attribute__((always_inline)) inline void stamp(__local uint *mask, const int stride,
                                                  const int width, const int height,
                                                  const int cx, const int cy, const int before,
@@ -265,7 +266,7 @@ inline int patch_side(__global const double *camera, __global const double *T,
 // float64 order, one candidate per work-item: the [R t] rows of the skinning transforms S_j,
 // the input of silhouette_counts. Joints come after their parents.
 // A fixed work-group size of 1: PoCL compiles a kernel again for each new work-group size
-// it is launched with (about 0.1 s each, measured).
+// it is launched with.
 __kernel __attribute__((reqd_work_group_size(1, 1, 1)))
 void joint_transforms(
     __global const double *poses,      // (n, 3 + 6 J) KinematicChain.pose_rows: T (mm), then
@@ -320,6 +321,245 @@ void joint_transforms(
     }
 }
 
+// The steps of silhouette_counts, in the order it runs them for one model-view.
+
+// What a view's work-items gather in local memory: the rows (padded rows when layered) and
+// the padded columns (layered only) that their stamps or centres reached, and the counts.
+typedef struct {
+    int row_lo, row_hi, col_lo, col_hi, model_px, overlap_px;
+} ViewTotals;
+
+// What one work-item's stamps or centres reached: rows (padded rows when layered) from
+// stamp() and per lane, and per lane the padded columns of the layered path's centres.
+typedef struct {
+    int lo, hi;
+    intV loV, hiV, leftV, rightV;
+} Reach;
+
+// Setup: the distinct patch sides of the view's J joints, one per layer, in side_of[0 ..
+// *layers - 1]; whether the view takes the layered path (at most max_layers sides, all <=
+// 32); the mask cleared (its layers, or the mask and its spare word) and the totals reset.
+// A barrier must follow.
+__attribute__((always_inline)) inline int setup_view(
+    __global const double *camera, __global const double *T0, __global const double *joints,
+    const int J, const int max_layers, const int width, const int height, const int pitch,
+    const int layer_words, const int lid, __local uint8 *mask, __local ViewTotals *totals,
+    int *side_of, int *layers)
+{
+    int layered = 1;
+    *layers = 0;
+    for (int j = 0; j < J; ++j) {
+        const int s = patch_side(camera, T0 + 12 * j, joints + 4 * j);
+        int l = 0;
+        while (l < *layers && side_of[l] != s) ++l;
+        if (s == 0 || l < *layers) continue;
+        if (s > 32 || *layers == max_layers) layered = 0;
+        else side_of[(*layers)++] = s;
+    }
+    const int used = layered ? *layers * layer_words : pitch * height + 1;
+    for (int k = lid; k < (used + 7) / 8; k += LOCAL_SIZE) mask[k] = (uint8)(0u);
+    if (lid == 0) {
+        totals->row_lo = height + 2 * PAD; totals->row_hi = -1;
+        totals->col_lo = width + 2 * PAD; totals->col_hi = -1;
+        totals->model_px = 0; totals->overlap_px = 0;
+    }
+    return layered;
+}
+
+// Steps 1-2's coefficients for one view and joint, rounded to float32 once: a = A (3x4,
+// row-major) and b = R^T (t - centre).
+__attribute__((always_inline)) inline void joint_coefficients(__global const double *camera,
+                                                             __global const double *T,
+                                                             float *a, float *b)
+{
+    for (int i = 0; i < 3; ++i) {
+        for (int k = 0; k < 3; ++k) a[4 * i + k] = a_rotation(camera + 4 * i, T, k);
+        a[4 * i + 3] = a_translation(camera + 4 * i, T);
+    }
+    const double d0 = T[3] - camera[12], d1 = T[7] - camera[13], d2 = T[11] - camera[14];
+    b[0] = (T[0] * d0 + T[4] * d1) + T[8] * d2;
+    b[1] = (T[1] * d0 + T[5] * d1) + T[9] * d2;
+    b[2] = (T[2] * d0 + T[6] * d1) + T[10] * d2;
+}
+
+// Whether the culling block with this cone may hold a vertex facing the camera (b of
+// joint_coefficients); *all_facing: every one of its vertices certainly faces it.
+__attribute__((always_inline)) inline int block_may_face(__global const double *cone,
+                                                         const float *b, int *all_facing)
+{
+    // the whole block behind its normals: n . (v + b) >= (a . d) cos - |a x d| sin - r > 0
+    const double dx = cone[5] + b[0], dy = cone[6] + b[1], dz = cone[7] + b[2];
+    const double ad = cone[0] * dx + cone[1] * dy + cone[2] * dz;
+    const double dd = dx * dx + dy * dy + dz * dz;
+    const double cross = sqrt(MAX(dd - ad * ad, 0.0)), dlen = sqrt(dd);
+    // r also bounds the float32 rounding of the per-vertex test (see culling_cones)
+    const double r = cone[8] + ROUNDING * dlen;
+    if (ad * cone[3] - cross * cone[4] > r) return 0;
+    // the whole block, padding-free, facing: n . (v + b) <= max over the cone of n . d + r < 0
+    const double upper = ad <= dlen * cone[3] ? ad * cone[3] + cross * cone[4] : dlen;
+    *all_facing = cone[9] != 0.0 && upper + r < 0.0;
+    return 1;
+}
+
+// Layered scatter of culling block blk: each kept vertex whose centre lies in the padded
+// layer sets one bit, at its centre, in the layer at bit address layer_bit; reach gets the
+// centres' padded rows and columns. The bit addresses of the last vector of centres wait in
+// *pending (a lane without a centre: its own sink word past the layers, see SINK_WORDS) and
+// are set one vector later: read back from memory lane by lane (faster than extracting them
+// from registers) once their store has long completed (read right after it, every load
+// would wait for the store).
+__attribute__((always_inline)) inline void scatter_centres(
+    __global const float *vertices, const int blk, const int all_facing, const float *a,
+    const float *b, const int width, const int height, const int pstride, const int layer_bit,
+    const intV sink, __local uint *words, volatile intV *pending, Reach *reach)
+{
+    for (int v = BLOCK * blk; v < BLOCK * (blk + 1); v += LANES) {
+        intV keep;
+        floatV tu, tw;
+        if (!project_lanes(vertices, v, all_facing, a, b, &keep, &tu, &tw)) continue;
+        // a centre in the padded layer: in range as a float, so floor needs no clamp
+        const intV in = keep & (tu >= (float)-PAD) & (tu < (float)(width + PAD))
+                        & (tw >= (float)-PAD) & (tw < (float)(height + PAD));
+        // lanes that are not in convert 0: a float out of int's range (or NaN) converts to
+        // an undefined value, which may spoil the masked results too
+        const intV tx = convert_intV(in ? tu : (floatV)(0.0f));
+        const intV ty = convert_intV(in ? tw : (floatV)(0.0f));
+        const intV px = tx + (convert_floatV(tx) > tu) + PAD;
+        const intV py = ty + (convert_floatV(ty) > tw) + PAD;
+        reach->loV = MIN(reach->loV, in ? py : reach->loV);
+        reach->hiV = MAX(reach->hiV, in ? py : -1);
+        reach->leftV = MIN(reach->leftV, in ? px : reach->leftV);
+        reach->rightV = MAX(reach->rightV, in ? px : -1);
+        set_bits(words, pending);
+        *pending = in ? layer_bit + py * (32 * pstride) + px : sink;
+    }
+}
+
+// Direct stamp of culling block blk: each kept vertex sets the bits of its s x s patch in
+// the mask (rows of pitch words); reach gets the rows they touched.
+__attribute__((always_inline)) inline void stamp_patches(
+    __global const float *vertices, const int blk, const int all_facing, const float *a,
+    const float *b, const int width, const int height, const int pitch, const int s,
+    __local uint *words, Reach *reach)
+{
+    const int before = (s - 1) / 2, after = s / 2;
+    for (int v = BLOCK * blk; v < BLOCK * (blk + 1); v += LANES) {
+        intV keep;
+        floatV tu, tw;
+        if (!project_lanes(vertices, v, all_facing, a, b, &keep, &tu, &tw)) continue;
+        const intV cx = floor_int(tu), cy = floor_int(tw);
+        if (s > 32) {  // large patches (a body part close to the camera): one by one
+            for (int i = 0; i < LANES; ++i)
+                if (LANE(int, keep, i))
+                    stamp(words, pitch, width, height, LANE(int, cx, i), LANE(int, cy, i),
+                          before, after, &reach->lo, &reach->hi);
+            continue;
+        }
+        // all lanes at once: clipping in intV, no branch per vertex; a rejected or
+        // clipped-away vertex gets an empty range of words [first, last]
+        const intV col0 = MAX(cx - before, 0), col1 = MIN(cx + after, width - 1);
+        const intV row0 = MAX(cy - before, 0), row1 = MIN(cy + after, height - 1);
+        const intV ok = keep & (col0 <= col1) & (row0 <= row1);
+        reach->loV = MIN(reach->loV, ok ? row0 : height);
+        reach->hiV = MAX(reach->hiV, ok ? row1 : -1);
+        // 1 + MAX(.., 0) rather than MAX(.. + 1, 1): clang compiles MAX(x, 1) on vectors
+        // to select(x > 1, x, 0) | zext(!(x > 1)), and on Oclgrind, whose vector compares
+        // give all-ones lanes but whose constant true is 1, that zext is 254 where x > 1
+        // (every len 32)
+        const uintV len = convert_uintV(MIN(MAX(col1 - col0, 0) + 1, 32));
+        const uintV shift = convert_uintV(col0) & 31u;
+        const uintV low = ((uintV)(0xffffffffu) >> (32u - len)) << shift;
+        // bits of the patch past word w0: (ones(len) << shift) >> 32, 0 when shift 0
+        const uintV high = shift == 0u ? 0u : ((uintV)(0xffffffffu) >> (32u - len)) >> (32u - shift);
+        const intV first = ok ? row0 * pitch + (col0 >> 5) : 0;
+        const intV last = ok ? row1 * pitch + (col0 >> 5) : -1;
+        for (int i = 0; i < LANES; ++i)
+            for (int k = LANE(int, first, i); k <= LANE(int, last, i); k += pitch) {
+                OR_WORD(words + k, LANE(uint, low, i));
+                OR_WORD(words + k + 1, LANE(uint, high, i));
+            }
+    }
+}
+
+// Dilate-and-count (layered path): dilates each layer by its s x s patch with shifts and
+// ORs on 64-bit windows, ORs the layers and counts |M| and |M & F| (f: the camera's
+// foreground) over this work-item's share of the rows the totals reached, COUNT_WORDS
+// output words at a time; with write_masks it also writes M to out (pitch words a row).
+__attribute__((always_inline)) inline void dilate_and_count(
+    __local const uint *words, const int *side_of, const int layers, const int layer_words,
+    const int pstride, const int stride, const int pitch, const int width, const int height,
+    __local const ViewTotals *totals, __global const uint *f, const int lid,
+    const int write_masks, __global uint *out, int *model, int *overlap)
+{
+    int before = 0, after = 0;  // the largest reach of the layers' patches
+    for (int l = 0; l < layers; ++l) {
+        before = MAX(before, (side_of[l] - 1) / 2);
+        after = MAX(after, side_of[l] / 2);
+    }
+    const int r0 = MAX(totals->row_lo - PAD - before, 0);
+    const int r1 = MIN(totals->row_hi - PAD + after, height - 1);
+    const uint edge = (width & 31) ? 0xffffffffu >> (32 - (width & 31)) : 0xffffffffu;
+    if (write_masks) {
+        for (int k = lid; k < pitch * height; k += LOCAL_SIZE) out[k] = 0u;
+        barrier(CLK_GLOBAL_MEM_FENCE);
+    }
+    // output words w0 .. w1, in groups of COUNT_WORDS from a multiple of it
+    const int w0 = (MAX(totals->col_lo - PAD - before, 0) >> 5) / COUNT_WORDS * COUNT_WORDS;
+    const int w1 = MIN(totals->col_hi - PAD + after, width - 1) >> 5;
+    uintW model_w = 0u, overlap_w = 0u;
+    for (int r = r0 + lid; r <= r1; r += LOCAL_SIZE)
+    for (int w = w0; w <= w1; w += COUNT_WORDS) {
+        ulongW bits = 0;
+        for (int l = 0; l < layers; ++l) {
+            // output row r: padded rows r + shift .. r + shift + side - 1 of the layer (the
+            // centres whose patch rows reach r); bit j of acc: centre column 32 w + j - after
+            const int side = side_of[l], shift = PAD - side / 2;
+            __local const uint *base = words + l * layer_words + (r + shift) * pstride + w;
+            uintW here = 0u;  // words w .. w + COUNT_WORDS - 1 of the rows, ORed
+            uint next = 0u;   // word w + COUNT_WORDS (within the row: see pstride)
+            for (int t = 0; t < side; ++t) {
+                here |= *(__local const uintW *)(base + t * pstride);
+                next |= base[t * pstride + COUNT_WORDS];
+            }
+            ulongW acc = (convert_ulongW(here) | (convert_ulongW(NEXT_WORDS(here, next)) << 32))
+                         >> shift;
+            // output bit i: any of bits i .. i + side - 1 of acc
+            int cover = 1;
+            for (; 2 * cover <= side; cover *= 2) acc |= acc >> cover;
+            acc |= acc >> (side - cover);
+            bits |= acc;
+        }
+        const intW word = w + WORD_INDEX;  // words past the row's last hold no pixel
+        const uintW m = convert_uintW(bits)
+                        & (word < stride - 1 ? 0xffffffffu : word == stride - 1 ? edge : 0u);
+        model_w += bit_count_uintW(m);
+        overlap_w += bit_count_uintW(m & *(__global const uintW *)(f + r * pitch + w));
+        if (write_masks)
+            for (int i = 0; i < COUNT_WORDS && w + i < stride; ++i)
+                out[r * pitch + w + i] = LANE(uint, m, i);
+    }
+    *model = SUM_WORDS(model_w);
+    *overlap = SUM_WORDS(overlap_w);
+}
+
+// Count (direct path): |M| and |M & F| (f: the camera's foreground) over this work-item's
+// share of the stamped mask's rows row_lo .. row_hi, 8 words at a time.
+__attribute__((always_inline)) inline void count_stamped(
+    __local const uint8 *mask, __global const uint8 *f, const int row_lo, const int row_hi,
+    const int pitch, const int lid, int *model, int *overlap)
+{
+    uint8 model8 = 0u, overlap8 = 0u;
+    for (int k = row_lo * pitch / 8 + lid; k < (row_hi + 1) * pitch / 8; k += LOCAL_SIZE) {
+        const uint8 bits = mask[k];
+        model8 += bit_count_uint8(bits);
+        overlap8 += bit_count_uint8(bits & f[k]);
+    }
+    *model = model8.s0 + model8.s1 + model8.s2 + model8.s3 + model8.s4 + model8.s5
+             + model8.s6 + model8.s7;
+    *overlap = overlap8.s0 + overlap8.s1 + overlap8.s2 + overlap8.s3 + overlap8.s4
+               + overlap8.s5 + overlap8.s6 + overlap8.s7;
+}
+
 __kernel __attribute__((reqd_work_group_size(LOCAL_SIZE, 1, 1)))
 void silhouette_counts(
     __global const float *vertices,    // (N4 / LANES, 7, LANES) rest x, y, z (mm),
@@ -344,221 +584,76 @@ void silhouette_counts(
     const int write_masks, const int mask_words, // mask_words: a multiple of 8
     __global uint *masks_out)          // (nV, mask_words) when write_masks != 0
 {
-    __local int row_lo, row_hi, col_lo, col_hi, model_px, overlap_px;
+    __local ViewTotals totals;
     const int g = get_group_id(0), lid = get_local_id(0), c = g % C;
     __global const double *camera = cameras + 16 * c, *T0 = transforms + (g / C) * J * 12;
+    __global const uint *f = fg + shapes[3 * c + 2];
     const int width = shapes[3 * c], height = shapes[3 * c + 1];
     const int stride = (width + 31) / 32;                               // words of a row
     const int pitch = (stride + PITCH_WORDS - 1) / PITCH_WORDS * PITCH_WORDS;  // words per row
-    int side_of[MAX_LAYERS], layers = 0, layered = 1;  // the distinct patch sides, one per layer
-    for (int j = 0; j < J; ++j) {
-        const int s = patch_side(camera, T0 + 12 * j, joints + 4 * j);
-        int l = 0;
-        while (l < layers && side_of[l] != s) ++l;
-        if (s == 0 || l < layers) continue;
-        if (s > 32 || layers == max_layers) layered = 0;
-        else side_of[layers++] = s;
-    }
     // padded layer: (height + 2 PAD) rows of pstride words
     const int pstride = (stride + COUNT_WORDS) / COUNT_WORDS * COUNT_WORDS;
     const int layer_words = pstride * (height + 2 * PAD);
-    const int used = layered ? layers * layer_words : pitch * height + 1;
-    for (int k = lid; k < (used + 7) / 8; k += LOCAL_SIZE) mask[k] = (uint8)(0u);
     __local uint *words = (__local uint *)mask;
-    if (lid == 0) {
-        row_lo = height + 2 * PAD; row_hi = -1; col_lo = width + 2 * PAD; col_hi = -1;
-        model_px = 0; overlap_px = 0;
-    }
+
+    // setup
+    int side_of[MAX_LAYERS], layers;  // the distinct patch sides, one per layer
+    const int layered = setup_view(camera, T0, joints, J, max_layers, width, height, pitch,
+                                   layer_words, lid, mask, &totals, side_of, &layers);
     barrier(CLK_LOCAL_MEM_FENCE);
 
-    int lo = height + 2 * PAD, hi = -1;  // rows touched (padded rows when layered)
-    // the bit addresses in words of the layered path's last vector of centres, not yet set; a
-    // lane without a centre in the layer sets a bit of a sink word of its own, past the layers
-    // (see SINK_WORDS)
+    // the layered scatter or the direct stamp, joint by joint and block by block; a lane of
+    // the layered path without a centre sets a bit of a sink word of its own
     const intV sink = 32 * max_layers * layer_words + 32 * LANE_INDEX;
     volatile intV pending = sink;
-    intV loV = lo, hiV = -1;
-    intV leftV = width + 2 * PAD, rightV = -1;  // padded columns of the layer's centres
+    Reach reach;
+    reach.lo = height + 2 * PAD; reach.hi = -1;
+    reach.loV = (intV)(height + 2 * PAD); reach.hiV = (intV)(-1);
+    reach.leftV = (intV)(width + 2 * PAD); reach.rightV = (intV)(-1);
     for (int j = 0; j < J; ++j) {
         __global const double *T = T0 + 12 * j;
         const int s = patch_side(camera, T, joints + 4 * j);
         if (s == 0) continue;
-        // the coefficients, rounded to float32 once: A (row-major), and b = R^T (t - centre)
-        const float a[12] = {a_rotation(camera, T, 0), a_rotation(camera, T, 1),
-                             a_rotation(camera, T, 2), a_translation(camera, T),
-                             a_rotation(camera + 4, T, 0), a_rotation(camera + 4, T, 1),
-                             a_rotation(camera + 4, T, 2), a_translation(camera + 4, T),
-                             a_rotation(camera + 8, T, 0), a_rotation(camera + 8, T, 1),
-                             a_rotation(camera + 8, T, 2), a_translation(camera + 8, T)};
-        const double d0 = T[3] - camera[12], d1 = T[7] - camera[13], d2 = T[11] - camera[14];
-        const float b[3] = {(T[0] * d0 + T[4] * d1) + T[8] * d2,
-                            (T[1] * d0 + T[5] * d1) + T[9] * d2,
-                            (T[2] * d0 + T[6] * d1) + T[10] * d2};
-        const int before = (s - 1) / 2, after = s / 2;
+        float a[12], b[3];
+        joint_coefficients(camera, T, a, b);
         int l = 0;
         while (layered && side_of[l] != s) ++l;
-        const int layer_bit = 32 * l * layer_words;  // bit address of the layer in words
         for (int blk = joint_start[j] / BLOCK + lid; blk < joint_start[j + 1] / BLOCK;
              blk += LOCAL_SIZE) {
-            // the whole block behind its normals: n . (v + b) >= (a . d) cos - |a x d| sin - r > 0
-            __global const double *cone = cones + 10 * blk;
-            const double dx = cone[5] + b[0], dy = cone[6] + b[1], dz = cone[7] + b[2];
-            const double ad = cone[0] * dx + cone[1] * dy + cone[2] * dz;
-            const double dd = dx * dx + dy * dy + dz * dz;
-            const double cross = sqrt(MAX(dd - ad * ad, 0.0)), dlen = sqrt(dd);
-            // r also bounds the float32 rounding of the per-vertex test (see _culling_cones)
-            const double r = cone[8] + ROUNDING * dlen;
-            if (ad * cone[3] - cross * cone[4] > r) continue;
-            // the whole block, padding-free, facing: n . (v + b) <= max over the cone of n . d + r < 0
-            const double upper = ad <= dlen * cone[3] ? ad * cone[3] + cross * cone[4] : dlen;
-            const int all_facing = cone[9] != 0.0 && upper + r < 0.0;
-            if (layered) {
-                for (int v = BLOCK * blk; v < BLOCK * (blk + 1); v += LANES) {
-                    intV keep;
-                    floatV tu, tw;
-                    if (!project_lanes(vertices, v, all_facing, a, b, &keep, &tu, &tw))
-                        continue;
-                    // a centre in the padded layer: in range as a float, so floor needs no clamp
-                    const intV in = keep & (tu >= (float)-PAD) & (tu < (float)(width + PAD))
-                                    & (tw >= (float)-PAD) & (tw < (float)(height + PAD));
-                    // lanes that are not in convert 0: a float out of int's range (or NaN)
-                    // converts to an undefined value, which may spoil the masked results too
-                    const intV tx = convert_intV(in ? tu : (floatV)(0.0f));
-                    const intV ty = convert_intV(in ? tw : (floatV)(0.0f));
-                    const intV px = tx + (convert_floatV(tx) > tu) + PAD;
-                    const intV py = ty + (convert_floatV(ty) > tw) + PAD;
-                    loV = MIN(loV, in ? py : loV);
-                    hiV = MAX(hiV, in ? py : -1);
-                    leftV = MIN(leftV, in ? px : leftV);
-                    rightV = MAX(rightV, in ? px : -1);
-                    // set the bits of the previous vector's centres, then hold this vector's:
-                    // its lanes are read back from memory one by one (extracting them from
-                    // registers is slower, measured) when the store has long completed (read
-                    // right after it, every load waited for the store: 1.5x the kernel's time)
-                    set_bits(words, &pending);
-                    pending = in ? layer_bit + py * (32 * pstride) + px : sink;
-                }
-                continue;
-            }
-            for (int v = BLOCK * blk; v < BLOCK * (blk + 1); v += LANES) {
-                intV keep;
-                floatV tu, tw;
-                if (!project_lanes(vertices, v, all_facing, a, b, &keep, &tu, &tw)) continue;
-                const intV cx = floor_int(tu), cy = floor_int(tw);
-                if (s > 32) {  // large patches (a body part close to the camera): one by one
-                    for (int i = 0; i < LANES; ++i)
-                        if (LANE(int, keep, i))
-                            stamp(words, pitch, width, height, LANE(int, cx, i), LANE(int, cy, i),
-                                  before, after, &lo, &hi);
-                    continue;
-                }
-                // all lanes at once: clipping in intV, no branch per vertex; a rejected or
-                // clipped-away vertex gets an empty range of words [first, last]
-                const intV col0 = MAX(cx - before, 0), col1 = MIN(cx + after, width - 1);
-                const intV row0 = MAX(cy - before, 0), row1 = MIN(cy + after, height - 1);
-                const intV ok = keep & (col0 <= col1) & (row0 <= row1);
-                loV = MIN(loV, ok ? row0 : height);
-                hiV = MAX(hiV, ok ? row1 : -1);
-                // 1 + MAX(.., 0) rather than MAX(.. + 1, 1): clang compiles MAX(x, 1) on vectors
-                // to select(x > 1, x, 0) | zext(!(x > 1)), and on Oclgrind, whose vector compares
-                // give all-ones lanes but whose constant true is 1, that zext is 254 where x > 1
-                // (every len 32)
-                const uintV len = convert_uintV(MIN(MAX(col1 - col0, 0) + 1, 32));
-                const uintV shift = convert_uintV(col0) & 31u;
-                const uintV low = ((uintV)(0xffffffffu) >> (32u - len)) << shift;
-                // bits of the patch past word w0: (ones(len) << shift) >> 32, 0 when shift 0
-                const uintV high = shift == 0u ? 0u : ((uintV)(0xffffffffu) >> (32u - len)) >> (32u - shift);
-                const intV first = ok ? row0 * pitch + (col0 >> 5) : 0;
-                const intV last = ok ? row1 * pitch + (col0 >> 5) : -1;
-                for (int i = 0; i < LANES; ++i)
-                    for (int k = LANE(int, first, i); k <= LANE(int, last, i); k += pitch) {
-                        OR_WORD(words + k, LANE(uint, low, i));
-                        OR_WORD(words + k + 1, LANE(uint, high, i));
-                    }
-            }
+            int all_facing;
+            if (!block_may_face(cones + 10 * blk, b, &all_facing)) continue;
+            if (layered)
+                scatter_centres(vertices, blk, all_facing, a, b, width, height, pstride,
+                                32 * l * layer_words, sink, words, &pending, &reach);
+            else
+                stamp_patches(vertices, blk, all_facing, a, b, width, height, pitch, s, words,
+                              &reach);
         }
     }
     if (layered) set_bits(words, &pending);
-    MIN_INT(&row_lo, MIN(lo, min_lane(loV)));
-    MAX_INT(&row_hi, MAX(hi, max_lane(hiV)));
-    MIN_INT(&col_lo, min_lane(leftV));
-    MAX_INT(&col_hi, max_lane(rightV));
+    MIN_INT(&totals.row_lo, MIN(reach.lo, min_lane(reach.loV)));
+    MAX_INT(&totals.row_hi, MAX(reach.hi, max_lane(reach.hiV)));
+    MIN_INT(&totals.col_lo, min_lane(reach.leftV));
+    MAX_INT(&totals.col_hi, max_lane(reach.rightV));
     barrier(CLK_LOCAL_MEM_FENCE);
 
-    int model = 0, overlap = 0;
-    if (layered) {
-        __global const uint *f = fg + shapes[3 * c + 2];
-        int before = 0, after = 0;  // the largest reach of the layers' patches
-        for (int l = 0; l < layers; ++l) {
-            before = MAX(before, (side_of[l] - 1) / 2);
-            after = MAX(after, side_of[l] / 2);
-        }
-        const int r0 = MAX(row_lo - PAD - before, 0), r1 = MIN(row_hi - PAD + after, height - 1);
-        const uint edge = (width & 31) ? 0xffffffffu >> (32 - (width & 31)) : 0xffffffffu;
-        if (write_masks) {
-            for (int k = lid; k < pitch * height; k += LOCAL_SIZE)
-                masks_out[g * mask_words + k] = 0u;
-            barrier(CLK_GLOBAL_MEM_FENCE);
-        }
-        // output words w0 .. w1, in groups of COUNT_WORDS from a multiple of it
-        const int w0 = (MAX(col_lo - PAD - before, 0) >> 5) / COUNT_WORDS * COUNT_WORDS;
-        const int w1 = MIN(col_hi - PAD + after, width - 1) >> 5;
-        uintW model_w = 0u, overlap_w = 0u;
-        for (int r = r0 + lid; r <= r1; r += LOCAL_SIZE)
-        for (int w = w0; w <= w1; w += COUNT_WORDS) {
-            ulongW bits = 0;
-            for (int l = 0; l < layers; ++l) {
-                // output row r: padded rows r + shift .. r + shift + side - 1 of the layer (the
-                // centres whose patch rows reach r); bit j of acc: centre column 32 w + j - after
-                const int side = side_of[l], shift = PAD - side / 2;
-                __local const uint *base = words + l * layer_words + (r + shift) * pstride + w;
-                uintW here = 0u;  // words w .. w + COUNT_WORDS - 1 of the rows, ORed
-                uint next = 0u;   // word w + COUNT_WORDS (within the row: see pstride)
-                for (int t = 0; t < side; ++t) {
-                    here |= *(__local const uintW *)(base + t * pstride);
-                    next |= base[t * pstride + COUNT_WORDS];
-                }
-                ulongW acc = (convert_ulongW(here) | (convert_ulongW(NEXT_WORDS(here, next)) << 32))
-                             >> shift;
-                // output bit i: any of bits i .. i + side - 1 of acc
-                int cover = 1;
-                for (; 2 * cover <= side; cover *= 2) acc |= acc >> cover;
-                acc |= acc >> (side - cover);
-                bits |= acc;
-            }
-            const intW word = w + WORD_INDEX;  // words past the row's last hold no pixel
-            const uintW out = convert_uintW(bits)
-                              & (word < stride - 1 ? 0xffffffffu : word == stride - 1 ? edge : 0u);
-            model_w += bit_count_uintW(out);
-            overlap_w += bit_count_uintW(out & *(__global const uintW *)(fg + shapes[3 * c + 2]
-                                                                       + r * pitch + w));
-            if (write_masks)
-                for (int i = 0; i < COUNT_WORDS && w + i < stride; ++i)
-                    masks_out[g * mask_words + r * pitch + w + i] = LANE(uint, out, i);
-        }
-        model = SUM_WORDS(model_w);
-        overlap = SUM_WORDS(overlap_w);
-    } else {
-        __global const uint8 *f = (__global const uint8 *)(fg + shapes[3 * c + 2]);
-        uint8 model8 = 0u, overlap8 = 0u;
-        for (int k = row_lo * pitch / 8 + lid; k < (row_hi + 1) * pitch / 8; k += LOCAL_SIZE) {
-            const uint8 bits = mask[k];
-            model8 += bit_count_uint8(bits);
-            overlap8 += bit_count_uint8(bits & f[k]);
-        }
-        model = model8.s0 + model8.s1 + model8.s2 + model8.s3 + model8.s4 + model8.s5
-                + model8.s6 + model8.s7;
-        overlap = overlap8.s0 + overlap8.s1 + overlap8.s2 + overlap8.s3 + overlap8.s4
-                  + overlap8.s5 + overlap8.s6 + overlap8.s7;
-    }
-    ADD_INT(&model_px, model);
-    ADD_INT(&overlap_px, overlap);
+    // dilate-and-count, or count the stamped mask
+    int model, overlap;
+    if (layered)
+        dilate_and_count(words, side_of, layers, layer_words, pstride, stride, pitch, width,
+                         height, &totals, f, lid, write_masks, masks_out + g * mask_words,
+                         &model, &overlap);
+    else
+        count_stamped(mask, (__global const uint8 *)f, totals.row_lo, totals.row_hi, pitch, lid,
+                      &model, &overlap);
+    ADD_INT(&totals.model_px, model);
+    ADD_INT(&totals.overlap_px, overlap);
     barrier(CLK_LOCAL_MEM_FENCE);
     if (write_masks && !layered)
         for (int k = lid; k < pitch * height; k += LOCAL_SIZE)
             masks_out[g * mask_words + k] = words[k];
     if (lid == 0) {
-        counts[2 * g] = model_px;
-        counts[2 * g + 1] = overlap_px;
+        counts[2 * g] = totals.model_px;
+        counts[2 * g + 1] = totals.overlap_px;
     }
 }

@@ -25,7 +25,7 @@ from mmocap.validate import check_number
 class PycmaOptimizer(PopulationOptimizer):
     """Args:
         popsize: lambda, or ``None`` for pycma's default ``4 + floor(3 ln D)``.
-        sigma0: initial step as a fraction of the search radius (> 0).
+        sigma0: initial step, unitless: a fraction of the search radius ``space.radius`` (> 0).
     """
 
     name = "pycma"

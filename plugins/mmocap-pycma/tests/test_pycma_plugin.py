@@ -26,7 +26,7 @@ def test_solves_a_rotated_ellipsoid():
         return np.sum(scales * ((X - 0.2) @ rotation) ** 2, axis=1)
 
     space = SearchSpace(x0=np.zeros(dim), lower=-np.ones(dim), upper=np.ones(dim),
-                        sigma0=np.ones(dim), budget=8000)
+                        radius=np.ones(dim), budget=8000)
     result = minimise(PycmaOptimizer(sigma0=0.3), ellipsoid, space, seed=0).result
     assert result.fbest < 1e-8
 
