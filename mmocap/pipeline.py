@@ -25,7 +25,7 @@ import warnings
 from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 from hydra.core.hydra_config import HydraConfig
@@ -299,7 +299,7 @@ def make_summary(cfg: DictConfig, run_id: str, parts: Components, sequence, trac
         sequence=str(sequence.root), fps=float(sequence.fps), seed=int(cfg.seed), run_id=run_id,
         provenance={**provenance.facts(), "components": provenance.components(
             {"optimizer": str(cfg.optimizer.name), "evaluator": str(cfg.evaluator.name)})},
-        config=OmegaConf.to_container(cfg, resolve=True),
+        config=cast(dict, OmegaConf.to_container(cfg, resolve=True)),
         warnings=warning_messages,
     )
 

@@ -66,9 +66,9 @@ class Search:
 def exact_part(text: str, option: str) -> tuple[int, int | None]:
     """'EVALUATIONS[:POPSIZE]' -> (evaluations, popsize or None), checked; a ConfigError
     naming ``option`` otherwise."""
-    evaluations, _, popsize = text.partition(":")
+    evaluations_text, _, popsize_text = text.partition(":")
     try:
-        evaluations, popsize = int(evaluations), int(popsize) if popsize else None
+        evaluations, popsize = int(evaluations_text), int(popsize_text) if popsize_text else None
     except ValueError:
         raise ConfigError(f"{option} must be EVALUATIONS[:POPSIZE], e.g. 1500 or 1500:28, got {text!r}") from None
     check_number(option, evaluations, START_EVALUATIONS + 1, MAX_EVALUATIONS, integer=True)

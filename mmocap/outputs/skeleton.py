@@ -216,7 +216,7 @@ def _skeleton_images(joints_mm: np.ndarray, parents: np.ndarray, title: str, fra
             _frame_skeleton(ax, joints_mm[frame], ground_span, height)
             ax.set_title(f"{title}\nframe {frame}" if title else f"frame {frame}", fontsize=10)
             fig.canvas.draw()
-            yield np.asarray(fig.canvas.buffer_rgba())[..., :3].copy()
+            yield np.asarray(fig.canvas.buffer_rgba())[..., :3].copy()  # type: ignore[attr-defined]  # Agg canvas
     finally:
         plt.close(fig)
 

@@ -173,8 +173,8 @@ class HumanEvaDataset:
             source = open_frames(folder / "Image_Data", f"{self.stem}_({name})", name)
             sources.append(source)
             syncs.append(SyncOffsets.load(folder / "Sync_Data" / f"{self.stem}_({name}).ofs"))
-            cams.append(Camera.load_cal(folder / "Calibration_Data" / f"{name}.cal", source.width,
-                                        source.height, source.colour))
+            cams.append(Camera.load_cal(folder / "Calibration_Data" / f"{name}.cal", source.width,  # type: ignore[arg-type]
+                                        source.height, source.colour))  # type: ignore[arg-type]
         for name, source, sync in zip(self.cameras, sources, syncs):
             if sync.image_start > source.count:
                 raise DataError(f"sync file {folder / 'Sync_Data' / f'{self.stem}_({name}).ofs'} starts at "
@@ -281,7 +281,7 @@ class HumanEvaDataset:
         pattern = re.compile(rf"Background_(\d+)_\({camera}\)(\.avi)?$", re.IGNORECASE)
         found = {p: pattern.match(p.name) for p in folder.glob("Background_*")} if folder.is_dir() else {}
         paths = sorted((p for p, m in found.items() if m and (m.group(2) or p.is_dir())),
-                       key=lambda p: int(found[p].group(1)))
+                       key=lambda p: int(found[p].group(1)))  # type: ignore[union-attr]  # matched
         if not paths:
             raise DataError(f"camera {camera}: no background video {folder / f'Background_<k>_({camera}).avi'}")
         sources = [FrameSource(p, camera, is_colour(camera)) for p in paths]

@@ -42,7 +42,7 @@ class FrameSource:
             _check_numbering(self.files, camera)
             self.count = len(self.files)
         else:
-            self.files = None
+            self.files = None  # type: ignore[assignment]  # a video: no files
             capture = cv2.VideoCapture(str(self.path))
             self.count = int(capture.get(cv2.CAP_PROP_FRAME_COUNT))
             opened = capture.isOpened()

@@ -30,7 +30,7 @@ MOCAP_RATE_HZ = 120.0
 
 def default_marker_map() -> dict[str, list[str]]:
     """The marker map of ``conf/dataset/humaneva.yaml``."""
-    return OmegaConf.to_container(config.load("dataset/humaneva.yaml").marker_map)
+    return OmegaConf.to_container(config.load("dataset/humaneva.yaml").marker_map)  # type: ignore[return-value]  # a mapping of lists
 
 
 def _as_list(x) -> list:
@@ -97,7 +97,7 @@ def write_mocap(path: Path, labels, markers: np.ndarray, rate_hz: float = MOCAP_
              {"name": _cell(["RATE"]), "data": float(rate_hz)},
              {"name": _cell(["UNITS"]), "data": _cell(["mm"])},
              {"name": _cell(["USED"]), "data": float(len(labels))}]
-    groups = _struct_array([{"name": _cell(["POINT"]), "Parameter": _struct_array(point)}])
+    groups = _struct_array([{"name": _cell(["POINT"]), "Parameter": _struct_array(point)}])  # type: ignore[arg-type]
     scipy.io.savemat(str(path), {"Markers": np.nan_to_num(markers, nan=0.0), "ParameterGroup": groups})
 
 
