@@ -66,6 +66,8 @@ def guarded(job):
 
 @hydra.main(config_path=CONFIG_PATH, config_name=CONFIG_NAME, version_base=HYDRA_VERSION_BASE)
 def track_app(cfg: DictConfig) -> None:
+    """``mmocap [track] OVERRIDES``: track the configured sequence into Hydra's output folder and
+    print the run's one-line summary."""
     from mmocap.pipeline import run
 
     if HydraConfig.get().mode == RunMode.MULTIRUN and os.getpid() != _LAUNCHER_PID:
@@ -83,6 +85,8 @@ def track_app(cfg: DictConfig) -> None:
 
 @hydra.main(config_path=CONFIG_PATH, config_name=CONFIG_NAME, version_base=HYDRA_VERSION_BASE)
 def generate_app(cfg: DictConfig) -> None:
+    """``mmocap generate OVERRIDES``: render the configured synthetic sequence (if not yet there)
+    and print its folder, frame count and cameras."""
     sequence = guarded(lambda: instantiate(cfg.dataset).open(progress=cfg.progress))
     print(f"sequence ready: {sequence.root} ({sequence.n_frames} frames, "
           f"cameras {', '.join(c.name for c in sequence.cameras)})")
@@ -107,6 +111,8 @@ class SweepCallback(SweepProgress):
 
 
 def export_humaneva(args: list[str], prog: str) -> None:
+    """``mmocap export-humaneva SEQUENCE OUT``: write a synthetic sequence folder in the HumanEva-I
+    layout."""
     import argparse
 
     from mmocap.data.humaneva.export import export
@@ -130,6 +136,8 @@ def export_humaneva(args: list[str], prog: str) -> None:
 
 
 def list_components(args: list[str], prog: str) -> None:
+    """``mmocap list``: print the installed optimisers and evaluators (and why any is unavailable),
+    then each OpenCL device's self-check."""
     from mmocap import registry
     from mmocap.evaluators.opencl import device_checks
 
@@ -177,6 +185,7 @@ SUBCOMMANDS = {
 
 
 def usage() -> str:
+    """The text of ``mmocap --help``: the usage line and one line per subcommand."""
     width = max(map(len, SUBCOMMANDS))
     lines = ["usage: mmocap [SUBCOMMAND] [ARGUMENTS]", "",
              "Markerless multi-camera motion capture. Without a subcommand the arguments are Hydra",
@@ -286,6 +295,8 @@ def _interruptible():
 
 
 def main(argv: list[str] | None = None) -> None:
+    """The ``mmocap`` command: run the subcommand named first in ``argv`` (default: the process's
+    arguments), ``track`` if none is named; a user error prints one line and exits 2."""
     args = sys.argv[1:] if argv is None else list(argv)
     if args and args[0] in ("-h", "--help"):
         print(usage())

@@ -119,7 +119,8 @@ def _temporary_beside(path: Path) -> Path:
 
 @contextlib.contextmanager
 def atomic_writer(path: str | Path, mode: str = "w", **open_kwargs) -> Iterator[IO]:
-    """``with atomic_writer(path) as f: f.write(...)``: ``f`` is a temporary file beside
+    """Write the file ``path`` whole or not at all:
+    in ``with atomic_writer(path) as f: f.write(...)``, ``f`` is a temporary file beside
     ``path`` (whose folder is created), renamed to ``path`` when the block ends without an
     error and removed when it does not. ``mode`` is ``"w"`` (text) or ``"wb"`` (bytes). The
     file gets the permissions of a newly created file (the umask's). A failure to write is
@@ -134,7 +135,8 @@ def atomic_writer(path: str | Path, mode: str = "w", **open_kwargs) -> Iterator[
 
 @contextlib.contextmanager
 def atomic_path(path: str | Path) -> Iterator[Path]:
-    """``with atomic_path(path) as tmp: ...``: the rename under :func:`atomic_writer`, also for
+    """Write the file ``path`` whole or not at all, through a file name:
+    ``with atomic_path(path) as tmp: ...`` is the rename under :func:`atomic_writer`, also for
     writers that take a file name rather than a file (an ffmpeg process). ``tmp`` is a path
     beside ``path`` (whose folder is created) for the block to write; it is flushed to disk and
     renamed to ``path`` when the block ends without an error, removed when it does not. A
@@ -270,7 +272,7 @@ def check_writable_folder(folder: str | Path) -> Path:
     return folder
 
 
-class LockBusy(DataError):
+class LockBusyError(DataError):
     """:func:`locked` was told not to wait, and another process holds the lock: ``lock`` is
     the lock file, ``holder`` says which process holds it."""
 
@@ -283,7 +285,7 @@ class LockBusy(DataError):
 def locked(lock: str | Path, *, wait: bool = True) -> Iterator[None]:
     """Hold an exclusive lock on the file ``lock`` (created, with its folder, if need be) for
     the block. When another process holds it: wait for it (``wait``, logged), or raise
-    :class:`LockBusy` naming that process. The lock file holds the holder's pid and host."""
+    :class:`LockBusyError` naming that process. The lock file holds the holder's pid and host."""
     lock = Path(lock)
     with writing(lock):
         lock.parent.mkdir(parents=True, exist_ok=True)
@@ -294,7 +296,7 @@ def locked(lock: str | Path, *, wait: bool = True) -> Iterator[None]:
         except BlockingIOError:
             holder = os.pread(fd, 200, 0).decode(errors="replace").strip() or "another process"
             if not wait:
-                raise LockBusy(lock, holder) from None
+                raise LockBusyError(lock, holder) from None
             log.info("waiting for %s, held by %s", lock, holder)
             fcntl.flock(fd, fcntl.LOCK_EX)
         with writing(lock):

@@ -38,7 +38,7 @@ from mmocap import provenance
 from mmocap.analysis.results import ResultsStore, make_record, run_key, store_folder
 from mmocap.errors import ConfigError, DataError, MmocapWarning
 from mmocap.evaluators.timed import TimedEvaluator
-from mmocap.io import LockBusy, exclusive, locked, writing
+from mmocap.io import LockBusyError, exclusive, locked, writing
 from mmocap.outputs.export import export_motion, exported_files, read_poses
 from mmocap.outputs.overlays import write_overlays
 from mmocap.outputs.plots import plot_error_per_frame
@@ -91,7 +91,7 @@ def run_folder_lock(output_dir: Path, wait: bool):
     with ExitStack() as stack:
         try:
             stack.enter_context(locked(output_dir / RUN_LOCK, wait=wait))
-        except LockBusy as busy:
+        except LockBusyError as busy:
             raise DataError(f"run folder {output_dir} is in use by another run ({busy.holder}): wait for it "
                             "to finish, use another hydra.run.dir, or set run_dir_busy=wait to wait for it") from None
         yield

@@ -14,7 +14,7 @@ import pytest
 from mmocap import io
 from mmocap.errors import DataError
 from mmocap.io import (
-    LockBusy,
+    LockBusyError,
     WriteError,
     append_line,
     atomic_path,
@@ -155,7 +155,7 @@ def test_a_writable_folder_is_made_and_left_empty(tmp_path):
 def test_a_lock_held_elsewhere_is_refused_naming_its_holder(tmp_path):
     lock = tmp_path / "run" / ".lock"
     with locked(lock):
-        with pytest.raises(LockBusy) as caught, locked(lock, wait=False):
+        with pytest.raises(LockBusyError) as caught, locked(lock, wait=False):
             pass
     assert f"process {os.getpid()}" in caught.value.holder and str(lock) in str(caught.value)
     with locked(lock, wait=False):  # free again

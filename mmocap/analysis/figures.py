@@ -37,6 +37,8 @@ def plot_error_curves(errors_mm: pd.DataFrame, path: Path, title: str,
 
     Args:
         errors_mm: (frames, algorithms) errors, index = frame number, one column per line.
+        path: the image to write (``.png``).
+        title: drawn above the axes.
         spread: optional (low, high) frames of the same shape, drawn as a band per line.
         note: provenance, stored as the PNG's Description.
     """

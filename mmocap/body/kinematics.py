@@ -96,6 +96,7 @@ def global_transforms(poses: np.ndarray, rest_positions: np.ndarray,
         poses: (n, 51) full pose vectors (mm, rad).
         rest_positions: (J, 3) joint rest positions in mm, root at the origin.
         rest_frames: (J, 3, 3) rest frames A_j.
+
     Returns:
         (n, J, 4, 4) global transforms G_j.
     """

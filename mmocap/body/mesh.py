@@ -182,6 +182,8 @@ SUBJECTS = {
 
 
 def subject_dimensions(name: str) -> SubjectDimensions:
+    """The :class:`SubjectDimensions` of the subject ``name`` (a key of ``SUBJECTS``); a
+    ConfigError naming the known subjects otherwise."""
     try:
         return SUBJECTS[name]
     except KeyError:

@@ -149,6 +149,7 @@ def read_calibration(path: str | Path, units: str = "auto", cameras: Sequence[st
         units: the translations' units in the file: ``"mm"``, ``"m"`` or ``"auto"``.
         cameras: the names of the cameras to return, in that order (default: all, in the
             file's order); one name may be given as a string.
+        units_key: the caller's name for ``units`` in its errors, e.g. ``dataset.units``.
 
     Returns:
         the :class:`Calibration`, translations in mm.
@@ -350,7 +351,7 @@ def _read_storages(roots: list, paths: list[Path], single_name: str | None, form
     else:
         cameras = []
         for root in roots:
-            for key in root.keys():
+            for key in root.keys():  # noqa: SIM118  # a cv2.FileNode, which has no __iter__ nor __contains__
                 node = root.getNode(key)
                 if node.isMap() and not _is_matrix(node) and _holds_camera(lambda k, n=node: _child_value(n, k)):  # type: ignore[misc]  # a lambda's default
                     cameras.append(_camera(source, key, _MapKeys(lambda k, n=node: _child_value(n, k), key)))  # type: ignore[misc]
@@ -414,7 +415,7 @@ def _node_value(node):
                 return node.mat()
             except cv2.error:  # rows, cols and data, but no dt: some other map
                 pass
-        return {key: _node_value(node.getNode(key)) for key in node.keys()}
+        return {key: _node_value(node.getNode(key)) for key in node.keys()}  # noqa: SIM118  # a cv2.FileNode
     if node.isSeq():
         return [_node_value(node.at(i)) for i in range(node.size())]
     if node.isInt():
@@ -450,9 +451,9 @@ class _NamedKeys:
     def _lookup(self, key: str):
         for root in self.roots:
             camera_map = root.getNode(self.name)
-            if camera_map.isMap() and not _is_matrix(camera_map):
-                if (value := _child_value(camera_map, key)) is not None:
-                    return value
+            if (camera_map.isMap() and not _is_matrix(camera_map)
+                    and (value := _child_value(camera_map, key)) is not None):
+                return value
             if (value := _top_value(root, f"{key}_{self.name}")) is not None:
                 return value
         return None

@@ -181,10 +181,7 @@ def poses_at(poses: np.ndarray, offset_frames: float) -> np.ndarray:
     if offset_frames == 0 or len(poses) < 2:
         return poses
     step = np.diff(poses, axis=0)
-    if offset_frames > 0:
-        step = np.concatenate([step, step[-1:]])
-    else:
-        step = np.concatenate([step[:1], step])
+    step = np.concatenate([step, step[-1:]]) if offset_frames > 0 else np.concatenate([step[:1], step])
     return poses + offset_frames * step
 
 

@@ -252,6 +252,7 @@ def render_view(camera: Camera, vertices_mm: np.ndarray, faces: np.ndarray,
     """Render a shaded triangle mesh over ``background`` as ``camera`` records it.
 
     Args:
+        camera: the recording camera: intrinsics in px, pose in mm, image size and distortion.
         vertices_mm: (N, 3) world points in mm.
         faces: (F, 3) int triangles, counter-clockwise seen from outside.
         face_colours: (F, 3) RGB albedo in [0, 1].

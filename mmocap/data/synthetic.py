@@ -94,6 +94,8 @@ def face_colours(mesh: SkinMesh, rng: np.random.Generator) -> np.ndarray:
 
 
 def settings_digest(settings: dict) -> str:
+    """A 16-hex-digit SHA-256 digest of the generator settings (JSON with sorted keys), stored in
+    sequence.json to tell whether a sequence folder was rendered with these settings."""
     return hashlib.sha256(json.dumps(settings, sort_keys=True).encode()).hexdigest()[:16]
 
 

@@ -16,7 +16,7 @@ from __future__ import annotations
 import multiprocessing
 import os
 import tempfile
-from contextlib import contextmanager
+from contextlib import contextmanager, suppress
 
 import numpy as np
 
@@ -111,10 +111,8 @@ class MultiprocessingEvaluator(SilhouetteEvaluator):
     def close(self) -> None:
         """Stop the workers and remove the shared frame data."""
         for _, conn in self._pool:
-            try:
+            with suppress(BrokenPipeError, OSError):
                 conn.send(None)
-            except (BrokenPipeError, OSError):
-                pass
         for proc, conn in self._pool:
             proc.join(timeout=5)
             if proc.is_alive():

@@ -223,7 +223,7 @@ class CMAES(PopulationOptimizer):
         self._last_f = np.empty(0)
 
     def _propose(self, n_max: int) -> np.ndarray:
-        """lambda samples of N(m, sigma^2 C), fewer in a last generation cut by the budget."""
+        """Lambda samples of N(m, sigma^2 C), fewer in a last generation cut by the budget."""
         p = cast(StrategyParameters, self.params)  # set by _start
         n = min(p.lam, n_max)
         normal = self.rng.standard_normal((n, p.dim))
@@ -232,10 +232,8 @@ class CMAES(PopulationOptimizer):
         return self._x
 
     def _learn(self, X: np.ndarray, f: np.ndarray) -> None:
-        if self.bounds == "transform":
-            z = self._z
-        else:  # clipped coordinates re-normalised; the others keep their exact sampled value
-            z = np.where(X != self._x, self.to_unit(X), self._z)
+        # bounds="clip": clipped coordinates re-normalised, the others keep their exact sampled value
+        z = self._z if self.bounds == "transform" else np.where(X != self._x, self.to_unit(X), self._z)
         order = np.argsort(f, kind="stable")
         self._last_f = f
         self._best_history.append(float(f[order[0]]))

@@ -1,4 +1,4 @@
-"""Differential Evolution with role differentiation and malleable mating (Yeguas et al. 2014,
+r"""Differential Evolution with role differentiation and malleable mating (Yeguas et al. 2014,
 Sec. 4.2.2, Fig. 5, Table 3; Garcia-Martinez et al. 2010) as a batch ask/tell minimiser.
 
 Units. The population lives in normalised coordinates ``z = (x - space.x0) / space.radius``
@@ -15,14 +15,14 @@ Generation g (``N`` trials, one per member, all built from the population of gen
 
 1. Roles (role differentiation). Sort the population by fitness: P = the ``N_P`` best,
    L = the ``N_L`` best, C = the ``N_C`` worst. Every member ``i`` is a receiving vector R.
-2. Placing vector: ``p`` uniform from ``P \\ {i}``.
+2. Placing vector: ``p`` uniform from ``P \ {i}``.
 3. Malleable mating: every member carries ``alpha = (alpha_L, alpha_C)`` in [-1, 1]^2 (drawn
    uniformly for generation 0). The placing vector's pair is altered: each component is
    replaced, with probability 0.1, by a new uniform draw from [-1, 1] (the self-adaptation
    rule of jDE, Brest et al. 2006). Fig. 5 only says "alter randomly" and "assortative
    mating"; this encoding of alpha and steps 3-4 are our reading of it.
-4. Assortative mating of ``l`` from ``L \\ {i, p}`` with ``alpha_L'`` and of ``c`` from
-   ``C \\ {i, p, l}`` with ``alpha_C'``: draw ``k = 1 + round(|alpha| (m - 1))`` of the ``m``
+4. Assortative mating of ``l`` from ``L \ {i, p}`` with ``alpha_L'`` and of ``c`` from
+   ``C \ {i, p, l}`` with ``alpha_C'``: draw ``k = 1 + round(|alpha| (m - 1))`` of the ``m``
    candidates at random without replacement and take the one nearest to ``x_p`` if
    ``alpha >= 0`` (positive assortative mating), the farthest if ``alpha < 0`` (negative);
    ``|alpha|`` near 0 is random mating. If a set is empty after the exclusions (small

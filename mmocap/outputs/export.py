@@ -346,6 +346,8 @@ def write_bvh(path: Path, body: BodyModel, poses: np.ndarray, fps: float) -> Pat
 
 
 def main(argv: list[str], prog: str) -> None:
+    """``mmocap export RUN_DIR [--format ...] [--out DIR] [--fps FPS]``: write a finished run's
+    motion as TRC, C3D, BVH and CSV files."""
     parser = argparse.ArgumentParser(
         prog=prog, description="Write a finished run's motion as CSV, TRC (OpenSim), C3D and BVH (Blender) "
                                "files, in mmocap's Y-up world frame.")

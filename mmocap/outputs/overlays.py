@@ -57,6 +57,7 @@ def comparison_overlay(image: np.ndarray, camera, foreground: np.ndarray, silhou
         silhouette: (H, W) bool model silhouette.
         joints_mm: (16, 3) estimated joint positions, mm.
         truth_markers_mm: optional (M, 3) true markers, mm.
+        lines: text lines drawn in the top left corner, one per line.
     """
     out = cv2.cvtColor(image, cv2.COLOR_GRAY2BGR) if image.ndim == 2 else image.copy()
     foreground, silhouette = np.asarray(foreground, bool), np.asarray(silhouette, bool)

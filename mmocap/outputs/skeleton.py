@@ -58,6 +58,7 @@ def plot_skeleton_strip(joints_mm: np.ndarray, parents: np.ndarray, path: Path, 
         parents: (J,) index of each joint's parent, -1 for the root
             (:data:`mmocap.body.skeleton.PARENT_INDEX`).
         path: the image to write (``.png``), atomically.
+        title: drawn above the strip.
         frames: the frame indices (0-based, into ``joints_mm``) to draw; or
         every: draw every ``every``-th frame from the first. Neither: :data:`SKELETON_STRIP_FRAMES`
             frames spaced evenly from the first to the last.
@@ -95,6 +96,7 @@ def write_skeleton_animation(joints_mm: np.ndarray, parents: np.ndarray, path: P
     Args:
         joints_mm: (F, J, 3) joint positions, world mm, Y up (as :func:`plot_skeleton_strip`).
         parents: (J,) index of each joint's parent, -1 for the root.
+        path: the animation to write, ``.gif`` or ``.mp4``.
         fps: frames per second it plays at.
         title: drawn above the frame number.
         progress: show a progress bar.

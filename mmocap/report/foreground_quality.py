@@ -93,6 +93,8 @@ def to_markdown(table: pd.DataFrame) -> str:
 
 
 def main(argv: list[str], prog: str) -> None:
+    """``mmocap foreground-quality [--methods ...] [OVERRIDES]``: print and write the precision,
+    recall and IoU of each background method per camera."""
     parser = argparse.ArgumentParser(prog=prog, description=__doc__.splitlines()[0])
     parser.add_argument("--methods", default=",".join(METHODS),
                         help="comma-separated background configs (conf/background/*.yaml)")

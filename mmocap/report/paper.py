@@ -546,6 +546,8 @@ def make(names: list[str], folder: Path, out: Path, **options) -> tuple[Outputs,
 
 
 def main(argv: list[str], prog: str) -> None:
+    """``mmocap paper NAME FOLDER``: make a paper table or figure (or ``all``) from a sweep's
+    runs.csv."""
     parser = argparse.ArgumentParser(prog=prog, description=__doc__.split("\n\n")[0])
     parser.add_argument("name", choices=[*MAKERS, "all"])
     parser.add_argument("folder", type=Path, help="folder holding runs.csv (and frames.csv)")

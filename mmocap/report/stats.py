@@ -33,6 +33,7 @@ def comparisons_table(result: FriedmanHolm) -> pd.DataFrame:
 
 
 def parse_args(argv, prog: str = "mmocap stats"):
+    """The command-line arguments of ``mmocap stats`` (see the module's docstring) as a namespace."""
     parser = argparse.ArgumentParser(prog=prog,
                                      description=__doc__.split("\n\n")[0])
     parser.add_argument("table", type=Path, help="CSV or Parquet file, one row per measurement")
@@ -60,6 +61,8 @@ def output_stem(out: str) -> Path:
 
 
 def run(args) -> FriedmanHolm:
+    """Run the Friedman test and Holm's comparisons that ``args`` (of :func:`parse_args`) ask for:
+    print the table, write it with ``--out``, and return the result."""
     alpha = check_number("--alpha", args.alpha, 0, 1, low_open=True, high_open=True)
     out = output_stem(args.out) if args.out else None
     table = read_table(args.table)
@@ -78,4 +81,5 @@ def run(args) -> FriedmanHolm:
 
 
 def main(argv: list[str], prog: str) -> None:
+    """``mmocap stats TABLE [OPTIONS]``: the Friedman test and Holm's comparisons on a table."""
     run(parse_args(argv, prog))

@@ -41,6 +41,8 @@ def collect(folder: Path) -> pd.DataFrame:
 
 
 def main(argv: list[str], prog: str) -> None:
+    """``mmocap summaries FOLDER [--csv OUT]``: print (and write) the table of the run summaries
+    below a folder."""
     parser = argparse.ArgumentParser(prog=prog, description=__doc__.splitlines()[0])
     parser.add_argument("folder", type=Path)
     parser.add_argument("--csv", type=Path, help="also write the table as CSV")

@@ -45,7 +45,7 @@ class FrameLog:
         self.path = Path(path)
         self.partial = self.path.with_name(self.path.name + ".partial")
         with writing(self.partial):
-            self.file = open(self.partial, "w", newline="")
+            self.file = open(self.partial, "w", newline="")  # noqa: SIM115  # held until close()
         self.writer = csv.writer(self.file)
         self._write_row(["frame", "marker_error_mm", "fitness", "evaluations", "seconds", *parameter_names()])
 

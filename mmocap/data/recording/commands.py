@@ -122,6 +122,7 @@ def _first_frame_checks(sequence, background, out) -> dict:
 
 
 def check_main(argv: list[str], prog: str) -> None:
+    """``mmocap check-recording ROOT [OVERRIDES]``: check a recording folder before tracking it."""
     parser = argparse.ArgumentParser(prog=prog, description="Check a recording folder before tracking it: "
                                      "what it holds, and the first frame's foreground, calibration and up axis.")
     parser.add_argument("root", help="the recording folder")
@@ -142,6 +143,8 @@ def _offsets(text: str) -> dict:
 
 
 def convert_main(argv: list[str], prog: str) -> None:
+    """``mmocap to-recording SEQUENCE OUT``: write a sequence folder as a user's recording
+    (OpenCV YAML calibration, MP4 videos)."""
     parser = argparse.ArgumentParser(prog=prog, description="Write a sequence folder (with ground truth) in the "
                                      "layout of a user's recording: OpenCV YAML calibration, MP4 videos.")
     parser.add_argument("sequence", type=Path, help="a sequence folder (the one holding sequence.json)")

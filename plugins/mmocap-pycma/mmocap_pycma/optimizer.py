@@ -23,7 +23,9 @@ from mmocap.validate import check_number
 
 
 class PycmaOptimizer(PopulationOptimizer):
-    """Args:
+    """pycma's CMA-ES minimiser following the :class:`mmocap.api.Optimizer` protocol.
+
+    Args:
         popsize: lambda, or ``None`` for pycma's default ``4 + floor(3 ln D)``.
         sigma0: initial step, unitless: a fraction of the search radius ``space.radius`` (> 0).
     """

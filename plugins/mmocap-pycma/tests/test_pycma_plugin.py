@@ -44,6 +44,7 @@ def test_tracks_from_the_command_line(tmp_path):
                           timeout=600)
     assert proc.returncode == 0, proc.stderr
     summary = json.loads((out / "summary.json").read_text())
-    assert summary["optimizer"] == "pycma" and summary["frames"] == 2
+    assert summary["optimizer"] == "pycma"
+    assert summary["frames"] == 2
     assert summary["evaluations_used"] <= 2 * 200
     assert summary["mean_marker_error_mm"] < 60

@@ -1,0 +1,1 @@
+"""The Hydra search-path plugin of mmocap-pycma (:mod:`.searchpath`)."""

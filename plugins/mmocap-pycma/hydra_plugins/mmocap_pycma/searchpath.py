@@ -5,5 +5,7 @@ from hydra.plugins.search_path_plugin import SearchPathPlugin
 
 
 class MmocapPycmaSearchPath(SearchPathPlugin):
+    """Appends ``pkg://mmocap_pycma.conf`` to Hydra's config search path."""
+
     def manipulate_search_path(self, search_path: ConfigSearchPath) -> None:
         search_path.append(provider="mmocap-pycma", path="pkg://mmocap_pycma.conf")

@@ -7,5 +7,7 @@ from hydra.plugins.search_path_plugin import SearchPathPlugin
 
 
 class ChangemeEvaluatorSearchPath(SearchPathPlugin):
+    """Appends ``pkg://changeme_evaluator.conf`` to Hydra's config search path."""
+
     def manipulate_search_path(self, search_path: ConfigSearchPath) -> None:
         search_path.append(provider="mmocap-changeme-evaluator", path="pkg://changeme_evaluator.conf")

@@ -1,2 +1,3 @@
 # TEMPLATE: nothing to rename. This file makes conf/ a package, which Hydra's pkg:// search
 # path (pkg://changeme_optimizer.conf) expects.
+"""Hydra configs of the plugin: a package, as Hydra's pkg:// search path expects."""

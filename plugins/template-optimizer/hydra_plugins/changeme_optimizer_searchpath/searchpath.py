@@ -7,5 +7,7 @@ from hydra.plugins.search_path_plugin import SearchPathPlugin
 
 
 class ChangemeOptimizerSearchPath(SearchPathPlugin):
+    """Appends ``pkg://changeme_optimizer.conf`` to Hydra's config search path."""
+
     def manipulate_search_path(self, search_path: ConfigSearchPath) -> None:
         search_path.append(provider="mmocap-changeme-optimizer", path="pkg://changeme_optimizer.conf")
