@@ -38,6 +38,7 @@ class SearchSpace:
 
     @property
     def dim(self) -> int:
+        """D, the number of searched coordinates."""
         return int(self.x0.shape[0])
 
 
@@ -62,16 +63,23 @@ class Optimizer(Protocol):
     ``{}`` to go on or a dict of reasons.
     """
 
-    def setup(self, space: SearchSpace, rng: np.random.Generator) -> None: ...
+    def setup(self, space: SearchSpace, rng: np.random.Generator) -> None:
+        """Start a new search in ``space``; every random number comes from ``rng``."""
 
-    def ask(self) -> np.ndarray: ...
+    def ask(self) -> np.ndarray:
+        """The next population, (n, D) in the original units, inside the bounds."""
 
-    def tell(self, X: np.ndarray, f: np.ndarray) -> None: ...
+    def tell(self, X: np.ndarray, f: np.ndarray) -> None:
+        """Take the fitness ``f`` (n,) of exactly the population ``X`` (n, D) that :meth:`ask`
+        returned."""
 
-    def stop(self) -> dict[str, float]: ...
+    def stop(self) -> dict[str, float]:
+        """``{}`` to go on, else the reasons to stop, each with its value (``budget``: the
+        evaluations used)."""
 
     @property
-    def result(self) -> Result: ...
+    def result(self) -> Result:
+        """The best point found so far."""
 
 
 @runtime_checkable

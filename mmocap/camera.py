@@ -159,6 +159,8 @@ class Camera:
         return Camera(name, K, np.asarray(dist, float), R, -R @ eye, int(width), int(height), colour)
 
     def to_dict(self) -> dict:
+        """The camera as JSON-ready values: ``name``, ``width``, ``height`` (px), ``colour``, ``K``
+        (px), ``dist``, ``R`` and ``t_mm`` (mm), read back by :meth:`load`."""
         return {
             "name": self.name, "width": self.width, "height": self.height,
             "colour": self.colour, "K": self.K.tolist(), "dist": self.dist.tolist(),
@@ -166,6 +168,7 @@ class Camera:
         }
 
     def save(self, path: Path) -> None:
+        """Write the calibration JSON of :meth:`to_dict` to ``path``."""
         Path(path).write_text(json.dumps(self.to_dict(), indent=2))
 
     def save_cal(self, path: Path) -> None:

@@ -85,6 +85,8 @@ class VideoReader:
         self._next = 0  # index of the frame the next decode returns
 
     def read(self, index: int) -> np.ndarray:
+        """Frame ``index`` (0-based) as (H, W, 3) uint8 BGR; a DataError naming the video if it
+        ends before."""
         if self._capture is None or index < self._next:
             self.close()
             self._capture, self._next = _open(self.path), 0
@@ -99,6 +101,7 @@ class VideoReader:
         return frame  # type: ignore[return-value]  # ok: a frame
 
     def close(self) -> None:
+        """Release the decoder; a later :meth:`read` opens the video again."""
         if self._capture is not None:
             self._capture.release()
             self._capture = None

@@ -91,6 +91,7 @@ class ResultsStore:
         self.records_dir = self.folder / "records"
 
     def path(self, run_id: str) -> Path:
+        """The record file of ``run_id``: ``records/<run_id>.json`` in the store's folder."""
         return self.records_dir / f"{run_id}.json"
 
     def get(self, run_id: str) -> dict | None:

@@ -261,10 +261,12 @@ class FriedmanHolm:
 
     @property
     def n_algorithms(self) -> int:
+        """k, the number of algorithms compared."""
         return self.ranks.shape[1]
 
     @property
     def control(self) -> str:
+        """The control algorithm the others are compared with (the first row of ``comparisons``)."""
         return self.comparisons["algorithm"].iloc[0]
 
     def summary(self) -> str:

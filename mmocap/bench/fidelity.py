@@ -54,6 +54,7 @@ class Search:
 
     @property
     def mode(self) -> str:
+        """``"exact"``, or ``"multi-fidelity (carried)"`` / ``"(restarted)"`` (see :attr:`carry`)."""
         return "exact" if not self.levels else f"multi-fidelity ({'carried' if self.carry else 'restarted'})"
 
     def overrides(self, frames: int, seed: int) -> list[str]:

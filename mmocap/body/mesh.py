@@ -82,6 +82,7 @@ class SkinMesh:
         return np.argmax(self.weights, axis=1)
 
     def trimesh(self) -> trimesh.Trimesh:
+        """The rest mesh as a :class:`trimesh.Trimesh` (vertices in mm), unprocessed."""
         return trimesh.Trimesh(self.vertices, self.faces, process=False)
 
     def posed(self, skinning: np.ndarray) -> np.ndarray:

@@ -171,6 +171,7 @@ class BodyModel:
 
     @property
     def n_vertices(self) -> int:
+        """N, the number of skin vertices the silhouettes are drawn from."""
         return len(self.rest_vertices)
 
     @property

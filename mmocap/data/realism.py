@@ -94,6 +94,7 @@ class Realism:
         return Realism(**values)
 
     def as_dict(self) -> dict:
+        """Every setting by name (stored in the generator settings of sequence.json)."""
         return dataclasses.asdict(self)
 
 

@@ -155,14 +155,17 @@ class SequenceBase(ABC):
 
     @property
     def n_frames(self) -> int:
+        """The number of frames to track."""
         return int(self.meta["frames"])
 
     @property
     def fps(self) -> float:
+        """Frames per second of the cameras."""
         return float(self.meta["fps"])
 
     @property
     def subject(self) -> str:
+        """The subject's body preset (a key of :data:`mmocap.body.mesh.SUBJECTS`)."""
         return str(self.meta["subject"])
 
     @property
@@ -173,6 +176,7 @@ class SequenceBase(ABC):
         return None if x0 is None else np.asarray(x0, dtype=np.float64)
 
     def check_frame(self, frame: int) -> None:
+        """A DataError naming the sequence unless ``frame`` (0-based) is one of its frames."""
         if not 0 <= frame < self.n_frames:
             raise DataError(f"frame {frame} outside sequence {self.root} of {self.n_frames} frames")
 
@@ -369,4 +373,5 @@ class SequenceFolder:
         self.cameras = None if cameras is None else list(cameras)
 
     def open(self, progress: bool = True) -> Sequence:
+        """The sequence folder, read as it is (``progress`` is unused: nothing is rendered)."""
         return Sequence.open(self.path, self.cameras)

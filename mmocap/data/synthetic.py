@@ -277,6 +277,8 @@ class SyntheticDataset:
                              shadow_softness=shadow_softness, distortion=distortion)
 
     def open(self, progress: bool = True) -> Sequence:
+        """The sequence, rendered first unless its folder holds one made with these settings
+        (``progress``: show a progress bar while rendering)."""
         meta_path = self.path / "sequence.json"
         current = None
         if meta_path.is_file():

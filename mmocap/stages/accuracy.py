@@ -51,6 +51,8 @@ class FrameLog:
 
     def write(self, frame: int, error_mm: float, fitness: float, evaluations: int,
               seconds: float, pose: np.ndarray) -> None:
+        """Append and flush the row of ``frame``: its marker error (mm), fitness, evaluations,
+        seconds and (51,) pose (mm, rad)."""
         self._write_row([frame, f"{error_mm:.3f}", f"{fitness:.6f}", evaluations,
                          f"{seconds:.4f}", *(f"{v:.6f}" for v in pose)])
 

@@ -171,6 +171,7 @@ class Fidelity:
 
     @property
     def enabled(self) -> bool:
+        """True when cheaper levels are configured (else the search is exact only)."""
         return bool(self.levels)
 
     @property
@@ -246,6 +247,7 @@ class Fidelity:
         return x, f, switching.evaluations + 1
 
     def close(self) -> None:
+        """Close every level's evaluator; the next :meth:`setup` makes new ones."""
         for evaluator in self._evaluators:
             evaluator.close()
         self._evaluators = []

@@ -78,6 +78,7 @@ class MaskCache:
         self._writable = True
 
     def path(self, frame: int) -> Path:
+        """The cache file of ``frame`` (0-based): ``NNNNNN.npz`` in the cache folder."""
         return self.folder / f"{frame:06d}.npz"
 
     def load(self, frame: int) -> list[ForegroundMask] | None:

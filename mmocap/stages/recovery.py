@@ -43,6 +43,8 @@ class RecoveryEvent:
     evaluations: int
 
     def summary(self) -> dict:
+        """The event as JSON-ready values, fitness rounded to 6 decimals (the run summary's
+        ``recoveries``)."""
         return {"frame": int(self.frame), "fitness_before": round(float(self.fitness_before), 6),
                 "fitness_after": round(float(self.fitness_after), 6), "evaluations": int(self.evaluations)}
 

@@ -241,6 +241,8 @@ class Hierarchical(Strategy):
     name = "hierarchical"
 
     def budgets(self, groups, budget: int) -> list[int]:
+        """The frame's ``budget`` split over the steps ``groups`` in proportion to their number of
+        coordinates; the remainder goes one each to the first steps."""
         dofs = np.array([sum(len(g) for g in step) for step in groups])
         shares = budget * dofs // dofs.sum()
         shares[: budget - shares.sum()] += 1

@@ -161,9 +161,12 @@ class HumanEvaDataset:
 
     @property
     def stem(self) -> str:
+        """``<action>_<trial>``, the trial's name in the dataset's file names."""
         return f"{self.action}_{self.trial}"
 
     def open(self, progress: bool = True) -> HumanEvaSequence:
+        """The trial opened for tracking (its cameras, synchronisation and markers), a DataError
+        naming the missing file otherwise; ``progress`` shows a progress bar while opening."""
         folder = self.root / self.subject
         if not folder.is_dir():
             raise DataError(f"HumanEva-I subject folder not found: {folder}")

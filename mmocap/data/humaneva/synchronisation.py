@@ -35,6 +35,8 @@ class SyncOffsets:
 
     @staticmethod
     def load(path: Path) -> SyncOffsets:
+        """Read an ``.ofs`` file; a DataError naming the file if it is missing or does not hold
+        three finite numbers, ``MC_SC`` > 0."""
         path = Path(path)
         if not path.is_file():
             raise DataError(f"sync file not found: {path}")
@@ -51,6 +53,7 @@ class SyncOffsets:
         return SyncOffsets(*values)
 
     def save(self, path: Path) -> None:
+        """Write the ``.ofs`` file, one number per line, read back exactly by :meth:`load`."""
         Path(path).write_text(f"{self.image_start:.17g}\n{self.mocap_start:.17g}\n{self.mocap_scale:.17g}\n")
 
 

@@ -94,9 +94,11 @@ class FrameSource:
 
     @property
     def kind(self) -> str:
+        """``"video"`` or ``"images"`` (a folder of image files)."""
         return "images" if self.video is None else "video"
 
     def read(self, index: int) -> np.ndarray:
+        """Frame ``index`` (0-based) of the camera, as the class's docstring says."""
         cam = self.camera
         if self.video is None:
             path = self.files[index]
@@ -252,6 +254,8 @@ class RecordingDataset:
         return found[0]
 
     def open(self, progress: bool = True) -> RecordingSequence:
+        """The recording opened for tracking: its calibration, cameras' frames and markers, each
+        checked; a DataError naming the file and the fix otherwise."""
         root = self.path
         if not root.is_dir():
             raise DataError(f"recording folder not found: {root}")
