@@ -119,8 +119,9 @@ test-wheel: $(STAMP) ## Build the wheels of mmocap and plugins/*, install them i
 golden: $(STAMP) ## Rewrite the golden results of tests/golden/data/ (after a change that moves them on purpose; review the diff)
 	MMOCAP_REGEN_GOLDEN=1 $(PY) -m pytest -q tests/golden
 
-lint: $(STAMP) typecheck ## ruff and mypy, with the settings of pyproject.toml
+lint: $(STAMP) typecheck ## ruff (lint rules and format) and mypy, with the settings of pyproject.toml
 	$(VENV)/bin/ruff check mmocap tests plugins
+	$(VENV)/bin/ruff format --check mmocap tests plugins
 
 docs: $(STAMP) ## Build the documentation site (docs/ and the API reference) into site/, warnings as errors
 	$(VENV)/bin/mkdocs build --strict --quiet
