@@ -3,6 +3,7 @@
 Optimisers and evaluators are found through the entry-point groups
 ``mmocap.optimizers`` and ``mmocap.evaluators`` (see :mod:`mmocap.registry`).
 """
+
 from __future__ import annotations
 
 from collections.abc import Sequence

@@ -4,6 +4,7 @@ and the evaluators that count with popcounts.
 A row of W pixels is ``ceil(W / 32)`` little-endian uint32 words: pixel x is bit x % 32 of
 word x // 32; padding bits past W are 0.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -29,8 +30,7 @@ def pack_rows(mask: np.ndarray) -> np.ndarray:
 
 def unpack_rows(packed: np.ndarray, width: int) -> np.ndarray:
     """Inverse of :func:`pack_rows`: (H, ceil(W / 32)) uint32 -> (H, W) bool."""
-    bits = np.unpackbits(np.ascontiguousarray(packed, dtype="<u4").view(np.uint8), axis=1,
-                         bitorder="little")
+    bits = np.unpackbits(np.ascontiguousarray(packed, dtype="<u4").view(np.uint8), axis=1, bitorder="little")
     return bits[:, :width].astype(bool)
 
 

@@ -11,6 +11,7 @@ lens coordinates ``(xd, yd)`` is ``K @ (xd, yd, 1)``. OpenCV's distortion functi
 Every calibration reader builds its cameras with :func:`checked_camera`, the one validation
 of a camera's values whatever file they come from.
 """
+
 from __future__ import annotations
 
 import json
@@ -125,8 +126,9 @@ class Camera:
         if "undistort" not in self._maps:
             unskewed = self.K.copy()
             unskewed[0, 1] = 0.0
-            map_x, map_y = cv2.initUndistortRectifyMap(unskewed, self.dist, None, self.K,
-                                                       (self.width, self.height), cv2.CV_32FC1)
+            map_x, map_y = cv2.initUndistortRectifyMap(
+                unskewed, self.dist, None, self.K, (self.width, self.height), cv2.CV_32FC1
+            )
             if self.K[0, 1]:
                 # (map_x, map_y) = (fx xd + cx, fy yd + cy); the skewed column adds skew * yd
                 map_x = (map_x + (self.K[0, 1] / self.K[1, 1]) * (map_y - self.K[1, 2])).astype(np.float32)
@@ -138,15 +140,23 @@ class Camera:
         if not np.any(self.dist):
             return mask
         mx, my = self.undistort_maps()
-        out = cv2.remap(mask.astype(np.uint8), mx, my, cv2.INTER_NEAREST,
-                        borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+        out = cv2.remap(mask.astype(np.uint8), mx, my, cv2.INTER_NEAREST, borderMode=cv2.BORDER_CONSTANT, borderValue=0)
         return out.astype(bool)
 
     # --- construction and storage -------------------------------------------------------
 
     @staticmethod
-    def look_at(name: str, eye_mm, target_mm, focal_px: float, width: int, height: int,
-                dist=(0, 0, 0, 0, 0), colour: bool = True, up=(0.0, 1.0, 0.0)) -> Camera:
+    def look_at(
+        name: str,
+        eye_mm,
+        target_mm,
+        focal_px: float,
+        width: int,
+        height: int,
+        dist=(0, 0, 0, 0, 0),
+        colour: bool = True,
+        up=(0.0, 1.0, 0.0),
+    ) -> Camera:
         """A camera at ``eye_mm`` looking at ``target_mm`` with image rows going down."""
         eye = np.asarray(eye_mm, float)
         forward = np.asarray(target_mm, float) - eye
@@ -162,9 +172,14 @@ class Camera:
         """The camera as JSON-ready values: ``name``, ``width``, ``height`` (px), ``colour``, ``K``
         (px), ``dist``, ``R`` and ``t_mm`` (mm), read back by :meth:`load`."""
         return {
-            "name": self.name, "width": self.width, "height": self.height,
-            "colour": self.colour, "K": self.K.tolist(), "dist": self.dist.tolist(),
-            "R": self.R.tolist(), "t_mm": self.t.tolist(),
+            "name": self.name,
+            "width": self.width,
+            "height": self.height,
+            "colour": self.colour,
+            "K": self.K.tolist(),
+            "dist": self.dist.tolist(),
+            "R": self.R.tolist(),
+            "t_mm": self.t.tolist(),
         }
 
     def save(self, path: Path) -> None:
@@ -174,13 +189,11 @@ class Camera:
     def save_cal(self, path: Path) -> None:
         """Write a HumanEva-I ``.cal`` file: 22 numbers, one per line (see :meth:`load_cal`)."""
         K = self.K
-        numbers = [K[0, 0], K[1, 1], K[0, 2], K[1, 2], K[0, 1] / K[0, 0], *self.dist,
-                   *self.R.ravel(), *self.t]
+        numbers = [K[0, 0], K[1, 1], K[0, 2], K[1, 2], K[0, 1] / K[0, 0], *self.dist, *self.R.ravel(), *self.t]
         Path(path).write_text("".join(f"{v:.17g}\n" for v in numbers))
 
     @staticmethod
-    def load_cal(path: Path, width: int, height: int, colour: bool = True,
-                 name: str | None = None) -> Camera:
+    def load_cal(path: Path, width: int, height: int, colour: bool = True, name: str | None = None) -> Camera:
         """Read a HumanEva-I ``.cal`` file (Bouguet's calibration toolbox parameters).
 
         It holds 22 numbers separated by white space: fc (2, pixels), cc (2, pixels, the
@@ -200,8 +213,10 @@ class Camera:
         except ValueError as exc:
             raise DataError(f"camera {name}: calibration file {path}: non-numeric value ({exc})") from None
         if v.size != 22:
-            raise DataError(f"camera {name}: calibration file {path} holds {v.size} numbers, a .cal file has 22 "
-                            "(fc 2, cc 2, alpha_c 1, kc 5, R 9, T 3)")
+            raise DataError(
+                f"camera {name}: calibration file {path} holds {v.size} numbers, a .cal file has 22 "
+                "(fc 2, cc 2, alpha_c 1, kc 5, R 9, T 3)"
+            )
         fc, cc, alpha, kc, R, T = v[0:2], v[2:4], v[4], v[5:10], v[10:19].reshape(3, 3), v[19:22]
         K = np.array([[fc[0], alpha * fc[0], cc[0]], [0.0, fc[1], cc[1]], [0.0, 0.0, 1.0]])
         return checked_camera(f"calibration file {path}", name, K, kc, R, T, width, height, colour, keys=CAL_KEYS)
@@ -222,12 +237,22 @@ class Camera:
         name = d.get("name", path.stem)
         if not isinstance(name, str) or not name:
             raise DataError(f"{where}: field 'name' must be a non-empty string, got {name!r}")
-        return checked_camera(f"calibration file {path}", name, d["K"], d["dist"], d["R"], d["t_mm"],
-                              d["width"], d["height"], d.get("colour", True))
+        return checked_camera(
+            f"calibration file {path}",
+            name,
+            d["K"],
+            d["dist"],
+            d["R"],
+            d["t_mm"],
+            d["width"],
+            d["height"],
+            d.get("colour", True),
+        )
 
 
-def checked_camera(source: str, name: str, K, dist, R, t, width, height, colour=True,
-                   keys: dict[str, str] | None = None) -> Camera:
+def checked_camera(
+    source: str, name: str, K, dist, R, t, width, height, colour=True, keys: dict[str, str] | None = None
+) -> Camera:
     """A :class:`Camera` from the values a calibration reader parsed, after checking every
     one: the validation that every reader (JSON, HumanEva-I ``.cal``, any future one) uses.
 
@@ -259,8 +284,11 @@ def checked_camera(source: str, name: str, K, dist, R, t, width, height, colour=
 
     for key, value in (("width", width), ("height", height)):
         if not is_integer(value) or not 1 <= value <= MAX_IMAGE_SIDE_PX:
-            raise fail(key, f"must be an integer number of pixels in [1, {MAX_IMAGE_SIDE_PX}] "
-                            f"(the largest image side mmocap accepts), got {value!r}")
+            raise fail(
+                key,
+                f"must be an integer number of pixels in [1, {MAX_IMAGE_SIDE_PX}] "
+                f"(the largest image side mmocap accepts), got {value!r}",
+            )
     if not isinstance(colour, (bool, np.bool_)):
         raise fail("colour", f"must be true or false, got {colour!r}")
     arrays = {}
@@ -282,13 +310,21 @@ def checked_camera(source: str, name: str, K, dist, R, t, width, height, colour=
     for axis, centre, size in (("cx", K[0, 2], width), ("cy", K[1, 2], height)):
         low, high = -PRINCIPAL_POINT_MARGIN * size, (1 + PRINCIPAL_POINT_MARGIN) * size
         if not low <= centre <= high:
-            raise fail("K", f"principal point {axis} = {centre:g} lies far outside the {width}x{height} "
-                            f"image (allowed: [{low:g}, {high:g}]): a calibration of another image size?")
+            raise fail(
+                "K",
+                f"principal point {axis} = {centre:g} lies far outside the {width}x{height} "
+                f"image (allowed: [{low:g}, {high:g}]): a calibration of another image size?",
+            )
     R = arrays["R"]
-    if (not np.allclose(R @ R.T, np.eye(3), rtol=0, atol=ROTATION_TOLERANCE)
-            or abs(np.linalg.det(R) - 1) > ROTATION_TOLERANCE):
-        raise fail("R", f"is not a rotation matrix (R R^T = I and det R = +1 within {ROTATION_TOLERANCE:g}; "
-                        f"det R = {np.linalg.det(R):.6g})")
+    if (
+        not np.allclose(R @ R.T, np.eye(3), rtol=0, atol=ROTATION_TOLERANCE)
+        or abs(np.linalg.det(R) - 1) > ROTATION_TOLERANCE
+    ):
+        raise fail(
+            "R",
+            f"is not a rotation matrix (R R^T = I and det R = +1 within {ROTATION_TOLERANCE:g}; "
+            f"det R = {np.linalg.det(R):.6g})",
+        )
     return Camera(name, K, arrays["dist"], R, arrays["t_mm"], int(width), int(height), bool(colour))
 
 

@@ -7,6 +7,7 @@ fix (:class:`mmocap.errors.MmocapError`, also when Hydra wraps it, or a file-sys
 ``OSError`` naming its path) prints one line naming the culprit and exits with status 2,
 without a traceback; warnings print as one ``mmocap: warning: ...`` line each.
 """
+
 from __future__ import annotations
 
 import os
@@ -76,11 +77,14 @@ def track_app(cfg: DictConfig) -> None:
     summary = guarded(lambda: run(cfg, output_dir))
     mean = summary["mean_marker_error_mm"]  # over the frames with ground truth; None without any
     error = "no ground truth" if mean is None else f"mean marker error {mean:.1f} mm"
-    print(f"{summary['subject']} {summary['action']}: {summary['optimizer']} {summary['strategy']} "
-          f"{summary['dof']} DOF, {summary['evaluations_per_frame']} evaluations/frame"
-          + (f" (+{cheap} cheaper)" if (cheap := summary.get("cheap_evaluations_per_frame")) else "") + ", "
-          f"{summary['frames']} frames ({summary.get('frames_scored', '?')} scored): {error}, "
-          f"{summary['seconds_per_frame']:.2f} s/frame ({summary['backend']} backend) -> {output_dir}")
+    print(
+        f"{summary['subject']} {summary['action']}: {summary['optimizer']} {summary['strategy']} "
+        f"{summary['dof']} DOF, {summary['evaluations_per_frame']} evaluations/frame"
+        + (f" (+{cheap} cheaper)" if (cheap := summary.get("cheap_evaluations_per_frame")) else "")
+        + ", "
+        f"{summary['frames']} frames ({summary.get('frames_scored', '?')} scored): {error}, "
+        f"{summary['seconds_per_frame']:.2f} s/frame ({summary['backend']} backend) -> {output_dir}"
+    )
 
 
 @hydra.main(config_path=CONFIG_PATH, config_name=CONFIG_NAME, version_base=HYDRA_VERSION_BASE)
@@ -88,8 +92,10 @@ def generate_app(cfg: DictConfig) -> None:
     """``mmocap generate OVERRIDES``: render the configured synthetic sequence (if not yet there)
     and print its folder, frame count and cameras."""
     sequence = guarded(lambda: instantiate(cfg.dataset).open(progress=cfg.progress))
-    print(f"sequence ready: {sequence.root} ({sequence.n_frames} frames, "
-          f"cameras {', '.join(c.name for c in sequence.cameras)})")
+    print(
+        f"sequence ready: {sequence.root} ({sequence.n_frames} frames, "
+        f"cameras {', '.join(c.name for c in sequence.cameras)})"
+    )
 
 
 class SweepCallback(SweepProgress):
@@ -121,17 +127,27 @@ def export_humaneva(args: list[str], prog: str) -> None:
     parser = argparse.ArgumentParser(
         prog=prog,
         description="Write a synthetic sequence folder in the HumanEva-I layout (S*/Calibration_Data, "
-                    "Image_Data, Sync_Data, Mocap_Data at 120 Hz, Background).")
+        "Image_Data, Sync_Data, Mocap_Data at 120 Hz, Background).",
+    )
     parser.add_argument("sequence", help="a sequence folder (the one holding sequence.json)")
     parser.add_argument("out", help="the HumanEva-I folder to write into")
     parser.add_argument("--trial", type=int, default=1, choices=TRIALS)
-    parser.add_argument("--images", choices=("avi", "png"), default="avi",
-                        help="lossless FFV1 videos (default) or folders of numbered PNG frames")
-    parser.add_argument("--mocap-lead", type=int, default=4,
-                        help="mocap frames, all markers missing, before the video starts (default 4)")
+    parser.add_argument(
+        "--images",
+        choices=("avi", "png"),
+        default="avi",
+        help="lossless FFV1 videos (default) or folders of numbered PNG frames",
+    )
+    parser.add_argument(
+        "--mocap-lead",
+        type=int,
+        default=4,
+        help="mocap frames, all markers missing, before the video starts (default 4)",
+    )
     options = parser.parse_args(args)
-    out = export(options.sequence, options.out, trial=options.trial, images=options.images,
-                 mocap_lead=options.mocap_lead)
+    out = export(
+        options.sequence, options.out, trial=options.trial, images=options.images, mocap_lead=options.mocap_lead
+    )
     print(f"HumanEva-I layout written to {out}")
 
 
@@ -152,12 +168,14 @@ def _hydra_app(app):
     def command(args: list[str], prog: str) -> None:
         sys.argv = [prog, *args]
         app()
+
     return command
 
 
 def _main_of(module_name: str, function: str = "main"):
     def command(args: list[str], prog: str) -> None:
         getattr(importlib.import_module(module_name), function)(args, prog=prog)
+
     return command
 
 
@@ -165,13 +183,19 @@ def _main_of(module_name: str, function: str = "main"):
 SUBCOMMANDS = {
     "track": (_hydra_app(track_app), "track a sequence (the default): `mmocap [track] optimizer=pso ...`"),
     "generate": (_hydra_app(generate_app), "render the configured synthetic sequence only [Hydra overrides]"),
-    "list": (list_components, "the installed optimisers and evaluators, why any is unavailable, and "
-                              "each OpenCL device's self-check"),
+    "list": (
+        list_components,
+        "the installed optimisers and evaluators, why any is unavailable, and each OpenCL device's self-check",
+    ),
     "export-humaneva": (export_humaneva, "write a synthetic sequence folder in the HumanEva-I layout"),
-    "check-recording": (_main_of("mmocap.data.recording.commands", "check_main"),
-                        "check a recording folder (calibration, videos, sync, first frame) before tracking it"),
-    "to-recording": (_main_of("mmocap.data.recording.commands", "convert_main"),
-                     "write a sequence folder as a user's recording (OpenCV YAML calibration, MP4 videos)"),
+    "check-recording": (
+        _main_of("mmocap.data.recording.commands", "check_main"),
+        "check a recording folder (calibration, videos, sync, first frame) before tracking it",
+    ),
+    "to-recording": (
+        _main_of("mmocap.data.recording.commands", "convert_main"),
+        "write a sequence folder as a user's recording (OpenCV YAML calibration, MP4 videos)",
+    ),
     "export": (_main_of("mmocap.outputs.export"), "a finished run's motion as TRC, C3D, BVH and CSV files"),
     "collect": (_main_of("mmocap.report.collect"), "write runs.csv and frames.csv of a sweep folder"),
     "ioh": (_main_of("mmocap.report.ioh"), "the runs' per-frame convergence traces for IOHanalyzer"),
@@ -179,18 +203,24 @@ SUBCOMMANDS = {
     "stats": (_main_of("mmocap.report.stats"), "Friedman test and Holm's comparisons on a table of results"),
     "paper": (_main_of("mmocap.report.paper"), "make a paper table or figure from a sweep's runs.csv"),
     "bench": (_main_of("mmocap.bench.cli"), "evaluator benchmark: Cano Tables 1 and 2 and Fig. 3 here"),
-    "foreground-quality": (_main_of("mmocap.report.foreground_quality"),
-                           "precision, recall and IoU of each background method per camera"),
+    "foreground-quality": (
+        _main_of("mmocap.report.foreground_quality"),
+        "precision, recall and IoU of each background method per camera",
+    ),
 }
 
 
 def usage() -> str:
     """The text of ``mmocap --help``: the usage line and one line per subcommand."""
     width = max(map(len, SUBCOMMANDS))
-    lines = ["usage: mmocap [SUBCOMMAND] [ARGUMENTS]", "",
-             "Markerless multi-camera motion capture. Without a subcommand the arguments are Hydra",
-             "overrides of a tracking run; `mmocap track --help` shows its config, `--hydra-help` Hydra's.",
-             "", "subcommands:"]
+    lines = [
+        "usage: mmocap [SUBCOMMAND] [ARGUMENTS]",
+        "",
+        "Markerless multi-camera motion capture. Without a subcommand the arguments are Hydra",
+        "overrides of a tracking run; `mmocap track --help` shows its config, `--hydra-help` Hydra's.",
+        "",
+        "subcommands:",
+    ]
     lines += [f"  {name:<{width}}  {text}" for name, (_, text) in SUBCOMMANDS.items()]
     lines += ["", "`mmocap SUBCOMMAND --help` describes one; `mmocap --version` prints the version."]
     return "\n".join(lines)
@@ -270,9 +300,14 @@ def _interrupted(signum, frame) -> None:
 
     _stop_workers()
     folder = _resume_hint.get("folder")
-    where = (f"finished runs are kept in {folder}/records; run the same command with "
-             f"hydra.sweep.dir={folder} to run only the rest") if folder else \
-        "the run did not finish and wrote no record; run the same command again"
+    where = (
+        (
+            f"finished runs are kept in {folder}/records; run the same command with "
+            f"hydra.sweep.dir={folder} to run only the rest"
+        )
+        if folder
+        else "the run did not finish and wrote no record; run the same command again"
+    )
     print(f"mmocap: interrupted by {signal.Signals(signum).name}; {where}", file=sys.stderr, flush=True)
     os._exit(128 + signum)
 

@@ -6,6 +6,7 @@ package ``mmocap.conf`` (``package-dir`` in ``pyproject.toml``). They are always
 does. Users add their own folders with ``--config-dir`` or ``hydra.searchpath``; plugins add
 theirs with a Hydra search-path plugin.
 """
+
 from __future__ import annotations
 
 from collections.abc import Iterable
@@ -25,8 +26,7 @@ def compose(overrides: Iterable[str] = (), *, return_hydra_config: bool = False)
     from hydra import initialize_config_module
 
     with initialize_config_module(CONFIG_MODULE, version_base=HYDRA_VERSION_BASE):
-        return hydra_compose(CONFIG_NAME, overrides=list(overrides),
-                             return_hydra_config=return_hydra_config)
+        return hydra_compose(CONFIG_NAME, overrides=list(overrides), return_hydra_config=return_hydra_config)
 
 
 def load(relative_path: str) -> DictConfig:
@@ -37,4 +37,4 @@ def load(relative_path: str) -> DictConfig:
 def options(group: str) -> list[str]:
     """The names of the shipped options of a config group (``options("experiment")``)."""
     folder = resources.files(CONFIG_MODULE).joinpath(group)
-    return sorted(p.name[:-len(".yaml")] for p in folder.iterdir() if p.name.endswith(".yaml"))
+    return sorted(p.name[: -len(".yaml")] for p in folder.iterdir() if p.name.endswith(".yaml"))

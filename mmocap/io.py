@@ -22,6 +22,7 @@ never leaves a file that looks finished but is not:
 - Locks (:func:`locked`, :func:`exclusive`) are advisory ``flock`` locks on a lock file; the
   kernel releases them when their process ends, however it ends.
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -188,8 +189,10 @@ def write_image(path: str | Path, image: np.ndarray) -> Path:
     except cv2.error:  # no encoder for the suffix, or an image it cannot take
         ok = False
     if not ok:
-        raise DataError(f"cannot encode a {image.dtype} image of shape {image.shape} as {path.suffix} "
-                        f"for {path}; use .png for 8-bit images")
+        raise DataError(
+            f"cannot encode a {image.dtype} image of shape {image.shape} as {path.suffix} "
+            f"for {path}; use .png for 8-bit images"
+        )
     return write_bytes_atomic(path, encoded.tobytes())
 
 
@@ -231,8 +234,9 @@ def read_json_lines(path: str | Path) -> list[dict]:
     return records
 
 
-def read_json_object(path: str | Path, *, name: str | None = None, wanted: str = "a JSON object",
-                     fix: str = "") -> dict:
+def read_json_object(
+    path: str | Path, *, name: str | None = None, wanted: str = "a JSON object", fix: str = ""
+) -> dict:
     """The JSON object in the file ``path``: the one reader of every JSON file mmocap reads.
 
     A DataError of one line when the file cannot be read (an OSError: missing, a folder, no

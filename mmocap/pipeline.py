@@ -18,6 +18,7 @@ One run at a time writes into a run folder: a run holds the lock ``<output_dir>/
 while it runs. Another run into the same folder stops with an error, or waits for the lock
 with ``run_dir_busy=wait``.
 """
+
 from __future__ import annotations
 
 import logging
@@ -92,8 +93,10 @@ def run_folder_lock(output_dir: Path, wait: bool):
         try:
             stack.enter_context(locked(output_dir / RUN_LOCK, wait=wait))
         except LockBusyError as busy:
-            raise DataError(f"run folder {output_dir} is in use by another run ({busy.holder}): wait for it "
-                            "to finish, use another hydra.run.dir, or set run_dir_busy=wait to wait for it") from None
+            raise DataError(
+                f"run folder {output_dir} is in use by another run ({busy.holder}): wait for it "
+                "to finish, use another hydra.run.dir, or set run_dir_busy=wait to wait for it"
+            ) from None
         yield
 
 
@@ -103,9 +106,14 @@ def clear_outputs(output_dir: Path) -> None:
     that no file of another run lies beside this run's."""
     overlays = output_dir / OVERLAYS
     with writing(output_dir):
-        for path in [*(output_dir / name for name in RUN_OUTPUTS), *output_dir.glob(".*.tmp"),
-                     *overlays.glob("frame_*.png"), *overlays.glob(".*.tmp"),
-                     *exported_files(output_dir / EXPORT_FOLDER), *run_video_files(output_dir)]:
+        for path in [
+            *(output_dir / name for name in RUN_OUTPUTS),
+            *output_dir.glob(".*.tmp"),
+            *overlays.glob("frame_*.png"),
+            *overlays.glob(".*.tmp"),
+            *exported_files(output_dir / EXPORT_FOLDER),
+            *run_video_files(output_dir),
+        ]:
             path.unlink(missing_ok=True)
 
 
@@ -168,8 +176,18 @@ def _run(cfg: DictConfig, output_dir: Path, warning_messages: list[str]) -> dict
     summary.write(output_dir)  # the last output: the run is complete
     parts.evaluator.close()
     parts.fidelity.close()
-    path = store.put(make_record(cfg, summary.to_json(), tracking.frame_rows, tracking.search_seconds,
-                                 parts.evaluator.seconds, tracking.foreground_seconds, started, output_dir))
+    path = store.put(
+        make_record(
+            cfg,
+            summary.to_json(),
+            tracking.frame_rows,
+            tracking.search_seconds,
+            parts.evaluator.seconds,
+            tracking.foreground_seconds,
+            started,
+            output_dir,
+        )
+    )
     log.info("run %s recorded in %s", run_id, path)
     return summary.to_json()
 
@@ -180,8 +198,9 @@ def finished_summary(store: ResultsStore, run_id: str, reuse) -> dict | None:
     done = store.get(run_id) or store.adopt(run_id, reuse)
     if done is None:
         return None
-    log.info("run %s already finished (record %s): skipped; delete the record to run it again",
-             run_id, store.path(run_id))
+    log.info(
+        "run %s already finished (record %s): skipped; delete the record to run it again", run_id, store.path(run_id)
+    )
     return done["summary"]
 
 
@@ -189,11 +208,19 @@ def build_components(cfg: DictConfig) -> Components:
     """The run's components from the config, checked against each other (the strategy against
     the body, optimiser and budget; the fidelity levels against the strategy)."""
     parts = Components(
-        optimizer=instantiate(cfg.optimizer), strategy=instantiate(cfg.strategy),
-        evaluator=TimedEvaluator(instantiate(cfg.evaluator)), body=instantiate(cfg.body),
-        coverage=instantiate(cfg.coverage), start=instantiate(cfg.start), recovery=instantiate(cfg.recovery),
-        fidelity=instantiate(cfg.fidelity, evaluator=lambda: instantiate(cfg.evaluator),
-                             optimizer=lambda **settings: instantiate(cfg.optimizer, **settings)))
+        optimizer=instantiate(cfg.optimizer),
+        strategy=instantiate(cfg.strategy),
+        evaluator=TimedEvaluator(instantiate(cfg.evaluator)),
+        body=instantiate(cfg.body),
+        coverage=instantiate(cfg.coverage),
+        start=instantiate(cfg.start),
+        recovery=instantiate(cfg.recovery),
+        fidelity=instantiate(
+            cfg.fidelity,
+            evaluator=lambda: instantiate(cfg.evaluator),
+            optimizer=lambda **settings: instantiate(cfg.optimizer, **settings),
+        ),
+    )
     parts.strategy.check(parts.body, parts.optimizer, int(cfg.tracking.evaluations))
     parts.fidelity.check(parts.strategy)
     return parts
@@ -214,8 +241,9 @@ def open_sequence(cfg: DictConfig, body) -> tuple[Any, np.ndarray, Foreground]:
     return sequence, truth, foreground
 
 
-def find_start(cfg: DictConfig, parts: Components, sequence, foreground: Foreground,
-               rng: np.random.Generator) -> tuple[np.ndarray | None, dict]:
+def find_start(
+    cfg: DictConfig, parts: Components, sequence, foreground: Foreground, rng: np.random.Generator
+) -> tuple[np.ndarray | None, dict]:
     """Warm the evaluators up and find the first frame's pose: the sequence's own (``x0``,
     mm and rad), or, when the automatic start is wanted, the one it finds (its body, fitted,
     replaces ``parts.body``). Returns the start pose (None: the tracker's default) and the facts
@@ -225,18 +253,39 @@ def find_start(cfg: DictConfig, parts: Components, sequence, foreground: Foregro
     parts.evaluator.warm_up(parts.body, foreground, start_pose)
     parts.fidelity.warm_up(parts.body, foreground.cameras, foreground.masks(0), start_pose)
     if parts.start.wanted(has_x0=x0 is not None):
-        found = parts.start.find(parts.body, foreground.cameras, foreground.masks(0), parts.evaluator,
-                                 parts.optimizer, parts.strategy, rng, fit_height=cfg.body.get("height_mm") is None,
-                                 fit_girth=cfg.body.get("girth") is None)
+        found = parts.start.find(
+            parts.body,
+            foreground.cameras,
+            foreground.masks(0),
+            parts.evaluator,
+            parts.optimizer,
+            parts.strategy,
+            rng,
+            fit_height=cfg.body.get("height_mm") is None,
+            fit_girth=cfg.body.get("girth") is None,
+        )
         parts.body, x0, start_facts = found.body, found.pose, found.summary()
         parts.evaluator.seconds = 0.0  # the tracking's evaluation time from here on; the start's is in start_facts
-        log.info("automatic start: %.1f s, %d evaluations; body %.0f mm tall, girth %.2f", found.seconds,
-                 found.evaluations, parts.body.subject.height_mm, parts.body.subject.girth)
+        log.info(
+            "automatic start: %.1f s, %d evaluations; body %.0f mm tall, girth %.2f",
+            found.seconds,
+            found.evaluations,
+            parts.body.subject.height_mm,
+            parts.body.subject.girth,
+        )
     return x0, start_facts
 
 
-def track_frames(cfg: DictConfig, output_dir: Path, parts: Components, sequence, foreground: Foreground,
-                 truth: np.ndarray, x0: np.ndarray | None, rng: np.random.Generator) -> Tracking:
+def track_frames(
+    cfg: DictConfig,
+    output_dir: Path,
+    parts: Components,
+    sequence,
+    foreground: Foreground,
+    truth: np.ndarray,
+    x0: np.ndarray | None,
+    rng: np.random.Generator,
+) -> Tracking:
     """Track the frames of ``truth`` ((frames, M, 3) mm) from ``x0``, writing each frame's row
     to ``frames.csv`` as it is tracked (``frames.csv.partial`` until the last one, where a
     stopped run leaves it)."""
@@ -248,20 +297,39 @@ def track_frames(cfg: DictConfig, output_dir: Path, parts: Components, sequence,
     def on_frame(result):
         err = float(marker_error(body.markers(result.pose[None]), truth[result.frame][None])[0])
         tracking.errors_mm.append(err)
-        tracking.frame_rows.append({
-            "frame": int(result.frame), "marker_error_mm": err, "fitness": float(result.fitness),
-            "evaluations": int(result.evaluations), "seconds": float(result.seconds),
-            "foreground_seconds": float(result.foreground_seconds)})
+        tracking.frame_rows.append(
+            {
+                "frame": int(result.frame),
+                "marker_error_mm": err,
+                "fitness": float(result.fitness),
+                "evaluations": int(result.evaluations),
+                "seconds": float(result.seconds),
+                "foreground_seconds": float(result.foreground_seconds),
+            }
+        )
         frame_log.write(result.frame, err, result.fitness, result.evaluations, result.seconds, result.pose)
         scored_so_far = [e for e in tracking.errors_mm if not np.isnan(e)]
         bar.set_postfix(error_mm=f"{err:.1f}", mean_mm=f"{np.mean(scored_so_far):.1f}" if scored_so_far else "-")
         bar.update()
 
     try:
-        tracking.results = track(sequence, body, foreground, parts.evaluator, parts.optimizer, parts.strategy,
-                                 evaluations=int(cfg.tracking.evaluations), seed=int(cfg.seed),
-                                 frames=cfg.tracking.frames, on_frame=on_frame, coverage=parts.coverage, x0=x0,
-                                 rng=rng, recovery=parts.recovery, fidelity=parts.fidelity)
+        tracking.results = track(
+            sequence,
+            body,
+            foreground,
+            parts.evaluator,
+            parts.optimizer,
+            parts.strategy,
+            evaluations=int(cfg.tracking.evaluations),
+            seed=int(cfg.seed),
+            frames=cfg.tracking.frames,
+            on_frame=on_frame,
+            coverage=parts.coverage,
+            x0=x0,
+            rng=rng,
+            recovery=parts.recovery,
+            fidelity=parts.fidelity,
+        )
     except BaseException:
         frame_log.close(complete=False)  # the frames tracked stay in frames.csv.partial
         raise
@@ -271,8 +339,15 @@ def track_frames(cfg: DictConfig, output_dir: Path, parts: Components, sequence,
     return tracking
 
 
-def make_summary(cfg: DictConfig, run_id: str, parts: Components, sequence, tracking: Tracking,
-                 start_facts: dict, warning_messages: list[str]) -> Summary:
+def make_summary(
+    cfg: DictConfig,
+    run_id: str,
+    parts: Components,
+    sequence,
+    tracking: Tracking,
+    start_facts: dict,
+    warning_messages: list[str],
+) -> Summary:
     """The run's summary. Its ``warnings`` is ``warning_messages`` itself, so that it holds the
     warnings given until it is written."""
     errors = np.asarray(tracking.errors_mm)
@@ -283,29 +358,50 @@ def make_summary(cfg: DictConfig, run_id: str, parts: Components, sequence, trac
         mean_marker_error_mm=float(np.mean(scored)) if scored.size else None,
         median_marker_error_mm=float(np.median(scored)) if scored.size else None,
         max_marker_error_mm=float(np.max(scored)) if scored.size else None,
-        frames=frames, frames_scored=int(scored.size),
+        frames=frames,
+        frames_scored=int(scored.size),
         evaluations_per_frame=int(cfg.tracking.evaluations),
         cheap_evaluations_per_frame=parts.fidelity.evaluations,
         evaluations_used=int(sum(r.evaluations for r in tracking.results)),
         seconds_per_frame=tracking.search_seconds / frames,
         foreground_seconds_per_frame=tracking.foreground_seconds / frames,
-        optimizer=str(cfg.optimizer.name), strategy=parts.strategy.name, dof=body.dof,
+        optimizer=str(cfg.optimizer.name),
+        strategy=parts.strategy.name,
+        dof=body.dof,
         backend=getattr(parts.evaluator, "name", "") or str(cfg.evaluator.name),  # auto's choice
-        evaluator_choice=str(cfg.evaluator.name), vertices=body.n_vertices,
+        evaluator_choice=str(cfg.evaluator.name),
+        vertices=body.n_vertices,
         subject=sequence.subject or "unknown",  # a recording names nobody
         body={"preset": body.subject.name, "height_mm": body.subject.height_mm, "girth": body.subject.girth},
-        start=start_facts, recoveries=[event.summary() for event in parts.recovery.events],
-        action=sequence.meta.get("action"), cameras=[c.name for c in sequence.cameras],
-        sequence=str(sequence.root), fps=float(sequence.fps), seed=int(cfg.seed), run_id=run_id,
-        provenance={**provenance.facts(), "components": provenance.components(
-            {"optimizer": str(cfg.optimizer.name), "evaluator": str(cfg.evaluator.name)})},
+        start=start_facts,
+        recoveries=[event.summary() for event in parts.recovery.events],
+        action=sequence.meta.get("action"),
+        cameras=[c.name for c in sequence.cameras],
+        sequence=str(sequence.root),
+        fps=float(sequence.fps),
+        seed=int(cfg.seed),
+        run_id=run_id,
+        provenance={
+            **provenance.facts(),
+            "components": provenance.components(
+                {"optimizer": str(cfg.optimizer.name), "evaluator": str(cfg.evaluator.name)}
+            ),
+        },
         config=cast(dict, OmegaConf.to_container(cfg, resolve=True)),
         warnings=warning_messages,
     )
 
 
-def write_outputs(cfg: DictConfig, output_dir: Path, parts: Components, sequence, foreground: Foreground,
-                  truth: np.ndarray, tracking: Tracking, summary: Summary) -> None:
+def write_outputs(
+    cfg: DictConfig,
+    output_dir: Path,
+    parts: Components,
+    sequence,
+    foreground: Foreground,
+    truth: np.ndarray,
+    tracking: Tracking,
+    summary: Summary,
+) -> None:
     """Every output of a tracked run but its summary: the traces, the exports, the error plot
     (where a frame has ground truth), the overlays and, with ``video``, the videos."""
     body, results = parts.body, tracking.results
@@ -313,14 +409,17 @@ def write_outputs(cfg: DictConfig, output_dir: Path, parts: Components, sequence
     export_motion(output_dir / EXPORT_FOLDER, cfg.export, body, read_poses(output_dir / FRAMES), sequence.fps)
     errors = np.asarray(tracking.errors_mm)
     if (~np.isnan(errors)).any():
-        plot_error_per_frame(errors, output_dir / ERROR_PLOT,
-                             f"{summary.subject} {summary.action}: {cfg.optimizer.name} "
-                             f"{summary.strategy}, {body.dof} DOF, {cfg.tracking.evaluations} evaluations/frame")
-    write_overlays(output_dir / OVERLAYS, sequence, foreground, parts.evaluator, body, results, truth,
-                   int(cfg.overlays))
+        plot_error_per_frame(
+            errors,
+            output_dir / ERROR_PLOT,
+            f"{summary.subject} {summary.action}: {cfg.optimizer.name} "
+            f"{summary.strategy}, {body.dof} DOF, {cfg.tracking.evaluations} evaluations/frame",
+        )
+    write_overlays(
+        output_dir / OVERLAYS, sequence, foreground, parts.evaluator, body, results, truth, int(cfg.overlays)
+    )
     if cfg.video:
-        write_run_videos(output_dir, sequence, foreground, parts.evaluator, body, results, truth,
-                         progress=cfg.progress)
+        write_run_videos(output_dir, sequence, foreground, parts.evaluator, body, results, truth, progress=cfg.progress)
 
 
 def sweep_folder() -> Path | None:

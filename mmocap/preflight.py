@@ -8,6 +8,7 @@ model is checked without loading its mesh (:func:`mmocap.body.model.check_body`)
 evaluator's name was checked against the registry by Hydra's composition or the sweep's check,
 and its arguments when it is built, still before any data is read.
 """
+
 from __future__ import annotations
 
 from types import SimpleNamespace
@@ -46,8 +47,14 @@ def check_config(cfg: DictConfig) -> None:
         check_number("tracking.frames", cfg.tracking.frames, 1, integer=True)
     check_run_dir_busy(cfg.run_dir_busy)
     check_missing_markers(cfg.evaluation.missing_markers)
-    check_body(cfg.body.subject, cfg.body.dof, cfg.body.vertices, cfg.body.seed,
-               cfg.body.get("height_mm"), cfg.body.get("girth"))
+    check_body(
+        cfg.body.subject,
+        cfg.body.dof,
+        cfg.body.vertices,
+        cfg.body.seed,
+        cfg.body.get("height_mm"),
+        cfg.body.get("girth"),
+    )
     optimizer = instantiate(cfg.optimizer)
     strategy = instantiate(cfg.strategy)
     dof = int(cfg.body.dof)

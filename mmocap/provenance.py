@@ -4,6 +4,7 @@ and the outcome of each OpenCL device's self-check in this process.
 :func:`facts` is the dict stored in every run record and sweep file; :func:`line` is the
 one-line form written at the top of every table and figure.
 """
+
 from __future__ import annotations
 
 import datetime
@@ -53,9 +54,14 @@ def _fixed_facts() -> dict:
     in_checkout = (source / "pyproject.toml").is_file() and (source / "mmocap").is_dir()
     commit = _git(source, "rev-parse", "HEAD") if in_checkout else None
     dirty = _git(source, "status", "--porcelain", "--untracked-files=no") if commit else None
-    return {"git_commit": commit, "git_dirty": None if dirty is None else bool(dirty),
-            "versions": {p: _version(p) for p in PACKAGES}, "python": platform.python_version(),
-            "host": socket.gethostname(), "platform": platform.platform()}
+    return {
+        "git_commit": commit,
+        "git_dirty": None if dirty is None else bool(dirty),
+        "versions": {p: _version(p) for p in PACKAGES},
+        "python": platform.python_version(),
+        "host": socket.gethostname(),
+        "platform": platform.platform(),
+    }
 
 
 def components(used: dict[str, str]) -> dict:
@@ -69,9 +75,12 @@ def components(used: dict[str, str]) -> dict:
     for kind, name in used.items():
         ep = registry.available(kind).get(name)
         dist = None if ep is None else ep.dist
-        found[kind] = {"name": name, "entry_point": None if ep is None else ep.value,
-                       "distribution": None if dist is None else dist.name,
-                       "version": None if dist is None else dist.version}
+        found[kind] = {
+            "name": name,
+            "entry_point": None if ep is None else ep.value,
+            "distribution": None if dist is None else dist.name,
+            "version": None if dist is None else dist.version,
+        }
     return found
 
 
@@ -85,9 +94,11 @@ def line(source: str | Path | None = None) -> str:
     source <source>' (unknown parts left out)."""
     known = facts()
     versions = known["versions"]
-    parts = [f"mmocap {versions.get('mmocap') or 'unknown'} ("
-             + ", ".join(f"{p} {versions[p]}" for p in ("numpy", "scipy", "pandas") if versions.get(p))
-             + ")"]
+    parts = [
+        f"mmocap {versions.get('mmocap') or 'unknown'} ("
+        + ", ".join(f"{p} {versions[p]}" for p in ("numpy", "scipy", "pandas") if versions.get(p))
+        + ")"
+    ]
     if known["git_commit"]:
         parts.append(f"commit {known['git_commit'][:10]}" + ("+dirty" if known["git_dirty"] else ""))
     parts.append(datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M UTC"))

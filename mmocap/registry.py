@@ -13,6 +13,7 @@ What is built is typed as the Protocol of its kind (:class:`mmocap.api.Optimizer
 :class:`mmocap.api.Evaluator`): a plugin is not checked against it statically, the
 built-in components are (``tests/test_api_types.py``).
 """
+
 from __future__ import annotations
 
 from importlib.metadata import EntryPoint, entry_points
@@ -38,8 +39,7 @@ def load(kind: str, name: str) -> Any:
     try:
         return eps[name].load()
     except (ImportError, AttributeError) as exc:
-        raise ConfigError(f"{kind} '{name}' is registered as {eps[name].value} "
-                          f"but cannot be loaded: {exc}") from exc
+        raise ConfigError(f"{kind} '{name}' is registered as {eps[name].value} but cannot be loaded: {exc}") from exc
 
 
 def unavailable(kind: str, name: str) -> str | None:

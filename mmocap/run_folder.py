@@ -13,6 +13,7 @@ This module owns the run folder's layout; every writer and reader takes the name
 - :data:`EXPORT_FOLDER` (``export/``): the motion files (:mod:`mmocap.outputs.export`).
 - :data:`RUN_LOCK` (``.run.lock``): held by the run writing into the folder.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -123,8 +124,9 @@ class Summary:
         fields = dataclasses.fields(cls)
         missing = [f.name for f in fields if f.default is dataclasses.MISSING and f.name not in data]
         if missing:
-            raise DataError(f"{source} lacks {', '.join(missing)}; it is not the summary of a finished "
-                            f"tracking run: {RUN_AGAIN}")
+            raise DataError(
+                f"{source} lacks {', '.join(missing)}; it is not the summary of a finished tracking run: {RUN_AGAIN}"
+            )
         hints = typing.get_type_hints(cls)
         for f in fields:
             if f.name in data and not _is_kind(data[f.name], hints[f.name]):

@@ -12,6 +12,7 @@ Configured in ``conf/config.yaml`` under ``hydra.callbacks``. For a multirun it
   a line torn by a crash or a full disk is skipped);
 - writes ``runs.csv`` and ``frames.csv`` (:func:`mmocap.report.collect.collect`) at the end.
 """
+
 from __future__ import annotations
 
 import json
@@ -71,9 +72,11 @@ def check_sweep(config: DictConfig, values: dict[str, list[str]]) -> None:
     registered = registry.available("evaluator")
     for name in sorted(evaluators & set(registered)):
         if getattr(registry.load("evaluator", name), "starts_processes", False):
-            raise ConfigError(f"evaluator={name} cannot start its workers inside the joblib launcher's "
-                              "processes: add hydra.launcher.n_jobs=1 (jobs in turn, in this process) or "
-                              "choose another evaluator")
+            raise ConfigError(
+                f"evaluator={name} cannot start its workers inside the joblib launcher's "
+                "processes: add hydra.launcher.n_jobs=1 (jobs in turn, in this process) or "
+                "choose another evaluator"
+            )
 
 
 def job_overrides(config: DictConfig) -> list[list[str]]:
@@ -135,8 +138,12 @@ class SweepProgress(Callback):
             return
         info = read_json_object(info_path)
         ran = not self.found and job_return.status == JobStatus.COMPLETED
-        line = {"session": info["session"], "job": HydraConfig.get().job.num,
-                "status": job_return.status.name, "ran": ran}
+        line = {
+            "session": info["session"],
+            "job": HydraConfig.get().job.num,
+            "status": job_return.status.name,
+            "ran": ran,
+        }
         try:
             append_line(sweep_dir / "progress.jsonl", json.dumps(line))
         except WriteError as exc:  # the job's record, not this line, makes it count: the sweep goes on
@@ -152,10 +159,9 @@ class SweepProgress(Callback):
 
 
 def progress_line(progress_file: Path, info: dict) -> str:
-    """"k/N runs done, about T left" for the sweep session ``info``, from the lines of
+    """The line "k/N runs done, about T left" for the sweep session ``info``, from the lines of
     ``progress_file`` (a line torn by a crash or a full disk is skipped)."""
-    mine = [line for line in read_json_lines(progress_file)
-            if line.get("session") == info["session"] and "job" in line]
+    mine = [line for line in read_json_lines(progress_file) if line.get("session") == info["session"] and "job" in line]
     done = len({line["job"] for line in mine})
     ran = sum(line.get("ran") is True for line in mine)
     total = info["jobs"]

@@ -5,6 +5,7 @@ the value given (``optimizer.popsize must be an integer in [2, inf), got 'lots'`
 Every component checks its constructor arguments with these, so that a bad value fails
 when the component is built, before any data is read.
 """
+
 from __future__ import annotations
 
 import math
@@ -27,20 +28,47 @@ def is_integer(value) -> bool:
 
 
 @overload
-def check_number(key: str, value: Any, low: float = ..., high: float = ..., *,
-                 low_open: bool = ..., high_open: bool = ..., integer: Literal[False] = ...) -> float: ...
+def check_number(
+    key: str,
+    value: Any,
+    low: float = ...,
+    high: float = ...,
+    *,
+    low_open: bool = ...,
+    high_open: bool = ...,
+    integer: Literal[False] = ...,
+) -> float: ...
 @overload
-def check_number(key: str, value: Any, low: float = ..., high: float = ..., *,
-                 low_open: bool = ..., high_open: bool = ..., integer: Literal[True]) -> int: ...
-def check_number(key: str, value: Any, low: float = -math.inf, high: float = math.inf, *,
-                 low_open: bool = False, high_open: bool = False, integer: bool = False) -> float:
+def check_number(
+    key: str,
+    value: Any,
+    low: float = ...,
+    high: float = ...,
+    *,
+    low_open: bool = ...,
+    high_open: bool = ...,
+    integer: Literal[True],
+) -> int: ...
+def check_number(
+    key: str,
+    value: Any,
+    low: float = -math.inf,
+    high: float = math.inf,
+    *,
+    low_open: bool = False,
+    high_open: bool = False,
+    integer: bool = False,
+) -> float:
     """``value`` as float (int with ``integer``) if it is a finite number in the interval
     from ``low`` to ``high`` (ends excluded with ``low_open`` / ``high_open``), else a
     ConfigError naming ``key``."""
     ok = is_integer(value) if integer else is_real(value)
     if ok:
-        ok = (math.isfinite(value) and (value > low if low_open else value >= low)
-              and (value < high if high_open else value <= high))
+        ok = (
+            math.isfinite(value)
+            and (value > low if low_open else value >= low)
+            and (value < high if high_open else value <= high)
+        )
     if not ok:
         kind = "an integer" if integer else "a number"
         left = "(" if low_open or low == -math.inf else "["

@@ -15,6 +15,7 @@ ending in ``.avi`` is written losslessly in FFV1 by OpenCV (HumanEva-I's contain
 needs no extra). Either way the file is written beside its target and renamed when complete
 (:func:`mmocap.io.atomic_path`), and then decoded again to check its frame count.
 """
+
 from __future__ import annotations
 
 import importlib.util
@@ -45,8 +46,10 @@ def _open(path: Path) -> cv2.VideoCapture:
         raise DataError(f"video not found: {path}")
     capture = cv2.VideoCapture(str(path))
     if not capture.isOpened():
-        raise DataError(f"cannot open video {path} (damaged, or a codec OpenCV's FFmpeg cannot decode); "
-                        "convert it to H.264 MP4, e.g. ffmpeg -i IN -c:v libx264 OUT.mp4")
+        raise DataError(
+            f"cannot open video {path} (damaged, or a codec OpenCV's FFmpeg cannot decode); "
+            "convert it to H.264 MP4, e.g. ffmpeg -i IN -c:v libx264 OUT.mp4"
+        )
     return capture
 
 
@@ -110,8 +113,14 @@ class VideoReader:
         self.close()
 
 
-def write_video(path: str | Path, frames: Iterable[np.ndarray], fps: float, count: int | None = None,
-                progress: bool = False, crf: int = H264_CRF) -> Path:
+def write_video(
+    path: str | Path,
+    frames: Iterable[np.ndarray],
+    fps: float,
+    count: int | None = None,
+    progress: bool = False,
+    crf: int = H264_CRF,
+) -> Path:
     """Write ``frames`` ((H, W, 3) BGR or (H, W) grey uint8, all of one size) as an MP4 video
     at ``fps`` frames/s, atomically; returns the path. ``count`` (the number of frames, if
     known) sizes the progress bar. ``crf`` is the H.264 quality (0: lossless, coded in RGB,
@@ -122,8 +131,10 @@ def write_video(path: str | Path, frames: Iterable[np.ndarray], fps: float, coun
     crf = check_number("crf", crf, *CRF_RANGE, integer=True)
     avi = path.suffix.lower() == LOSSLESS_AVI_SUFFIX
     if avi and crf != 0:
-        raise DataError(f"cannot write {path} with crf={crf}: an .avi video is written losslessly (FFV1); "
-                        "give crf=0, or an .mp4 path for a compressed video")
+        raise DataError(
+            f"cannot write {path} with crf={crf}: an .avi video is written losslessly (FFV1); "
+            "give crf=0, or an .mp4 path for a compressed video"
+        )
     frames = iter(frames)
     first = next(frames, None)
     if first is None:
@@ -138,8 +149,10 @@ def write_video(path: str | Path, frames: Iterable[np.ndarray], fps: float, coun
             with _Encoder(encoded, width, height, fps, crf) as write:
                 for frame in itertools.chain([first], frames):
                     if frame.shape[:2] != (height, width):
-                        raise DataError(f"{path}: frame {written} is {frame.shape[1]}x{frame.shape[0]}, "
-                                        f"the first was {width}x{height}")
+                        raise DataError(
+                            f"{path}: frame {written} is {frame.shape[1]}x{frame.shape[0]}, "
+                            f"the first was {width}x{height}"
+                        )
                     write(frame if frame.ndim == 3 else cv2.cvtColor(frame, cv2.COLOR_GRAY2BGR))
                     written += 1
                     bar.update()
@@ -168,12 +181,15 @@ class _Encoder:
             return self._cv.write
         if importlib.util.find_spec("imageio_ffmpeg") is None:
             if self.crf == 0:
-                raise DataError(f"cannot write the lossless video {self.path}: OpenCV's own MP4 encoder is lossy; "
-                                "install the video extra (pip install 'mmocap[video]'), or ask for a compressed one")
+                raise DataError(
+                    f"cannot write the lossless video {self.path}: OpenCV's own MP4 encoder is lossy; "
+                    "install the video extra (pip install 'mmocap[video]'), or ask for a compressed one"
+                )
             self._cv = cv2.VideoWriter(str(self.path), cv2.VideoWriter_fourcc(*"mp4v"), self.fps, self.size)
             if not self._cv.isOpened():
-                raise DataError(f"OpenCV cannot write MP4 video {self.path}; install the video extra: "
-                                "pip install 'mmocap[video]'")
+                raise DataError(
+                    f"OpenCV cannot write MP4 video {self.path}; install the video extra: pip install 'mmocap[video]'"
+                )
             return self._cv.write
         import imageio_ffmpeg
 
@@ -182,11 +198,18 @@ class _Encoder:
         # frame keeps its size in 4:4:4 instead of being resized; lossless is coded in RGB
         # (libx264rgb), as a conversion to YUV and back would round the pixels.
         even = self.size[0] % 2 == 0 and self.size[1] % 2 == 0
-        codec, pix_fmt = (("libx264rgb", "bgr24") if self.crf == 0 else
-                          ("libx264", "yuv420p" if even else "yuv444p"))
+        codec, pix_fmt = ("libx264rgb", "bgr24") if self.crf == 0 else ("libx264", "yuv420p" if even else "yuv444p")
         self._ffmpeg = imageio_ffmpeg.write_frames(
-            str(self.path), self.size, fps=self.fps, codec=codec, pix_fmt_in="bgr24", pix_fmt_out=pix_fmt,
-            macro_block_size=1, output_params=["-crf", str(self.crf), "-preset", "fast"], ffmpeg_log_level="error")
+            str(self.path),
+            self.size,
+            fps=self.fps,
+            codec=codec,
+            pix_fmt_in="bgr24",
+            pix_fmt_out=pix_fmt,
+            macro_block_size=1,
+            output_params=["-crf", str(self.crf), "-preset", "fast"],
+            ffmpeg_log_level="error",
+        )
         self._ffmpeg.send(None)
         return lambda frame: self._ffmpeg.send(np.ascontiguousarray(frame))
 

@@ -7,6 +7,7 @@ saved image is the whole canvas (constrained layout, no cropping), legends lie o
 axes, below them (:func:`legend_below`), so that they hide no data, and the figure grows to
 hold them.
 """
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -29,9 +30,13 @@ PLOTTABLE_MAGNITUDE = 1e300
 LEGEND_MARGIN_INCHES = 0.1
 
 
-def plot_error_curves(errors_mm: pd.DataFrame, path: Path, title: str,
-                      spread: tuple[pd.DataFrame, pd.DataFrame] | None = None,
-                      note: str | None = None) -> Figure:
+def plot_error_curves(
+    errors_mm: pd.DataFrame,
+    path: Path,
+    title: str,
+    spread: tuple[pd.DataFrame, pd.DataFrame] | None = None,
+    note: str | None = None,
+) -> Figure:
     """Marker error (mm) per frame of several algorithms (Yeguas Fig. 10); returns the saved
     (closed) figure.
 
@@ -44,11 +49,11 @@ def plot_error_curves(errors_mm: pd.DataFrame, path: Path, title: str,
     """
     fig, ax = plt.subplots(figsize=(9, 3.8), dpi=110, layout="constrained")
     for name in errors_mm.columns:
-        line, = ax.plot(errors_mm.index, errors_mm[name], lw=1.4,
-                        label=f"{name} (mean {errors_mm[name].mean():.1f} mm)")
+        (line,) = ax.plot(
+            errors_mm.index, errors_mm[name], lw=1.4, label=f"{name} (mean {errors_mm[name].mean():.1f} mm)"
+        )
         if spread is not None:
-            ax.fill_between(errors_mm.index, spread[0][name], spread[1][name], color=line.get_color(),
-                            alpha=0.15, lw=0)
+            ax.fill_between(errors_mm.index, spread[0][name], spread[1][name], color=line.get_color(), alpha=0.15, lw=0)
     ax.xaxis.set_major_locator(MaxNLocator(integer=True))
     ax.set_xlabel("frame")
     ax.set_ylabel("marker error (mm)")
@@ -59,8 +64,18 @@ def plot_error_curves(errors_mm: pd.DataFrame, path: Path, title: str,
     return save_figure(fig, path, note)
 
 
-def plot_grouped_boxplots(data: pd.DataFrame, path: Path, *, value: str, x: str, hue: str,
-                          panel: list[str], ylabel: str, title: str, note: str | None = None) -> Figure:
+def plot_grouped_boxplots(
+    data: pd.DataFrame,
+    path: Path,
+    *,
+    value: str,
+    x: str,
+    hue: str,
+    panel: list[str],
+    ylabel: str,
+    title: str,
+    note: str | None = None,
+) -> Figure:
     """Box plots of ``value``, panels stacked vertically (Yeguas Fig. 7); returns the saved
     (closed) figure.
 
@@ -75,35 +90,55 @@ def plot_grouped_boxplots(data: pd.DataFrame, path: Path, *, value: str, x: str,
     colours = dict(zip(hues, palette(np.arange(len(hues)) % 20)))
     panels = list(data.groupby(panel, observed=True, sort=True))
     widest = max(panel_data[hue].nunique() for _, panel_data in panels)
-    fig, axes = plt.subplots(len(panels), 1, squeeze=False, sharey=True, dpi=100, layout="constrained",
-                             figsize=(min(24.0, max(7.0, 0.22 * len(xs) * widest + 1.5)),
-                                      2.6 * len(panels) + 0.6))
+    fig, axes = plt.subplots(
+        len(panels),
+        1,
+        squeeze=False,
+        sharey=True,
+        dpi=100,
+        layout="constrained",
+        figsize=(min(24.0, max(7.0, 0.22 * len(xs) * widest + 1.5)), 2.6 * len(panels) + 0.6),
+    )
     for ax, (key, panel_data) in zip(axes[:, 0], panels):
         present = [h for h in hues if (panel_data[hue] == h).any()]
         width = 0.8 / len(present)
         for h, name in enumerate(present):
-            groups = [panel_data.loc[(panel_data[x] == v) & (panel_data[hue] == name), value].to_numpy()
-                      for v in xs]
+            groups = [panel_data.loc[(panel_data[x] == v) & (panel_data[hue] == name), value].to_numpy() for v in xs]
             positions = [k - 0.4 + width * (h + 0.5) for k, g in enumerate(groups) if len(g)]
-            ax.boxplot([g for g in groups if len(g)], positions=positions, widths=width * 0.85,
-                       whis=(0, 100), patch_artist=True, manage_ticks=False,
-                       boxprops=dict(facecolor=colours[name], lw=0.8),
-                       medianprops=dict(color="black", lw=1), whiskerprops=dict(lw=0.8),
-                       capprops=dict(lw=0.8))
+            ax.boxplot(
+                [g for g in groups if len(g)],
+                positions=positions,
+                widths=width * 0.85,
+                whis=(0, 100),
+                patch_artist=True,
+                manage_ticks=False,
+                boxprops=dict(facecolor=colours[name], lw=0.8),
+                medianprops=dict(color="black", lw=1),
+                whiskerprops=dict(lw=0.8),
+                capprops=dict(lw=0.8),
+            )
         ax.set_xticks(range(len(xs)), [str(v) for v in xs])
         ax.set_xlim(-0.5, len(xs) - 0.5)
         ax.set_title(", ".join(map(str, key if isinstance(key, tuple) else (key,))), fontsize=10)
         ax.set_ylabel(ylabel)
         ax.grid(axis="y", alpha=0.3)
     fig.suptitle(title)
-    legend_below(fig, [plt.Rectangle((0, 0), 1, 1, facecolor=colours[h]) for h in hues],
-                  [str(h) for h in hues], fontsize=9)
+    legend_below(
+        fig, [plt.Rectangle((0, 0), 1, 1, facecolor=colours[h]) for h in hues], [str(h) for h in hues], fontsize=9
+    )
     return save_figure(fig, path, note)
 
 
-def plot_pareto_front(table: pd.DataFrame, path: Path, *, title: str, note: str | None = None,
-                      x: str = "seconds_per_frame", y: str = "mean_marker_error_mm",
-                      colour: str = "backend") -> Figure:
+def plot_pareto_front(
+    table: pd.DataFrame,
+    path: Path,
+    *,
+    title: str,
+    note: str | None = None,
+    x: str = "seconds_per_frame",
+    y: str = "mean_marker_error_mm",
+    colour: str = "backend",
+) -> Figure:
     """Time against error of every configuration, the Pareto front linked (Cano Fig. 4);
     returns the saved (closed) figure.
 
@@ -122,16 +157,25 @@ def plot_pareto_front(table: pd.DataFrame, path: Path, *, title: str, note: str 
     front = table[table["pareto"]].sort_values(x)
     ax.plot(front[x], front[y], color="0.3", lw=1.2, ls="--", zorder=1, label="Pareto front")
     for row in table.itertuples(index=False):
-        ax.scatter(getattr(row, x), getattr(row, y), color=colours[getattr(row, colour)],
-                   marker=markers[row.vertices], s=70 if row.pareto else 35,
-                   edgecolors="black" if row.pareto else "none", zorder=2)
-        ax.annotate(f"{row.evaluations}", (getattr(row, x), getattr(row, y)), fontsize=7,
-                    xytext=(4, 3), textcoords="offset points")
+        ax.scatter(
+            getattr(row, x),
+            getattr(row, y),
+            color=colours[getattr(row, colour)],
+            marker=markers[row.vertices],
+            s=70 if row.pareto else 35,
+            edgecolors="black" if row.pareto else "none",
+            zorder=2,
+        )
+        ax.annotate(
+            f"{row.evaluations}",
+            (getattr(row, x), getattr(row, y)),
+            fontsize=7,
+            xytext=(4, 3),
+            textcoords="offset points",
+        )
     handles = [plt.Line2D([], [], color="0.3", ls="--", label="Pareto front")]
-    handles += [plt.Line2D([], [], ls="", marker="o", color=colours[b], label=f"{colour} {b}")
-                for b in backends]
-    handles += [plt.Line2D([], [], ls="", marker=markers[v], color="0.5", label=f"{v} vertices")
-                for v in meshes]
+    handles += [plt.Line2D([], [], ls="", marker="o", color=colours[b], label=f"{colour} {b}") for b in backends]
+    handles += [plt.Line2D([], [], ls="", marker=markers[v], color="0.5", label=f"{v} vertices") for v in meshes]
     if table[x].max() > 20 * table[x].min() > 0:
         ax.set_xscale("log")
     ax.set_xlabel(f"time per frame (s){x_unit}")
@@ -150,11 +194,10 @@ def _axis_units(values: pd.Series) -> tuple[float, str]:
     if not largest > PLOTTABLE_MAGNITUDE:
         return 1.0, ""
     exponent = int(np.floor(np.log10(largest)))
-    return 10.0 ** exponent, f" (x 1e{exponent})"
+    return 10.0**exponent, f" (x 1e{exponent})"
 
 
-def plot_frames_per_second(table: pd.DataFrame, path: Path, *, title: str,
-                           note: str | None = None) -> Figure:
+def plot_frames_per_second(table: pd.DataFrame, path: Path, *, title: str, note: str | None = None) -> Figure:
     """Frames per second against evaluations per frame (Cano Fig. 3), log-log: one colour per
     ``backend``, one marker per ``vertices``; rows with ``extrapolated`` drawn dashed. Returns
     the saved (closed) figure."""
@@ -164,11 +207,17 @@ def plot_frames_per_second(table: pd.DataFrame, path: Path, *, title: str,
     fig, ax = plt.subplots(figsize=(9.5, 5), dpi=110, layout="constrained")
     for (backend, vertices), rows in table.groupby(["backend", "vertices"], sort=False):
         rows = rows.sort_values("evaluations")
-        ax.plot(rows["evaluations"], rows["fps"], color=colours[backend], marker=markers[vertices],
-                ls="--" if rows["extrapolated"].any() else "-", lw=1.3, ms=6)
+        ax.plot(
+            rows["evaluations"],
+            rows["fps"],
+            color=colours[backend],
+            marker=markers[vertices],
+            ls="--" if rows["extrapolated"].any() else "-",
+            lw=1.3,
+            ms=6,
+        )
     handles = [plt.Line2D([], [], color=colours[b], label=b) for b in backends]
-    handles += [plt.Line2D([], [], ls="", marker=markers[v], color="0.5", label=f"{v} vertices")
-                for v in meshes]
+    handles += [plt.Line2D([], [], ls="", marker=markers[v], color="0.5", label=f"{v} vertices") for v in meshes]
     if table["extrapolated"].any():
         handles.append(plt.Line2D([], [], color="0.5", ls="--", label="extrapolated"))
     ax.set_xscale("log")
@@ -198,8 +247,7 @@ def legend_below(fig: Figure, handles, labels, fontsize: float = 8) -> Legend:
         fig.set_figwidth((column_px + margin_px) / fig.dpi)
     fitting = max(1, int((fig.bbox.width - margin_px + spacing_px) // (column_px + spacing_px)))
     rows = -(-len(labels) // fitting)
-    legend = fig.legend(handles, labels, loc="outside lower center", fontsize=fontsize,
-                        ncols=-(-len(labels) // rows))
+    legend = fig.legend(handles, labels, loc="outside lower center", fontsize=fontsize, ncols=-(-len(labels) // rows))
     fig.set_figheight(fig.get_figheight() + legend.get_window_extent(renderer).height / fig.dpi)
     return legend
 
@@ -218,8 +266,7 @@ def save_figure(fig: Figure, path: Path, note: str | None) -> Figure:
     path = Path(path)
     try:
         with atomic_writer(path, "wb") as f:
-            fig.savefig(f, format=path.suffix.lstrip(".") or None,
-                        metadata={"Description": note} if note else None)
+            fig.savefig(f, format=path.suffix.lstrip(".") or None, metadata={"Description": note} if note else None)
     finally:
         plt.close(fig)
     return fig

@@ -5,6 +5,7 @@ on at least one (Cano Sec. 6.3); here every objective is minimised (time per fra
 seconds, marker error in mm). The non-dominated configurations form the Pareto front; two
 configurations with equal objectives do not dominate each other, so both stay on it.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -27,8 +28,9 @@ def non_dominated(points: np.ndarray) -> np.ndarray:
     return ~(no_worse & better).any(axis=0)  # type: ignore[return-value]  # (n,): numpy's stubs allow a scalar
 
 
-def summarise(runs: pd.DataFrame, by: list[str] = CONFIGURATION, objectives: list[str] = OBJECTIVES,
-              source: str = "runs") -> pd.DataFrame:
+def summarise(
+    runs: pd.DataFrame, by: list[str] = CONFIGURATION, objectives: list[str] = OBJECTIVES, source: str = "runs"
+) -> pd.DataFrame:
     """Mean objectives per configuration, with the run count and a ``pareto`` column.
 
     Args:

@@ -30,6 +30,7 @@ or holding one of the wrong kind, is a DataError naming the record file and the 
 ``mmocap collect FOLDER`` (:mod:`mmocap.report.collect`) writes them as ``runs.csv`` and
 ``frames.csv``.
 """
+
 from __future__ import annotations
 
 import hashlib
@@ -47,13 +48,45 @@ from mmocap.io import read_json_object, write_json_atomic
 from mmocap.validate import is_integer, is_real
 
 # Top-level config keys that do not change a run's result.
-NOT_IN_KEY = ("hydra", "progress", "overlays", "results", "scale", "settings", "foreground_cache",
-              "run_dir_busy", "evaluation", "export", "video")
+NOT_IN_KEY = (
+    "hydra",
+    "progress",
+    "overlays",
+    "results",
+    "scale",
+    "settings",
+    "foreground_cache",
+    "run_dir_busy",
+    "evaluation",
+    "export",
+    "video",
+)
 
-RUN_COLUMNS = ["run_id", "subject", "action", "sequence", "seed", "optimizer", "strategy",
-               "algorithm", "settings", "realism", "dof", "evaluations", "vertices", "backend", "frames",
-               "mean_marker_error_mm", "mean_best_fitness", "seconds_per_frame",
-               "evaluation_seconds_per_frame", "start", "start_seconds", "git_commit", "host"]
+RUN_COLUMNS = [
+    "run_id",
+    "subject",
+    "action",
+    "sequence",
+    "seed",
+    "optimizer",
+    "strategy",
+    "algorithm",
+    "settings",
+    "realism",
+    "dof",
+    "evaluations",
+    "vertices",
+    "backend",
+    "frames",
+    "mean_marker_error_mm",
+    "mean_best_fitness",
+    "seconds_per_frame",
+    "evaluation_seconds_per_frame",
+    "start",
+    "start_seconds",
+    "git_commit",
+    "host",
+]
 FRAME_COLUMNS = ["run_id", "frame", "marker_error_mm", "fitness"]
 
 
@@ -135,8 +168,16 @@ class ResultsStore:
         return [self.get(run_id) for run_id in self.run_ids()]  # type: ignore[misc]  # listed: each exists
 
 
-def make_record(cfg: DictConfig, summary: dict, frames: list[dict], search_seconds: float,
-                evaluation_seconds: float, foreground_seconds: float, started: str, output_dir: Path) -> dict:
+def make_record(
+    cfg: DictConfig,
+    summary: dict,
+    frames: list[dict],
+    search_seconds: float,
+    evaluation_seconds: float,
+    foreground_seconds: float,
+    started: str,
+    output_dir: Path,
+) -> dict:
     """The record of a finished run: identity, config, per-frame results, timings, and the
     provenance the summary carries (:mod:`mmocap.provenance`: versions, commit, host, and
     where the optimiser and evaluator come from).
@@ -152,11 +193,14 @@ def make_record(cfg: DictConfig, summary: dict, frames: list[dict], search_secon
         "run_id": run_key(cfg),
         "summary": {k: v for k, v in summary.items() if k not in ("config", "provenance")},
         "frames": frames,
-        "timings": {"search_seconds": search_seconds, "seconds_per_frame": search_seconds / n,
-                    "evaluation_seconds": evaluation_seconds,
-                    "evaluation_seconds_per_frame": evaluation_seconds / n,
-                    "foreground_seconds": foreground_seconds,
-                    "foreground_seconds_per_frame": foreground_seconds / n},
+        "timings": {
+            "search_seconds": search_seconds,
+            "seconds_per_frame": search_seconds / n,
+            "evaluation_seconds": evaluation_seconds,
+            "evaluation_seconds_per_frame": evaluation_seconds / n,
+            "foreground_seconds": foreground_seconds,
+            "foreground_seconds_per_frame": foreground_seconds / n,
+        },
         "seed": int(cfg.seed),
         "config": OmegaConf.to_container(cfg, resolve=True),
         "key_config": key_config(cfg),
@@ -169,18 +213,38 @@ def make_record(cfg: DictConfig, summary: dict, frames: list[dict], search_secon
 
 #: what a runs table takes from a record: part -> {key: kind}; a kind ending in "?" may be null
 RECORD_ENTRIES = {
-    "record": {"run_id": "text", "seed": "integer", "frames": "list", "summary": "object", "timings": "object",
-               "provenance": "object"},
-    "summary": {"subject": "text", "action": "text", "optimizer": "text", "strategy": "text", "dof": "integer",
-                "evaluations_per_frame": "integer", "vertices": "integer", "backend": "text",
-                "frames": "integer", "mean_marker_error_mm": "number?"},
+    "record": {
+        "run_id": "text",
+        "seed": "integer",
+        "frames": "list",
+        "summary": "object",
+        "timings": "object",
+        "provenance": "object",
+    },
+    "summary": {
+        "subject": "text",
+        "action": "text",
+        "optimizer": "text",
+        "strategy": "text",
+        "dof": "integer",
+        "evaluations_per_frame": "integer",
+        "vertices": "integer",
+        "backend": "text",
+        "frames": "integer",
+        "mean_marker_error_mm": "number?",
+    },
     "timings": {"seconds_per_frame": "number"},
     "provenance": {},
 }
 #: what every entry of a record's ``frames`` holds
 FRAME_ENTRIES = {"frame": "integer", "marker_error_mm": "number?", "fitness": "number?"}
-KIND_NAMES = {"text": "text", "integer": "an integer", "number": "a number", "list": "a list",
-              "object": "a JSON object"}
+KIND_NAMES = {
+    "text": "text",
+    "integer": "an integer",
+    "number": "a number",
+    "list": "a list",
+    "object": "a JSON object",
+}
 DAMAGED = "delete it to run that job again"
 
 
@@ -233,6 +297,7 @@ def variant_names(config) -> tuple[str | None, str | None]:
     """The names of a run's optimiser settings preset (``settings.name``) and of its synthetic
     data's realism level (``dataset.realism.name``) in its resolved ``config``; None for a
     part the config does not hold (no preset named, a dataset that is not synthetic)."""
+
     def name(node):
         return node.get("name") if isinstance(node, dict) else None
 
@@ -248,25 +313,37 @@ def run_row(record: dict, source: str = "record") -> dict:
     (:func:`mean_best_fitness`). A record missing an entry, or with one of the wrong kind, is a
     DataError naming ``source`` and the entry."""
     record = _checked(record, RECORD_ENTRIES["record"], "", source)
-    s, t, p = (_checked(record[part], RECORD_ENTRIES[part], f"{part}.", source)
-               for part in ("summary", "timings", "provenance"))
+    s, t, p = (
+        _checked(record[part], RECORD_ENTRIES[part], f"{part}.", source)
+        for part in ("summary", "timings", "provenance")
+    )
     evaluation = t.get("evaluation_seconds_per_frame")
     start = s.get("start") if isinstance(s.get("start"), dict) else {}  # records before the automatic start
     settings, realism = variant_names(record.get("config"))
     return {
-        "run_id": record["run_id"], "subject": s["subject"], "action": s["action"],
-        "sequence": f"{s['subject']}_{s['action']}", "seed": int(record["seed"]),
-        "optimizer": s["optimizer"], "strategy": s["strategy"],
+        "run_id": record["run_id"],
+        "subject": s["subject"],
+        "action": s["action"],
+        "sequence": f"{s['subject']}_{s['action']}",
+        "seed": int(record["seed"]),
+        "optimizer": s["optimizer"],
+        "strategy": s["strategy"],
         "algorithm": f"{s['optimizer']}-{s['strategy']}",
-        "settings": settings, "realism": realism, "dof": int(s["dof"]),
-        "evaluations": int(s["evaluations_per_frame"]), "vertices": int(s["vertices"]),
-        "backend": s["backend"], "frames": int(s["frames"]),
+        "settings": settings,
+        "realism": realism,
+        "dof": int(s["dof"]),
+        "evaluations": int(s["evaluations_per_frame"]),
+        "vertices": int(s["vertices"]),
+        "backend": s["backend"],
+        "frames": int(s["frames"]),
         "mean_marker_error_mm": _number(s["mean_marker_error_mm"]),
         "mean_best_fitness": mean_best_fitness([row[3] for row in frame_rows(record, source)]),
         "seconds_per_frame": float(t["seconds_per_frame"]),
         "evaluation_seconds_per_frame": float(evaluation) if is_real(evaluation) else np.nan,  # type: ignore[arg-type]
-        "start": start.get("method", "given"), "start_seconds": _number(start.get("seconds")),  # type: ignore[union-attr]
-        "git_commit": p.get("git_commit"), "host": p.get("host"),
+        "start": start.get("method", "given"),  # type: ignore[union-attr]
+        "start_seconds": _number(start.get("seconds")),  # type: ignore[union-attr]
+        "git_commit": p.get("git_commit"),
+        "host": p.get("host"),
     }
 
 
@@ -277,14 +354,17 @@ def frame_rows(record: dict, source: str = "record") -> list[tuple[str, int, flo
     rows = []
     for k, frame in enumerate(record["frames"]):
         frame = _checked(frame, FRAME_ENTRIES, f"frames[{k}].", source)
-        rows.append((record["run_id"], int(frame["frame"]), _number(frame["marker_error_mm"]),
-                     _number(frame["fitness"])))
+        rows.append(
+            (record["run_id"], int(frame["frame"]), _number(frame["marker_error_mm"]), _number(frame["fitness"]))
+        )
     return rows
 
 
 #: the runs table's columns that a run may leave empty -> why, as the warning says it
-EMPTY_MEANS = {"mean_marker_error_mm": "have no ground truth",
-               "mean_best_fitness": "have no frame, or one without a finite fitness (null, NaN or infinite)"}
+EMPTY_MEANS = {
+    "mean_marker_error_mm": "have no ground truth",
+    "mean_best_fitness": "have no frame, or one without a finite fitness (null, NaN or infinite)",
+}
 
 
 def load_runs(folder) -> tuple[pd.DataFrame, pd.DataFrame]:
@@ -304,7 +384,11 @@ def load_runs(folder) -> tuple[pd.DataFrame, pd.DataFrame]:
     for column, why in EMPTY_MEANS.items():
         empty = [name for name, row in zip(files, rows) if np.isnan(row[column])]
         if empty:
-            warnings.warn(f"{len(empty)} of {len(rows)} run(s) in {store.records_dir} {why} "
-                          f"({', '.join(empty[:3])}{', ...' if len(empty) > 3 else ''}): their {column} is "
-                          "left empty, and the statistics refuse such runs", MmocapWarning, stacklevel=2)
+            warnings.warn(
+                f"{len(empty)} of {len(rows)} run(s) in {store.records_dir} {why} "
+                f"({', '.join(empty[:3])}{', ...' if len(empty) > 3 else ''}): their {column} is "
+                "left empty, and the statistics refuse such runs",
+                MmocapWarning,
+                stacklevel=2,
+            )
     return pd.DataFrame(rows, columns=RUN_COLUMNS), pd.DataFrame(frames, columns=FRAME_COLUMNS)

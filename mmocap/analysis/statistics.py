@@ -29,6 +29,7 @@ dropped with an :class:`IncompleteBlocksWarning` naming it, and the test's summa
 how many were. Cell means are computed without overflow, so values near the float limit
 (1e308) rank as the same values scaled down would.
 """
+
 from __future__ import annotations
 
 import csv
@@ -52,8 +53,9 @@ class IncompleteBlocksWarning(MmocapWarning):
     """Blocks without a value for every algorithm were left out of the test."""
 
 
-def block_matrix(table: pd.DataFrame, block: list[str] | str, algorithm: str, value: str,
-                 source: str = "table") -> tuple[pd.DataFrame, list[str]]:
+def block_matrix(
+    table: pd.DataFrame, block: list[str] | str, algorithm: str, value: str, source: str = "table"
+) -> tuple[pd.DataFrame, list[str]]:
     """Long table -> (N blocks, k algorithms) matrix of mean values over the complete blocks,
     and the names of the incomplete blocks left out (each warned about).
 
@@ -73,31 +75,43 @@ def block_matrix(table: pd.DataFrame, block: list[str] | str, algorithm: str, va
     roles = [*block, algorithm, value]
     repeated = sorted({c for c in roles if roles.count(c) > 1})
     if repeated:
-        raise DataError(f"{source}: column {', '.join(map(repr, repeated))} is given more than one role "
-                        f"(blocks {', '.join(block)}, algorithm {algorithm!r}, value {value!r}); "
-                        "give each role its own column")
+        raise DataError(
+            f"{source}: column {', '.join(map(repr, repeated))} is given more than one role "
+            f"(blocks {', '.join(block)}, algorithm {algorithm!r}, value {value!r}); "
+            "give each role its own column"
+        )
     values = finite_numbers(table, value, source)
     no_empty_cells(table, [*block, algorithm], source)
     # names as text, so that an algorithm called 2 is asked for as --control 2
     long = table[[*block, algorithm]].assign(**{algorithm: table[algorithm].astype(str)}, _value=values)
-    matrix = long.pivot_table(index=block, columns=algorithm, values="_value", aggfunc=overflow_free_mean,
-                              observed=True)
+    matrix = long.pivot_table(
+        index=block, columns=algorithm, values="_value", aggfunc=overflow_free_mean, observed=True
+    )
     matrix.columns.name = algorithm
     if matrix.shape[1] < MIN_ALGORITHMS:
-        raise DataError(f"{source}: the Friedman test needs at least {MIN_ALGORITHMS} values of "
-                        f"{algorithm!r}, got {matrix.shape[1]}: {', '.join(map(str, matrix.columns))}")
+        raise DataError(
+            f"{source}: the Friedman test needs at least {MIN_ALGORITHMS} values of "
+            f"{algorithm!r}, got {matrix.shape[1]}: {', '.join(map(str, matrix.columns))}"
+        )
     incomplete = matrix.isna().any(axis=1)
     dropped = [_block_name(name) for name in matrix.index[incomplete]]
     if incomplete.any():
-        lacking = [f"{_block_name(name)} (no {', '.join(map(str, row.index[row.isna()]))})"
-                   for name, row in matrix[incomplete].iterrows()]
-        warnings.warn(f"{source}: {len(lacking)} block(s) of {', '.join(block)} without every "
-                      f"{algorithm} left out: {'; '.join(lacking)}", IncompleteBlocksWarning,
-                      stacklevel=2)
+        lacking = [
+            f"{_block_name(name)} (no {', '.join(map(str, row.index[row.isna()]))})"
+            for name, row in matrix[incomplete].iterrows()
+        ]
+        warnings.warn(
+            f"{source}: {len(lacking)} block(s) of {', '.join(block)} without every "
+            f"{algorithm} left out: {'; '.join(lacking)}",
+            IncompleteBlocksWarning,
+            stacklevel=2,
+        )
         matrix = matrix[~incomplete]
     if len(matrix) < MIN_BLOCKS:
-        raise DataError(f"{source}: the Friedman test needs at least {MIN_BLOCKS} blocks "
-                        f"({', '.join(block)}) with a value for every {algorithm}, got {len(matrix)}")
+        raise DataError(
+            f"{source}: the Friedman test needs at least {MIN_BLOCKS} blocks "
+            f"({', '.join(block)}) with a value for every {algorithm}, got {len(matrix)}"
+        )
     return matrix, dropped
 
 
@@ -112,8 +126,10 @@ def require_columns(table: pd.DataFrame, columns: list[str], source: str) -> Non
     """DataError naming the columns of ``columns`` that ``table`` lacks, and those it has."""
     missing = [c for c in columns if c not in table.columns]
     if missing:
-        raise DataError(f"{source}: missing column(s) {', '.join(map(repr, missing))}; "
-                        f"columns are {', '.join(map(str, table.columns))}")
+        raise DataError(
+            f"{source}: missing column(s) {', '.join(map(repr, missing))}; "
+            f"columns are {', '.join(map(str, table.columns))}"
+        )
 
 
 def data_row(table: pd.DataFrame, position: int) -> str:
@@ -132,15 +148,19 @@ def finite_numbers(table: pd.DataFrame, column: str, source: str, *, missing_ok:
     text = np.isnan(values) & table[column].notna().to_numpy()
     if text.any():
         row = text.nonzero()[0][0]
-        raise DataError(f"{source}: column {column!r} holds {int(text.sum())} value(s) that are not "
-                        f"numbers, the first {table[column].iloc[row]!r} in {data_row(table, row)}")
+        raise DataError(
+            f"{source}: column {column!r} holds {int(text.sum())} value(s) that are not "
+            f"numbers, the first {table[column].iloc[row]!r} in {data_row(table, row)}"
+        )
     broken = np.isinf(values) if missing_ok else ~np.isfinite(values)
     if broken.any():
         row = broken.nonzero()[0][0]
         kind = "infinite" if missing_ok else "NaN or infinite"
-        raise DataError(f"{source}: column {column!r} holds {int(broken.sum())} {kind} value(s) (an empty "
-                        f"cell is NaN), the first in {data_row(table, row)}; remove those rows or "
-                        f"re-run their measurements")
+        raise DataError(
+            f"{source}: column {column!r} holds {int(broken.sum())} {kind} value(s) (an empty "
+            f"cell is NaN), the first in {data_row(table, row)}; remove those rows or "
+            f"re-run their measurements"
+        )
     return values
 
 
@@ -151,8 +171,10 @@ def no_empty_cells(table: pd.DataFrame, columns: list[str], source: str) -> None
     for column in columns:
         empty = table[column].isna().to_numpy()
         if empty.any():
-            raise DataError(f"{source}: column {column!r} has {int(empty.sum())} empty cell(s), the first "
-                            f"in {data_row(table, empty.nonzero()[0][0])}; fill them in or remove those rows")
+            raise DataError(
+                f"{source}: column {column!r} has {int(empty.sum())} empty cell(s), the first "
+                f"in {data_row(table, empty.nonzero()[0][0])}; fill them in or remove those rows"
+            )
 
 
 def whole_numbers(table: pd.DataFrame, column: str, source: str) -> np.ndarray:
@@ -165,8 +187,10 @@ def whole_numbers(table: pd.DataFrame, column: str, source: str) -> np.ndarray:
         row = bad.nonzero()[0][0]
         cell = table[column].iloc[row]
         shown = "an empty cell" if pd.isna(cell) else repr(cell)
-        raise DataError(f"{source}: column {column!r} must hold whole numbers; {int(bad.sum())} cell(s) do "
-                        f"not, the first {shown} in {data_row(table, row)}")
+        raise DataError(
+            f"{source}: column {column!r} must hold whole numbers; {int(bad.sum())} cell(s) do "
+            f"not, the first {shown} in {data_row(table, row)}"
+        )
     return values.astype(np.int64)
 
 
@@ -184,7 +208,7 @@ def friedman_statistic(average_ranks: np.ndarray, n_blocks: int) -> tuple[float,
     """Average ranks (k,) over N blocks -> (chi2_F, its p, Iman-Davenport F_F, its p)."""
     r = np.asarray(average_ranks, dtype=float)
     k, n = len(r), n_blocks
-    chi2 = 12.0 * n / (k * (k + 1)) * (np.sum(r ** 2) - k * (k + 1) ** 2 / 4.0)
+    chi2 = 12.0 * n / (k * (k + 1)) * (np.sum(r**2) - k * (k + 1) ** 2 / 4.0)
     chi2 = max(chi2, 0.0)  # rounding can leave -1e-15 when every rank is equal
     p = float(stats.chi2.sf(chi2, k - 1))
     denominator = n * (k - 1) - chi2
@@ -196,8 +220,9 @@ def friedman_statistic(average_ranks: np.ndarray, n_blocks: int) -> tuple[float,
     return float(chi2), p, float(f), p_f
 
 
-def holm_versus_control(average_ranks: pd.Series, n_blocks: int, control: str | None = None,
-                        alpha: float = 0.05) -> pd.DataFrame:
+def holm_versus_control(
+    average_ranks: pd.Series, n_blocks: int, control: str | None = None, alpha: float = 0.05
+) -> pd.DataFrame:
     """Post-hoc comparisons of every algorithm with the control, Holm's step-down procedure.
 
     Args:
@@ -230,12 +255,12 @@ def holm_versus_control(average_ranks: pd.Series, n_blocks: int, control: str | 
     order = p.sort_values(kind="stable").index
     steps = np.arange(1, k)  # j = 1 .. k-1 over the sorted p-values
     holm_alpha = pd.Series(alpha / (k - steps), index=order)
-    adjusted = pd.Series(np.maximum.accumulate(np.minimum(1.0, (k - steps) * p[order].to_numpy())),
-                         index=order)
+    adjusted = pd.Series(np.maximum.accumulate(np.minimum(1.0, (k - steps) * p[order].to_numpy())), index=order)
     passed = np.logical_and.accumulate(p[order].to_numpy() <= holm_alpha.to_numpy())
     significant = pd.Series(passed, index=order)
-    table = pd.DataFrame({"rank": ranks, "z": z, "p": p, "holm_alpha": holm_alpha,
-                          "holm_p": adjusted, "significant": significant})
+    table = pd.DataFrame(
+        {"rank": ranks, "z": z, "p": p, "holm_alpha": holm_alpha, "holm_p": adjusted, "significant": significant}
+    )
     table["significant"] = table["significant"].fillna(False).astype(bool)
     table = table.loc[[control, *others.index]]
     return table.rename_axis("algorithm").reset_index()
@@ -248,6 +273,7 @@ class FriedmanHolm:
     ``comparisons`` is the table of :func:`holm_versus_control`; ``ranks`` the (N, k) ranks
     per block; ``blocks`` the block columns and ``dropped`` the incomplete blocks left out.
     """
+
     comparisons: pd.DataFrame
     ranks: pd.DataFrame
     n_blocks: int
@@ -272,16 +298,26 @@ class FriedmanHolm:
     def summary(self) -> str:
         """One line: k, N, the Friedman and Iman-Davenport statistics and p-values."""
         k, n = self.n_algorithms, self.n_blocks
-        return (f"Friedman test, {k} algorithms on {n} blocks ({', '.join(self.blocks)}): "
-                f"chi2_F = {self.statistic:.3f} ({k - 1} d.o.f.), p = {self.p_value:.3g}; "
-                f"Iman-Davenport F_F = {self.iman_davenport:.3f} ({k - 1}, {(k - 1) * (n - 1)} d.o.f.), "
-                f"p = {self.iman_davenport_p:.3g}; Holm vs control {self.control} at alpha = {self.alpha:g}"
-                + (f"; {len(self.dropped)} incomplete block(s) left out" if self.dropped else ""))
+        return (
+            f"Friedman test, {k} algorithms on {n} blocks ({', '.join(self.blocks)}): "
+            f"chi2_F = {self.statistic:.3f} ({k - 1} d.o.f.), p = {self.p_value:.3g}; "
+            f"Iman-Davenport F_F = {self.iman_davenport:.3f} ({k - 1}, {(k - 1) * (n - 1)} d.o.f.), "
+            f"p = {self.iman_davenport_p:.3g}; Holm vs control {self.control} at alpha = {self.alpha:g}"
+            + (f"; {len(self.dropped)} incomplete block(s) left out" if self.dropped else "")
+        )
 
 
-def friedman_holm(table: pd.DataFrame, block: list[str] | str, algorithm: str, value: str, *,
-                  higher_is_better: bool = False, control: str | None = None,
-                  alpha: float = 0.05, source: str = "table") -> FriedmanHolm:
+def friedman_holm(
+    table: pd.DataFrame,
+    block: list[str] | str,
+    algorithm: str,
+    value: str,
+    *,
+    higher_is_better: bool = False,
+    control: str | None = None,
+    alpha: float = 0.05,
+    source: str = "table",
+) -> FriedmanHolm:
     """Friedman test and Holm's comparisons against the control on a long table.
 
     See :func:`block_matrix` for the arguments shared with it; ``higher_is_better`` ranks the
@@ -294,9 +330,18 @@ def friedman_holm(table: pd.DataFrame, block: list[str] | str, algorithm: str, v
     average = ranks.mean(axis=0)
     chi2, p, f, p_f = friedman_statistic(average.to_numpy(), len(ranks))
     comparisons = holm_versus_control(average, len(ranks), control, alpha)
-    return FriedmanHolm(comparisons=comparisons, ranks=ranks, n_blocks=len(ranks), statistic=chi2,
-                        p_value=p, iman_davenport=f, iman_davenport_p=p_f, alpha=alpha,
-                        blocks=block, dropped=dropped)
+    return FriedmanHolm(
+        comparisons=comparisons,
+        ranks=ranks,
+        n_blocks=len(ranks),
+        statistic=chi2,
+        p_value=p,
+        iman_davenport=f,
+        iman_davenport_p=p_f,
+        alpha=alpha,
+        blocks=block,
+        dropped=dropped,
+    )
 
 
 def read_table(path: str | Path) -> pd.DataFrame:
@@ -323,8 +368,10 @@ def read_table(path: str | Path) -> pd.DataFrame:
             header = next(itertools.islice(csv.reader(f), comments, None), [])
         repeated = sorted({str(c) for c in header if header.count(c) > 1})
         if repeated:
-            raise DataError(f"{path}: column name(s) {', '.join(map(repr, repeated))} appear more than once "
-                            "in the header; rename them so that each column has its own name")
+            raise DataError(
+                f"{path}: column name(s) {', '.join(map(repr, repeated))} appear more than once "
+                "in the header; rename them so that each column has its own name"
+            )
         return pd.read_csv(path, skiprows=comments)
     except ImportError as err:
         raise DataError(f"{path}: reading Parquet needs pyarrow (pip install pyarrow): {err}") from None

@@ -11,6 +11,7 @@ uncommitted changes), the date (UTC) and the source:
 - LaTeX: ``% <provenance>``, then a ``table`` float with a booktabs ``tabular``, every cell
   escaped.
 """
+
 from __future__ import annotations
 
 from collections.abc import Callable
@@ -23,9 +24,18 @@ from mmocap.io import write_text_atomic
 from mmocap.provenance import line as provenance
 
 Format = str | Callable[[float], str]
-LATEX_SPECIALS = {"\\": r"\textbackslash{}", "&": r"\&", "%": r"\%", "$": r"\$", "#": r"\#",
-                  "_": r"\_", "{": r"\{", "}": r"\}", "~": r"\textasciitilde{}",
-                  "^": r"\textasciicircum{}"}
+LATEX_SPECIALS = {
+    "\\": r"\textbackslash{}",
+    "&": r"\&",
+    "%": r"\%",
+    "$": r"\$",
+    "#": r"\#",
+    "_": r"\_",
+    "{": r"\{",
+    "}": r"\}",
+    "~": r"\textasciitilde{}",
+    "^": r"\textasciicircum{}",
+}
 
 
 def format_cell(value, fmt: Format = ".3f") -> str:
@@ -47,8 +57,9 @@ def format_p(p: float) -> str:
 
 def _cells(df: pd.DataFrame, floatfmt: Format, formats: dict[str, Format] | None) -> pd.DataFrame:
     formats = formats or {}
-    return pd.DataFrame({c: [format_cell(v, formats.get(c, floatfmt)) for v in df[c]]
-                         for c in df.columns}, columns=df.columns)
+    return pd.DataFrame(
+        {c: [format_cell(v, formats.get(c, floatfmt)) for v in df[c]] for c in df.columns}, columns=df.columns
+    )
 
 
 def latex_escape(text: str) -> str:
@@ -56,23 +67,31 @@ def latex_escape(text: str) -> str:
     return "".join(LATEX_SPECIALS.get(ch, ch) for ch in text)
 
 
-def to_markdown(df: pd.DataFrame, title: str, note: str, floatfmt: Format = ".3f",
-                formats: dict[str, Format] | None = None) -> str:
+def to_markdown(
+    df: pd.DataFrame, title: str, note: str, floatfmt: Format = ".3f", formats: dict[str, Format] | None = None
+) -> str:
     """Markdown: '# title', the note in italics, the table (tabulate's pipe format)."""
     cells = _cells(df, floatfmt, formats)
     cells = cells.map(lambda text: text.replace("|", "\\|"))
-    body = cells.to_markdown(index=False, disable_numparse=True,
-                             colalign=[_align(df[c]) for c in df.columns])
+    body = cells.to_markdown(index=False, disable_numparse=True, colalign=[_align(df[c]) for c in df.columns])
     return f"# {title}\n\n_{note}_\n\n{body}\n"
 
 
-def to_latex(df: pd.DataFrame, title: str, note: str, floatfmt: Format = ".3f",
-             formats: dict[str, Format] | None = None) -> str:
+def to_latex(
+    df: pd.DataFrame, title: str, note: str, floatfmt: Format = ".3f", formats: dict[str, Format] | None = None
+) -> str:
     """LaTeX: '% note', then a table float (caption = title) with a booktabs tabular."""
     spec = "".join("r" if _align(df[c]) == "right" else "l" for c in df.columns)
-    lines = [f"% {note}", r"\begin{table}[htbp]", r"\centering",
-             rf"\caption{{{latex_escape(title)}}}", rf"\begin{{tabular}}{{{spec}}}", r"\toprule",
-             " & ".join(latex_escape(str(c)) for c in df.columns) + r" \\", r"\midrule"]
+    lines = [
+        f"% {note}",
+        r"\begin{table}[htbp]",
+        r"\centering",
+        rf"\caption{{{latex_escape(title)}}}",
+        rf"\begin{{tabular}}{{{spec}}}",
+        r"\toprule",
+        " & ".join(latex_escape(str(c)) for c in df.columns) + r" \\",
+        r"\midrule",
+    ]
     for row in _cells(df, floatfmt, formats).itertuples(index=False):
         lines.append(" & ".join(latex_escape(v) for v in row) + r" \\")
     lines += [r"\bottomrule", r"\end{tabular}", r"\end{table}"]
@@ -91,8 +110,15 @@ def write_csv(df: pd.DataFrame, path: str | Path, source: str | Path | None = No
     return path
 
 
-def write_table(df: pd.DataFrame, stem: str | Path, *, title: str, source: str | Path | None = None,
-                floatfmt: Format = ".3f", formats: dict[str, Format] | None = None) -> list[Path]:
+def write_table(
+    df: pd.DataFrame,
+    stem: str | Path,
+    *,
+    title: str,
+    source: str | Path | None = None,
+    floatfmt: Format = ".3f",
+    formats: dict[str, Format] | None = None,
+) -> list[Path]:
     """Write ``df`` to ``stem``.csv, .md and .tex (see the module docstring); returns the paths.
 
     Floats are written in full in the CSV; in Markdown and LaTeX with ``formats[column]`` or

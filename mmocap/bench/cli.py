@@ -25,6 +25,7 @@ Usage::
     mmocap bench all --vertices 27393 --budgets 500,1500 --prefix bench_
     mmocap bench fidelity --exact 500,1000,1500 --schedule 0.25:3000:1200+300
 """
+
 from __future__ import annotations
 
 import argparse
@@ -47,8 +48,13 @@ from mmocap.testing.scene import Scene
 from mmocap.validate import check_number
 
 #: the tables each subcommand makes, by name: its sections of a ``--page``
-TABLES = {"table1": ("table1",), "table2": ("table2", "roofline"), "roofline": ("roofline",),
-          "all": ("table2", "roofline", "table1"), "fidelity": ("fidelity",)}
+TABLES = {
+    "table1": ("table1",),
+    "table2": ("table2", "roofline"),
+    "roofline": ("roofline",),
+    "all": ("table2", "roofline", "table1"),
+    "fidelity": ("fidelity",),
+}
 
 
 def integer_list(option: str, text: str, low: int, high: int) -> list[int]:
@@ -66,33 +72,50 @@ def integer_list(option: str, text: str, low: int, high: int) -> list[int]:
 def build_parser(prog: str) -> argparse.ArgumentParser:
     """The command's arguments; the levels and budgets default to the paper scale's."""
     paper = load("scale/paper.yaml").scale
-    parser = argparse.ArgumentParser(prog=prog, description="Evaluator benchmark: the Cano paper's Tables 1 and "
-                                     "2 (and Fig. 3) for this machine.")
+    parser = argparse.ArgumentParser(
+        prog=prog, description="Evaluator benchmark: the Cano paper's Tables 1 and 2 (and Fig. 3) for this machine."
+    )
     parser.add_argument("table", choices=list(TABLES))
-    parser.add_argument("--backends", default=None,
-                        help="comma-separated evaluators (default: every one that can run here)")
+    parser.add_argument(
+        "--backends", default=None, help="comma-separated evaluators (default: every one that can run here)"
+    )
     parser.add_argument("--vertices", default=str(paper.meshes))
     parser.add_argument("--budgets", default=str(paper.cano_budgets))
     parser.add_argument("--cameras", type=int, default=7)
     parser.add_argument("--population", type=int, default=256, help="candidates per timing (table 2)")
     parser.add_argument("--repeats", type=int, default=10, help="timings per backend (table 2), best kept")
     parser.add_argument("--frames", type=int, default=1, help="frames per budget, at least (table 1)")
-    parser.add_argument("--seconds", type=float, default=2.0,
-                        help=f"more frames (up to {MAX_FRAMES}) while they fit in this time")
-    parser.add_argument("--exact", default=f"500,1000,{fidelity.FIDELITY_REFERENCE},{fidelity.FIDELITY_REFERENCE}:28",
-                        help="exact searches, EVALUATIONS[:POPSIZE][,...] per frame (fidelity)")
-    parser.add_argument("--schedule", action="append", default=None,
-                        help="a multi-fidelity run, SCALE:VERTICES:EVALUATIONS[:POPSIZE][,...]+EXACT[:POPSIZE] "
-                             f"(fidelity; repeat for more; default: {' and '.join(fidelity.DEFAULT_SCHEDULES)})")
+    parser.add_argument(
+        "--seconds", type=float, default=2.0, help=f"more frames (up to {MAX_FRAMES}) while they fit in this time"
+    )
+    parser.add_argument(
+        "--exact",
+        default=f"500,1000,{fidelity.FIDELITY_REFERENCE},{fidelity.FIDELITY_REFERENCE}:28",
+        help="exact searches, EVALUATIONS[:POPSIZE][,...] per frame (fidelity)",
+    )
+    parser.add_argument(
+        "--schedule",
+        action="append",
+        default=None,
+        help="a multi-fidelity run, SCALE:VERTICES:EVALUATIONS[:POPSIZE][,...]+EXACT[:POPSIZE] "
+        f"(fidelity; repeat for more; default: {' and '.join(fidelity.DEFAULT_SCHEDULES)})",
+    )
     parser.add_argument("--track-frames", type=int, default=60, help="frames tracked per run (fidelity)")
-    parser.add_argument("--seeds", default="0,1,2,3,4",
-                        help="search seeds each search is run with, its error and time averaged (fidelity)")
+    parser.add_argument(
+        "--seeds",
+        default="0,1,2,3,4",
+        help="search seeds each search is run with, its error and time averaged (fidelity)",
+    )
     parser.add_argument("--out", type=Path, default=Path("outputs/tables"))
     parser.add_argument("--prefix", default="", help="prefix of the output file names")
-    parser.add_argument("--page", type=Path, default=None,
-                        help="also put the tables into this Markdown page, in place of its sections of the "
-                             "tables this subcommand makes, stamped with the date and machine (make bench: "
-                             "docs/results/bench.md)")
+    parser.add_argument(
+        "--page",
+        type=Path,
+        default=None,
+        help="also put the tables into this Markdown page, in place of its sections of the "
+        "tables this subcommand makes, stamped with the date and machine (make bench: "
+        "docs/results/bench.md)",
+    )
     return parser
 
 
@@ -111,19 +134,27 @@ def main(argv: list[str], prog: str) -> None:
 
 def fidelity_command(args: argparse.Namespace, tables: TableWriter) -> None:
     """``fidelity``: the searches of ``--exact`` and ``--schedule``, table and figure."""
-    searches = (fidelity.parse_exact(args.exact)
-                + [fidelity.parse_schedule(text) for text in args.schedule or fidelity.DEFAULT_SCHEDULES])
+    searches = fidelity.parse_exact(args.exact) + [
+        fidelity.parse_schedule(text) for text in args.schedule or fidelity.DEFAULT_SCHEDULES
+    ]
     frames = check_number("--track-frames", args.track_frames, 1, 10_000, integer=True)
     seeds = integer_list("--seeds", args.seeds, 0, 2**32 - 1)
     args.out.mkdir(parents=True, exist_ok=True)
     table = fidelity.fidelity_table(searches, frames, seeds, args.out)
-    title = (f"Multi-fidelity search against exact CMA-ES (holistic, 39 DOF), S1 walking, realistic, "
-             f"{frames} frames, 4 cameras, 640x480, search seeds {args.seeds} averaged; ratios to exact "
-             f"at {fidelity.FIDELITY_REFERENCE} evaluations")
+    title = (
+        f"Multi-fidelity search against exact CMA-ES (holistic, 39 DOF), S1 walking, realistic, "
+        f"{frames} frames, 4 cameras, 640x480, search seeds {args.seeds} averaged; ratios to exact "
+        f"at {fidelity.FIDELITY_REFERENCE} evaluations"
+    )
     tables.write(table, "fidelity", title)
     figure = tables.path("fidelity", ".png")
-    plot_pareto_front(table.assign(seconds_per_frame=table.ms_per_frame / 1e3), figure, colour="mode",
-                      note=machine(), title=f"Multi-fidelity against exact search, {frames} frames\n{machine()}")
+    plot_pareto_front(
+        table.assign(seconds_per_frame=table.ms_per_frame / 1e3),
+        figure,
+        colour="mode",
+        note=machine(),
+        title=f"Multi-fidelity against exact search, {frames} frames\n{machine()}",
+    )
     print(f"figure: {figure}")
 
 
@@ -132,8 +163,9 @@ def chosen_backends(text: str | None, parser: argparse.ArgumentParser) -> list[s
     names = backends() if text is None else [b for b in text.split(",") if b]
     unknown = sorted(set(names) - set(registry.available("evaluator")))
     if unknown:
-        parser.error(f"unknown backend(s) {', '.join(unknown)}; installed: "
-                     f"{', '.join(sorted(registry.available('evaluator')))}")
+        parser.error(
+            f"unknown backend(s) {', '.join(unknown)}; installed: {', '.join(sorted(registry.available('evaluator')))}"
+        )
     return names
 
 
@@ -166,31 +198,40 @@ def timings_command(args: argparse.Namespace, tables: TableWriter, parser: argpa
             ev.close()
 
 
-def write_roofline(args: argparse.Namespace, tables: TableWriter, evaluators: dict, scenes: dict,
-                   times: pd.DataFrame | None = None) -> None:
+def write_roofline(
+    args: argparse.Namespace, tables: TableWriter, evaluators: dict, scenes: dict, times: pd.DataFrame | None = None
+) -> None:
     """The roofline at the largest vertex level, beside the opencl kernel's Table 2 time
     there (from ``times``, Table 2, else timed now)."""
     vertices = max(scenes)
     if times is None:
         times = table2(evaluators, {vertices: scenes[vertices]}, args.population, args.repeats)
     kernel = times[(times.backend == "opencl") & (times.vertices == vertices)].us_per_model_view.iloc[0]
-    tables.write(roofline.table(vertices, kernel), "roofline",
-                 f"Roofline of the silhouette kernel: one 640x480 model-view at {vertices} vertices, microseconds")
+    tables.write(
+        roofline.table(vertices, kernel),
+        "roofline",
+        f"Roofline of the silhouette kernel: one 640x480 model-view at {vertices} vertices, microseconds",
+    )
 
 
 def write_table2(args: argparse.Namespace, tables: TableWriter, evaluators: dict, scenes: dict) -> pd.DataFrame:
     """Table 2 of every backend and vertex level, and the roofline when opencl is timed;
     returns Table 2."""
     times = table2(evaluators, scenes, args.population, args.repeats)
-    tables.write(times, "table2", "Time per model-view (Cano Table 2): project + count, one 640x480 view, "
-                 "microseconds")
+    tables.write(times, "table2", "Time per model-view (Cano Table 2): project + count, one 640x480 view, microseconds")
     if "opencl" in evaluators:
         write_roofline(args, tables, evaluators, scenes, times)
     return times
 
 
-def write_table1(args: argparse.Namespace, tables: TableWriter, evaluators: dict, scenes: dict, budgets: list[int],
-                 times: pd.DataFrame | None = None) -> None:
+def write_table1(
+    args: argparse.Namespace,
+    tables: TableWriter,
+    evaluators: dict,
+    scenes: dict,
+    budgets: list[int],
+    times: pd.DataFrame | None = None,
+) -> None:
     """Table 1 and Fig. 3; naive's frame times extrapolated from its Table 2 ``times`` (when
     not given, naive alone is timed for them)."""
     naive_us = {}
@@ -200,10 +241,16 @@ def write_table1(args: argparse.Namespace, tables: TableWriter, evaluators: dict
         naive = times[times.backend == "naive"]
         naive_us = dict(zip(naive.vertices, naive.us_per_model_view))
     t1 = table1(evaluators, scenes, budgets, args.frames, naive_us, args.seconds)
-    title = (f"Time per frame (Cano Table 1, Fig. 3): CMA-ES, {args.cameras} cameras, "
-             "milliseconds; naive extrapolated from Table 2")
+    title = (
+        f"Time per frame (Cano Table 1, Fig. 3): CMA-ES, {args.cameras} cameras, "
+        "milliseconds; naive extrapolated from Table 2"
+    )
     tables.write(t1, "table1", title)
     figure = tables.path("fig3", ".png")
-    plot_frames_per_second(t1, figure, note=machine(),
-                           title=f"Frames per second (Cano Fig. 3): CMA-ES, {args.cameras} cameras\n{machine()}")
+    plot_frames_per_second(
+        t1,
+        figure,
+        note=machine(),
+        title=f"Frames per second (Cano Fig. 3): CMA-ES, {args.cameras} cameras\n{machine()}",
+    )
     print(f"figure: {figure}")

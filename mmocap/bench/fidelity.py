@@ -8,6 +8,7 @@ and search time per frame averaged over the seeds side by side, the error's spre
 the seeds, their ratios to the exact run at :data:`FIDELITY_REFERENCE` evaluations, and
 the Pareto front of both modes.
 """
+
 from __future__ import annotations
 
 import tempfile
@@ -32,8 +33,14 @@ DEFAULT_SCHEDULES = ["0.25:3000:1000+350", "0.5:3000:1200+500:28", "0.5:3000:140
 FIDELITY_REFERENCE = 1500
 #: the run every fidelity configuration shares (the demo sequence on realistic data, as the
 #: papers' tables track, without the recovery searches, whose extra evaluations vary)
-FIDELITY_RUN = ["+experiment=demo", "realism=realistic", "recovery.enabled=false", "overlays=0",
-                "progress=false", "foreground_cache=null"]
+FIDELITY_RUN = [
+    "+experiment=demo",
+    "realism=realistic",
+    "recovery.enabled=false",
+    "overlays=0",
+    "progress=false",
+    "foreground_cache=null",
+]
 
 
 @dataclass(frozen=True)
@@ -60,8 +67,14 @@ class Search:
     def overrides(self, frames: int, seed: int) -> list[str]:
         """The config overrides of one run of this search (after :data:`FIDELITY_RUN`)."""
         popsize = [] if self.popsize is None else [f"optimizer.popsize={self.popsize}"]
-        return [f"seed={seed}", f"tracking.frames={frames}", f"tracking.evaluations={self.exact}",
-                f"fidelity.levels={self.levels}".replace("'", ""), f"fidelity.carry={self.carry}", *popsize]
+        return [
+            f"seed={seed}",
+            f"tracking.frames={frames}",
+            f"tracking.evaluations={self.exact}",
+            f"fidelity.levels={self.levels}".replace("'", ""),
+            f"fidelity.carry={self.carry}",
+            *popsize,
+        ]
 
 
 def exact_part(text: str, option: str) -> tuple[int, int | None]:
@@ -92,23 +105,33 @@ def parse_schedule(text: str) -> Search:
     with the whole search's population size after EXACT, or restarted when a level names its
     own; a ConfigError naming it otherwise."""
     levels_text, _, exact = text.partition("+")
-    syntax = (f"--schedule must be SCALE:VERTICES:EVALUATIONS[:POPSIZE][,...]+EXACT[:POPSIZE], e.g. "
-              f"0.25:3000:1200:28+300 or 0.25:1000:1400+400:28, got {text!r}")
+    syntax = (
+        f"--schedule must be SCALE:VERTICES:EVALUATIONS[:POPSIZE][,...]+EXACT[:POPSIZE], e.g. "
+        f"0.25:3000:1200:28+300 or 0.25:1000:1400+400:28, got {text!r}"
+    )
     try:
         levels = []
         for level in levels_text.split(","):
             scale, vertices, evaluations, *popsize = level.split(":")
             if len(popsize) > 1:
                 raise ValueError(level)
-            levels.append({"scale": float(scale), "vertices": int(vertices), "evaluations": int(evaluations),
-                           **({"optimizer": {"popsize": int(popsize[0])}} if popsize else {})})
+            levels.append(
+                {
+                    "scale": float(scale),
+                    "vertices": int(vertices),
+                    "evaluations": int(evaluations),
+                    **({"optimizer": {"popsize": int(popsize[0])}} if popsize else {}),
+                }
+            )
     except ValueError:
         raise ConfigError(syntax) from None
     check_levels(levels)
     search = Search(text, levels, *exact_part(exact, "--schedule's exact evaluations"))
     if search.popsize is not None and not search.carry:
-        raise ConfigError(f"--schedule {text!r} names a popsize per level (restarted) and for the whole search "
-                          "(carried): give one or the other")
+        raise ConfigError(
+            f"--schedule {text!r} names a popsize per level (restarted) and for the whole search "
+            "(carried): give one or the other"
+        )
     return search
 
 
@@ -130,22 +153,33 @@ def fidelity_table(searches: list[Search], frames: int, seeds: list[int], out: P
                 summary = run(cfg, Path(folder))
             errors.append(summary["mean_marker_error_mm"])
             times.append(summary["seconds_per_frame"] * 1e3)
-            print(f"fidelity: {search.mode} {search.label}, seed {seed}: {errors[-1]:.1f} mm, "
-                  f"{times[-1]:.0f} ms per frame", flush=True)
-        rows.append({"mode": search.mode, "evaluations": search.label,
-                     "cheap_evaluations": sum(level["evaluations"] for level in search.levels),
-                     "exact_evaluations": search.exact,
-                     "popsize": search.popsize or strategy_parameters(summary["dof"]).lam,
-                     "vertices": summary["vertices"], "seeds": len(seeds),
-                     "mean_marker_error_mm": float(np.mean(errors)),
-                     "error_sd_mm": float(np.std(errors, ddof=1)) if len(errors) > 1 else 0.0,
-                     "ms_per_frame": float(np.mean(times))})
+            print(
+                f"fidelity: {search.mode} {search.label}, seed {seed}: {errors[-1]:.1f} mm, "
+                f"{times[-1]:.0f} ms per frame",
+                flush=True,
+            )
+        rows.append(
+            {
+                "mode": search.mode,
+                "evaluations": search.label,
+                "cheap_evaluations": sum(level["evaluations"] for level in search.levels),
+                "exact_evaluations": search.exact,
+                "popsize": search.popsize or strategy_parameters(summary["dof"]).lam,
+                "vertices": summary["vertices"],
+                "seeds": len(seeds),
+                "mean_marker_error_mm": float(np.mean(errors)),
+                "error_sd_mm": float(np.std(errors, ddof=1)) if len(errors) > 1 else 0.0,
+                "ms_per_frame": float(np.mean(times)),
+            }
+        )
     df = pd.DataFrame(rows)
-    reference = [k for k, search in enumerate(searches)
-                 if not search.levels and search.exact == FIDELITY_REFERENCE and search.popsize is None]
+    reference = [
+        k
+        for k, search in enumerate(searches)
+        if not search.levels and search.exact == FIDELITY_REFERENCE and search.popsize is None
+    ]
     if reference:
         df["error_ratio"] = df.mean_marker_error_mm / df.mean_marker_error_mm.iloc[reference[0]]
         df["time_ratio"] = df.ms_per_frame / df.ms_per_frame.iloc[reference[0]]
     df["pareto"] = non_dominated(df[["ms_per_frame", "mean_marker_error_mm"]].to_numpy())
     return df
-

@@ -2,6 +2,7 @@
 machine they were measured on, and optionally a section each of one Markdown page (``make
 bench``'s ``docs/results/bench.md``), stamped with the date and the machine. Every file is
 written atomically."""
+
 from __future__ import annotations
 
 import os
@@ -31,6 +32,7 @@ def machine() -> str:
     line = f"{platform.processor() or platform.machine()}, {cpus} CPUs usable"
     try:
         from mmocap.evaluators.opencl import select_device
+
         dev = select_device(None, 0)
         line += f"; OpenCL: {dev.name.strip()} ({dev.platform.name})"
     except Exception as err:  # no OpenCL: say so, the table simply has no opencl rows

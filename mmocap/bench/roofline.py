@@ -24,6 +24,7 @@ The rates are measured with every compute unit busy (:data:`GROUPS` work-groups 
 work-item, as the silhouette kernel runs on CPUs), best of ``repeats`` timings.
 :func:`table` puts the kernel's own time per model-view (Cano Table 2) beside the floor.
 """
+
 from __future__ import annotations
 
 import time
@@ -97,32 +98,40 @@ def measure(platform=None, array_bytes: int = 768 * 1024, repeats: int = 10) -> 
     iterations = 4096
     arithmetic_s = seconds(arithmetic, np.int32(iterations), np.float32(0.999), np.float32(1e-3))
     n8 = max(4, array_bytes // 32 // 4 * 4)
-    data = cl.Buffer(ctx, cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR,
-                     hostbuf=np.ones(8 * n8, np.float32))
+    data = cl.Buffer(ctx, cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR, hostbuf=np.ones(8 * n8, np.float32))
     reads_s = seconds(reads, data, np.int32(n8))
     local, ors = cl.LocalMemory(4 * SCATTER_WORDS), 64 * SCATTER_WORDS
     clear_s = seconds(scatter, np.int32(SCATTER_WORDS), np.int32(0), local)
     scatter_s = seconds(scatter, np.int32(SCATTER_WORDS), np.int32(ors), local)
-    return Rates(flops=GROUPS * iterations * 2 * 8 * ARITHMETIC_LANES / arithmetic_s,
-                 read_bytes=GROUPS * 32 * n8 / reads_s,
-                 clear_words=GROUPS * SCATTER_WORDS / clear_s,
-                 ors=GROUPS * ors / max(scatter_s - clear_s, 1e-9)), device.name.strip()
+    return Rates(
+        flops=GROUPS * iterations * 2 * 8 * ARITHMETIC_LANES / arithmetic_s,
+        read_bytes=GROUPS * 32 * n8 / reads_s,
+        clear_words=GROUPS * SCATTER_WORDS / clear_s,
+        ors=GROUPS * ors / max(scatter_s - clear_s, 1e-9),
+    ), device.name.strip()
 
 
 def needs(vertices: int, width: int, height: int) -> dict[str, float]:
     """What one model-view needs at least (see the module docstring): ``flops``, ``bytes``
     read, local ``ors`` (one per facing vertex) and mask ``words`` cleared."""
     facing = round(FACING * vertices)
-    return {"flops": FLOPS_PER_VERTEX * facing, "bytes": BYTES_PER_VERTEX * facing, "ors": facing,
-            "words": (width + 31) // 32 * height}
+    return {
+        "flops": FLOPS_PER_VERTEX * facing,
+        "bytes": BYTES_PER_VERTEX * facing,
+        "ors": facing,
+        "words": (width + 31) // 32 * height,
+    }
 
 
 def floor_us(rates: Rates, vertices: int, width: int, height: int) -> dict[str, float]:
     """Microseconds per model-view that each resource needs at these rates (``arithmetic``,
     ``reads``, ``scatter``), and ``floor``, the largest of them (see the module docstring)."""
     need = needs(vertices, width, height)
-    us = {"arithmetic": need["flops"] / rates.flops, "reads": need["bytes"] / rates.read_bytes,
-          "scatter": need["ors"] / rates.ors + need["words"] / rates.clear_words}
+    us = {
+        "arithmetic": need["flops"] / rates.flops,
+        "reads": need["bytes"] / rates.read_bytes,
+        "scatter": need["ors"] / rates.ors + need["words"] / rates.clear_words,
+    }
     us = {name: seconds * 1e6 for name, seconds in us.items()}
     return {**us, "floor": max(us.values())}
 
@@ -134,18 +143,38 @@ def table(vertices: int, kernel_us: float) -> pd.DataFrame:
     2), each with its ratio to the floor."""
     rates, device = measure()
     us, need = floor_us(rates, vertices, 640, 480), needs(vertices, 640, 480)
-    rows = [{"resource": "float32 arithmetic", "need_per_model_view": f"{need['flops']} flop",
-             "measured_rate": f"{rates.flops / 1e9:.1f} Gflop/s", "us_per_model_view": us["arithmetic"]},
-            {"resource": "reads (cache-resident)", "need_per_model_view": f"{need['bytes'] / 1e3:.0f} kB",
-             "measured_rate": f"{rates.read_bytes / 1e9:.1f} GB/s", "us_per_model_view": us["reads"]},
-            {"resource": "local memory: clear, scattered ORs",
-             "need_per_model_view": f"{need['words']} words, {need['ors']} ORs",
-             "measured_rate": f"{rates.clear_words / 1e9:.2f} Gword/s, {rates.ors / 1e9:.2f} GOR/s",
-             "us_per_model_view": us["scatter"]},
-            {"resource": "floor (the largest)", "need_per_model_view": "", "measured_rate": "",
-             "us_per_model_view": us["floor"]},
-            {"resource": "silhouette kernel (Table 2)", "need_per_model_view": "", "measured_rate": "",
-             "us_per_model_view": kernel_us}]
+    rows = [
+        {
+            "resource": "float32 arithmetic",
+            "need_per_model_view": f"{need['flops']} flop",
+            "measured_rate": f"{rates.flops / 1e9:.1f} Gflop/s",
+            "us_per_model_view": us["arithmetic"],
+        },
+        {
+            "resource": "reads (cache-resident)",
+            "need_per_model_view": f"{need['bytes'] / 1e3:.0f} kB",
+            "measured_rate": f"{rates.read_bytes / 1e9:.1f} GB/s",
+            "us_per_model_view": us["reads"],
+        },
+        {
+            "resource": "local memory: clear, scattered ORs",
+            "need_per_model_view": f"{need['words']} words, {need['ors']} ORs",
+            "measured_rate": f"{rates.clear_words / 1e9:.2f} Gword/s, {rates.ors / 1e9:.2f} GOR/s",
+            "us_per_model_view": us["scatter"],
+        },
+        {
+            "resource": "floor (the largest)",
+            "need_per_model_view": "",
+            "measured_rate": "",
+            "us_per_model_view": us["floor"],
+        },
+        {
+            "resource": "silhouette kernel (Table 2)",
+            "need_per_model_view": "",
+            "measured_rate": "",
+            "us_per_model_view": kernel_us,
+        },
+    ]
     df = pd.DataFrame(rows)
     df["ratio_to_floor"] = df.us_per_model_view / us["floor"]
     print(f"roofline: {device}: floor {us['floor']:.1f} us, kernel {kernel_us:.1f} us per model-view", flush=True)

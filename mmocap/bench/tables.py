@@ -13,6 +13,7 @@ the mean over ``frames`` frames and more (up to :data:`MAX_FRAMES`) while they f
 share of the frame. ``naive`` would take minutes per frame: its frame time is extrapolated
 from its Table 2 time per model-view (evaluations x cameras x that time), and marked so.
 """
+
 from __future__ import annotations
 
 import time
@@ -41,8 +42,7 @@ def model_view_us(ev, scene: Scene, population: int, repeats: int) -> float:
     return best / population * 1e6
 
 
-def frame_ms(ev, scene: Scene, budget: int, frames: int,
-             seconds: float = 0.0) -> tuple[float, float]:
+def frame_ms(ev, scene: Scene, budget: int, frames: int, seconds: float = 0.0) -> tuple[float, float]:
     """Mean (frame, solutions) time in ms of CMA-ES on ``frames`` frames of ``budget``, and
     on more (up to ``MAX_FRAMES``) as long as the next one is likely to end within
     ``seconds`` of the start: one frame of a fast backend is too noisy a figure."""
@@ -79,8 +79,7 @@ def table2(evaluators: dict, scenes: dict, population: int, repeats: int) -> pd.
     return df
 
 
-def table1(evaluators: dict, scenes: dict, budgets, frames: int, naive_us: dict,
-           seconds: float = 0.0) -> pd.DataFrame:
+def table1(evaluators: dict, scenes: dict, budgets, frames: int, naive_us: dict, seconds: float = 0.0) -> pd.DataFrame:
     """Frame and solutions time (ms) of CMA-ES per backend, vertex level and budget; fps;
     the host's share of the frame (the time not spent evaluating: CMA-ES, the strategy, the
     evaluator's setup). ``frames`` and ``seconds`` as for :func:`frame_ms`."""
@@ -93,15 +92,33 @@ def table1(evaluators: dict, scenes: dict, budgets, frames: int, naive_us: dict,
                     if vertices not in naive_us:
                         continue
                     solutions = budget * C * naive_us[vertices] / 1e3
-                    rows.append({"vertices": vertices, "evaluations": budget, "backend": name,
-                                 "frame_ms": solutions, "solutions_ms": solutions,
-                                 "extrapolated": True})
+                    rows.append(
+                        {
+                            "vertices": vertices,
+                            "evaluations": budget,
+                            "backend": name,
+                            "frame_ms": solutions,
+                            "solutions_ms": solutions,
+                            "extrapolated": True,
+                        }
+                    )
                     continue
                 frame, solutions = frame_ms(ev, scene, budget, frames, seconds)
-                rows.append({"vertices": vertices, "evaluations": budget, "backend": name,
-                             "frame_ms": frame, "solutions_ms": solutions, "extrapolated": False})
-                print(f"table 1: {vertices} vertices, {budget} evaluations, {name}: "
-                      f"{frame:.0f} ms per frame ({solutions:.0f} ms evaluating)", flush=True)
+                rows.append(
+                    {
+                        "vertices": vertices,
+                        "evaluations": budget,
+                        "backend": name,
+                        "frame_ms": frame,
+                        "solutions_ms": solutions,
+                        "extrapolated": False,
+                    }
+                )
+                print(
+                    f"table 1: {vertices} vertices, {budget} evaluations, {name}: "
+                    f"{frame:.0f} ms per frame ({solutions:.0f} ms evaluating)",
+                    flush=True,
+                )
     df = pd.DataFrame(rows)
     df["fps"] = 1e3 / df.frame_ms
     df["host_share"] = 1 - df.solutions_ms / df.frame_ms

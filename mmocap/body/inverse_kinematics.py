@@ -1,5 +1,6 @@
 """Inverse kinematics: the pose whose body-model markers best match measured marker positions
 (:func:`fit_pose`), such as a first frame's motion-capture markers."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -25,8 +26,7 @@ def _rigid_fit(source: np.ndarray, target: np.ndarray) -> tuple[np.ndarray, np.n
 
 def _euler_of(R: np.ndarray) -> np.ndarray:
     """Angles (a, b, c) in rad with ``Rx(a) @ Ry(b) @ Rz(c) = R``."""
-    return np.array([np.arctan2(-R[1, 2], R[2, 2]), np.arcsin(np.clip(R[0, 2], -1, 1)),
-                     np.arctan2(-R[0, 1], R[0, 0])])
+    return np.array([np.arctan2(-R[1, 2], R[2, 2]), np.arcsin(np.clip(R[0, 2], -1, 1)), np.arctan2(-R[0, 1], R[0, 0])])
 
 
 def fit_pose(body: BodyModel, target: np.ndarray, mask: np.ndarray) -> np.ndarray:

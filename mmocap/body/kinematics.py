@@ -21,6 +21,7 @@ same bits (the OpenCL evaluator does, from :meth:`KinematicChain.pose_rows` and
   ``R_parent (o_j - o_parent) + t_parent`` (``o_j - o_parent`` rounded once);
 - ``S_j`` has rotation ``R_j`` and translation ``t_j - R_j o_j``.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -49,14 +50,14 @@ def parent_offsets(rest_positions: np.ndarray) -> np.ndarray:
 
 def _product(P: np.ndarray, Q: np.ndarray) -> np.ndarray:
     """(..., 3, 3) ``P Q`` in the module's order."""
-    return ((P[..., :, 0, None] * Q[..., None, 0, :] + P[..., :, 1, None] * Q[..., None, 1, :])
-            + P[..., :, 2, None] * Q[..., None, 2, :])
+    return (P[..., :, 0, None] * Q[..., None, 0, :] + P[..., :, 1, None] * Q[..., None, 1, :]) + P[..., :, 2, None] * Q[
+        ..., None, 2, :
+    ]
 
 
 def _apply(P: np.ndarray, v: np.ndarray) -> np.ndarray:
     """(..., 3, 3) and (..., 3) -> (..., 3) ``P v`` in the module's order."""
-    return ((P[..., :, 0] * v[..., None, 0] + P[..., :, 1] * v[..., None, 1])
-            + P[..., :, 2] * v[..., None, 2])
+    return (P[..., :, 0] * v[..., None, 0] + P[..., :, 1] * v[..., None, 1]) + P[..., :, 2] * v[..., None, 2]
 
 
 def _euler(c: np.ndarray, s: np.ndarray) -> np.ndarray:
@@ -88,8 +89,7 @@ def joint_trig(poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.cos(angles), np.sin(angles)
 
 
-def global_transforms(poses: np.ndarray, rest_positions: np.ndarray,
-                      rest_frames: np.ndarray) -> np.ndarray:
+def global_transforms(poses: np.ndarray, rest_positions: np.ndarray, rest_frames: np.ndarray) -> np.ndarray:
     """Joint-to-world transforms.
 
     Args:
@@ -113,8 +113,7 @@ def global_transforms(poses: np.ndarray, rest_positions: np.ndarray,
     for level in _LEVELS:
         parent_rotation = rotation[:, PARENT_INDEX[level]]
         rotation[:, level] = _product(parent_rotation, L[:, level])
-        translation[:, level] = (_apply(parent_rotation, offsets[level])
-                                 + translation[:, PARENT_INDEX[level]])
+        translation[:, level] = _apply(parent_rotation, offsets[level]) + translation[:, PARENT_INDEX[level]]
     G = np.zeros((n, J, 4, 4))
     G[..., :3, :3] = rotation
     G[..., :3, 3] = translation
@@ -125,8 +124,7 @@ def global_transforms(poses: np.ndarray, rest_positions: np.ndarray,
 def skinning_transforms(global_T: np.ndarray, rest_positions: np.ndarray) -> np.ndarray:
     """(n, J, 4, 4) G_j -> (n, J, 4, 4) S_j = G_j @ translate(-o_j)."""
     S = global_T.copy()
-    S[..., :3, 3] = global_T[..., :3, 3] - _apply(global_T[..., :3, :3],
-                                                  np.asarray(rest_positions, dtype=np.float64))
+    S[..., :3, 3] = global_T[..., :3, 3] - _apply(global_T[..., :3, :3], np.asarray(rest_positions, dtype=np.float64))
     return S
 
 
@@ -147,8 +145,7 @@ class KinematicChain:
 
     def transforms(self, poses: np.ndarray) -> np.ndarray:
         """(n, 51) poses -> (n, 16, 4, 4) skinning transforms S_j (rest mm -> world mm)."""
-        return skinning_transforms(global_transforms(poses, self.rest_positions, self.rest_frames),
-                                   self.rest_positions)
+        return skinning_transforms(global_transforms(poses, self.rest_positions, self.rest_frames), self.rest_positions)
 
     def pose_rows(self, poses: np.ndarray) -> np.ndarray:
         """(n, 51) poses -> (n, 3 + 6 J) float64: the root translation T (mm), then per joint
@@ -161,5 +158,9 @@ class KinematicChain:
     def rows(self) -> np.ndarray:
         """(J, 16) float64 per joint: A_j (3x3 row-major), o_j - o_parent (3, mm, 0 for the
         root), o_j (3, mm) and the parent's index (-1 for the root)."""
-        return np.c_[self.rest_frames.reshape(-1, 9), parent_offsets(self.rest_positions),
-                     self.rest_positions, PARENT_INDEX.astype(np.float64)]
+        return np.c_[
+            self.rest_frames.reshape(-1, 9),
+            parent_offsets(self.rest_positions),
+            self.rest_positions,
+            PARENT_INDEX.astype(np.float64),
+        ]

@@ -5,6 +5,7 @@ group, converts decimetres to millimetres, moves the root joint to the origin an
 the 31 CMU bones' skinning weights onto the 16 joints.  Joint pivots are the centroids of
 the mesh's own joint cubes, as MakeHuman places its rig.
 """
+
 from __future__ import annotations
 
 import gzip
@@ -26,35 +27,75 @@ DM_TO_MM = 100.0
 
 # Which of our 16 joints each CMU bone's weights go to.
 BONE_TO_JOINT = {
-    "Hips": "Root", "LHipJoint": "Root", "RHipJoint": "Root",
-    "LowerBack": "BottomSpine", "Spine": "BottomSpine",
-    "Spine1": "UpperSpine", "LeftShoulder": "UpperSpine", "RightShoulder": "UpperSpine",
-    "Neck": "Neck", "Neck1": "Neck", "Head": "Neck",
-    "LeftArm": "LShoulder", "LeftForeArm": "LElbow",
-    "LeftHand": "LWrist", "LeftFingerBase": "LWrist", "LeftHandFinger1": "LWrist", "LThumb": "LWrist",
-    "RightArm": "RShoulder", "RightForeArm": "RElbow",
-    "RightHand": "RWrist", "RightFingerBase": "RWrist", "RightHandFinger1": "RWrist", "RThumb": "RWrist",
-    "LeftUpLeg": "LHip", "LeftLeg": "LKnee", "LeftFoot": "LAnkle", "LeftToeBase": "LAnkle",
-    "RightUpLeg": "RHip", "RightLeg": "RKnee", "RightFoot": "RAnkle", "RightToeBase": "RAnkle",
+    "Hips": "Root",
+    "LHipJoint": "Root",
+    "RHipJoint": "Root",
+    "LowerBack": "BottomSpine",
+    "Spine": "BottomSpine",
+    "Spine1": "UpperSpine",
+    "LeftShoulder": "UpperSpine",
+    "RightShoulder": "UpperSpine",
+    "Neck": "Neck",
+    "Neck1": "Neck",
+    "Head": "Neck",
+    "LeftArm": "LShoulder",
+    "LeftForeArm": "LElbow",
+    "LeftHand": "LWrist",
+    "LeftFingerBase": "LWrist",
+    "LeftHandFinger1": "LWrist",
+    "LThumb": "LWrist",
+    "RightArm": "RShoulder",
+    "RightForeArm": "RElbow",
+    "RightHand": "RWrist",
+    "RightFingerBase": "RWrist",
+    "RightHandFinger1": "RWrist",
+    "RThumb": "RWrist",
+    "LeftUpLeg": "LHip",
+    "LeftLeg": "LKnee",
+    "LeftFoot": "LAnkle",
+    "LeftToeBase": "LAnkle",
+    "RightUpLeg": "RHip",
+    "RightLeg": "RKnee",
+    "RightFoot": "RAnkle",
+    "RightToeBase": "RAnkle",
 }
 # The bone whose head is each joint's pivot.
 PIVOT_BONE = {
-    "Root": "Hips", "BottomSpine": "LowerBack", "UpperSpine": "Spine1", "Neck": "Neck",
-    "LShoulder": "LeftArm", "LElbow": "LeftForeArm", "LWrist": "LeftHand",
-    "RShoulder": "RightArm", "RElbow": "RightForeArm", "RWrist": "RightHand",
-    "LHip": "LeftUpLeg", "LKnee": "LeftLeg", "LAnkle": "LeftFoot",
-    "RHip": "RightUpLeg", "RKnee": "RightLeg", "RAnkle": "RightFoot",
+    "Root": "Hips",
+    "BottomSpine": "LowerBack",
+    "UpperSpine": "Spine1",
+    "Neck": "Neck",
+    "LShoulder": "LeftArm",
+    "LElbow": "LeftForeArm",
+    "LWrist": "LeftHand",
+    "RShoulder": "RightArm",
+    "RElbow": "RightForeArm",
+    "RWrist": "RightHand",
+    "LHip": "LeftUpLeg",
+    "LKnee": "LeftLeg",
+    "LAnkle": "LeftFoot",
+    "RHip": "RightUpLeg",
+    "RKnee": "RightLeg",
+    "RAnkle": "RightFoot",
 }
 # The far end of each joint's segment: (bone, 'head' | 'tail').
 SEGMENT_END = {
-    "Root": ("LowerBack", "head"), "BottomSpine": ("Spine1", "head"),
-    "UpperSpine": ("Neck", "head"), "Neck": ("Head", "tail"),
-    "LShoulder": ("LeftForeArm", "head"), "LElbow": ("LeftHand", "head"),
+    "Root": ("LowerBack", "head"),
+    "BottomSpine": ("Spine1", "head"),
+    "UpperSpine": ("Neck", "head"),
+    "Neck": ("Head", "tail"),
+    "LShoulder": ("LeftForeArm", "head"),
+    "LElbow": ("LeftHand", "head"),
     "LWrist": ("LeftHandFinger1", "tail"),
-    "RShoulder": ("RightForeArm", "head"), "RElbow": ("RightHand", "head"),
+    "RShoulder": ("RightForeArm", "head"),
+    "RElbow": ("RightHand", "head"),
     "RWrist": ("RightHandFinger1", "tail"),
-    "LHip": ("LeftLeg", "head"), "LKnee": ("LeftFoot", "head"), "LAnkle": ("LeftToeBase", "tail"),
-    "RHip": ("RightLeg", "head"), "RKnee": ("RightFoot", "head"), "RAnkle": ("RightToeBase", "tail"),
+    "LHip": ("LeftLeg", "head"),
+    "LKnee": ("LeftFoot", "head"),
+    "LAnkle": ("LeftToeBase", "tail"),
+    "RHip": ("RightLeg", "head"),
+    "RKnee": ("RightFoot", "head"),
+    "RAnkle": ("RightToeBase", "tail"),
 }
 
 
@@ -166,8 +207,9 @@ class SubjectDimensions:
 
     def __post_init__(self):
         if not HEIGHT_RANGE_MM[0] <= self.height_mm <= HEIGHT_RANGE_MM[1]:
-            raise ConfigError(f"subject {self.name}: height_mm must be in {list(HEIGHT_RANGE_MM)}, "
-                              f"got {self.height_mm}")
+            raise ConfigError(
+                f"subject {self.name}: height_mm must be in {list(HEIGHT_RANGE_MM)}, got {self.height_mm}"
+            )
         if not GIRTH_RANGE[0] <= self.girth <= GIRTH_RANGE[1]:
             raise ConfigError(f"subject {self.name}: girth must be in {list(GIRTH_RANGE)}, got {self.girth}")
 

@@ -4,6 +4,7 @@ Combines the skeleton (:mod:`mmocap.body.skeleton`), the subject-fitted MakeHuma
 (:mod:`mmocap.body.mesh`) resampled to a vertex count, per-joint rest frames, and marker
 points on the skin.  Units: mm and radians.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -91,7 +92,6 @@ def marker_vertices(mesh: SkinMesh) -> np.ndarray:
 VERTICES_RANGE = (1000, 200_000)
 
 
-
 def body_dimensions(subject: str, height_mm: float | None = None, girth: float | None = None) -> SubjectDimensions:
     """The preset ``subject`` (S1-S4) with its height (mm) and girth replaced where given;
     a ConfigError naming ``body.height_mm`` or ``body.girth`` if out of range."""
@@ -100,8 +100,11 @@ def body_dimensions(subject: str, height_mm: float | None = None, girth: float |
         height_mm = check_number("body.height_mm", height_mm, *HEIGHT_RANGE_MM)
     if girth is not None:
         girth = check_number("body.girth", girth, *GIRTH_RANGE)
-    return SubjectDimensions(preset.name, preset.height_mm if height_mm is None else float(height_mm),
-                             preset.girth if girth is None else float(girth))
+    return SubjectDimensions(
+        preset.name,
+        preset.height_mm if height_mm is None else float(height_mm),
+        preset.girth if girth is None else float(girth),
+    )
 
 
 def check_body(subject, dof, vertices, seed, height_mm=None, girth=None) -> None:
@@ -136,8 +139,15 @@ class BodyModel:
     them (the OpenCL evaluator computes them on the device from it).
     """
 
-    def __init__(self, subject: str = "S1", dof: int = 39, vertices: int | None = 13695, seed: int = 0,
-                 height_mm: float | None = None, girth: float | None = None):
+    def __init__(
+        self,
+        subject: str = "S1",
+        dof: int = 39,
+        vertices: int | None = 13695,
+        seed: int = 0,
+        height_mm: float | None = None,
+        girth: float | None = None,
+    ):
         check_body(subject, dof, vertices, seed, height_mm, girth)
         self.subject = body_dimensions(subject, height_mm, girth)
         self.vertices_requested, self.seed = vertices, seed
@@ -160,14 +170,18 @@ class BodyModel:
 
     def reshaped(self, height_mm: float | None = None, girth: float | None = None) -> BodyModel:
         """The same body (preset, DOF, skin samples) with another height (mm) or girth."""
-        return BodyModel(self.subject.name, self.dof, self.vertices_requested, self.seed,
-                         self.subject.height_mm if height_mm is None else height_mm,
-                         self.subject.girth if girth is None else girth)
+        return BodyModel(
+            self.subject.name,
+            self.dof,
+            self.vertices_requested,
+            self.seed,
+            self.subject.height_mm if height_mm is None else height_mm,
+            self.subject.girth if girth is None else girth,
+        )
 
     def resampled(self, vertices: int | None) -> BodyModel:
         """The same body (preset, shape, DOF, seed) with ``vertices`` skin samples."""
-        return BodyModel(self.subject.name, self.dof, vertices, self.seed, self.subject.height_mm,
-                         self.subject.girth)
+        return BodyModel(self.subject.name, self.dof, vertices, self.seed, self.subject.height_mm, self.subject.girth)
 
     @property
     def n_vertices(self) -> int:

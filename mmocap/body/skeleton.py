@@ -8,6 +8,7 @@ degrees of freedom keeps only the axes of Table 1; the others stay at 0.
 
 Model axes: x to the subject's left, y up, z forward; the rest pose is MakeHuman's A-pose.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -15,31 +16,61 @@ import numpy as np
 from mmocap.errors import ConfigError
 
 JOINTS = (
-    "Root", "BottomSpine", "UpperSpine",
-    "LShoulder", "LElbow", "LWrist",
-    "RShoulder", "RElbow", "RWrist",
+    "Root",
+    "BottomSpine",
+    "UpperSpine",
+    "LShoulder",
+    "LElbow",
+    "LWrist",
+    "RShoulder",
+    "RElbow",
+    "RWrist",
     "Neck",
-    "LHip", "LKnee", "LAnkle",
-    "RHip", "RKnee", "RAnkle",
+    "LHip",
+    "LKnee",
+    "LAnkle",
+    "RHip",
+    "RKnee",
+    "RAnkle",
 )
 PARENTS = {
-    "Root": None, "BottomSpine": "Root", "UpperSpine": "BottomSpine",
-    "LShoulder": "UpperSpine", "LElbow": "LShoulder", "LWrist": "LElbow",
-    "RShoulder": "UpperSpine", "RElbow": "RShoulder", "RWrist": "RElbow",
+    "Root": None,
+    "BottomSpine": "Root",
+    "UpperSpine": "BottomSpine",
+    "LShoulder": "UpperSpine",
+    "LElbow": "LShoulder",
+    "LWrist": "LElbow",
+    "RShoulder": "UpperSpine",
+    "RElbow": "RShoulder",
+    "RWrist": "RElbow",
     "Neck": "UpperSpine",
-    "LHip": "Root", "LKnee": "LHip", "LAnkle": "LKnee",
-    "RHip": "Root", "RKnee": "RHip", "RAnkle": "RKnee",
+    "LHip": "Root",
+    "LKnee": "LHip",
+    "LAnkle": "LKnee",
+    "RHip": "Root",
+    "RKnee": "RHip",
+    "RAnkle": "RKnee",
 }
 PARENT_INDEX = np.array([-1 if PARENTS[j] is None else JOINTS.index(PARENTS[j]) for j in JOINTS])
 
 # Table 1: valid rotation axes per joint; '*' joints lose theirs in the 28-DOF reduction.
 ROTATION_AXES = {
-    "Root": "xyz", "BottomSpine": "xyz", "UpperSpine": "xyz",
-    "LShoulder": "xyz", "LElbow": "y", "LWrist": "yz",
-    "RShoulder": "xyz", "RElbow": "y", "RWrist": "yz",
+    "Root": "xyz",
+    "BottomSpine": "xyz",
+    "UpperSpine": "xyz",
+    "LShoulder": "xyz",
+    "LElbow": "y",
+    "LWrist": "yz",
+    "RShoulder": "xyz",
+    "RElbow": "y",
+    "RWrist": "yz",
     "Neck": "xyz",
-    "LHip": "xyz", "LKnee": "x", "LAnkle": "xy",
-    "RHip": "xyz", "RKnee": "x", "RAnkle": "xy",
+    "LHip": "xyz",
+    "LKnee": "x",
+    "LAnkle": "xy",
+    "RHip": "xyz",
+    "RKnee": "x",
+    "RAnkle": "xy",
 }
 REDUCED_AWAY = ("UpperSpine", "LWrist", "RWrist", "LAnkle", "RAnkle")
 

@@ -46,6 +46,7 @@ the median. The decision and its reason are logged in one line and returned.
 Errors are one-line :class:`~mmocap.errors.DataError` messages naming the file, the camera
 and the key as the file spells it.
 """
+
 from __future__ import annotations
 
 import logging
@@ -83,8 +84,10 @@ MILLIMETRES_ABOVE = 300.0
 #: what each value is called in messages, and the spellings accepted for it, first found wins
 KEYS = {
     "K": ("camera matrix", ("K", "camera_matrix", "cameraMatrix", "Camera_Matrix", "matrix")),
-    "dist": ("distortion", ("dist", "distortion_coefficients", "distCoeffs", "Distortion_Coefficients", "D",
-                            "distortions")),
+    "dist": (
+        "distortion",
+        ("dist", "distortion_coefficients", "distCoeffs", "Distortion_Coefficients", "D", "distortions"),
+    ),
     "R": ("rotation", ("R", "Rot", "rotation_matrix", "rvec", "rotation")),
     "t": ("translation", ("t", "T", "tvec", "translation")),
     "width": ("image width", ("image_width", "width", "W", "image_Width")),
@@ -138,8 +141,12 @@ class _Parsed:
     expected: str = ""
 
 
-def read_calibration(path: str | Path, units: str = "auto", cameras: Sequence[str] | str | None = None,
-                     units_key: str = "calibration units") -> Calibration:
+def read_calibration(
+    path: str | Path,
+    units: str = "auto",
+    cameras: Sequence[str] | str | None = None,
+    units_key: str = "calibration units",
+) -> Calibration:
     """Read every camera of a calibration file or folder (see the module's docstring).
 
     Args:
@@ -210,9 +217,11 @@ def write_opencv_yaml(path: str | Path, cameras: Sequence[Camera], units: str = 
     names = [camera.name for camera in cameras]
     for name in names:
         if not _FILESTORAGE_KEY.fullmatch(name) or name in _RESERVED:
-            raise DataError(f"camera {name}: cannot be named in the OpenCV calibration {path}: a name must start "
-                            "with a letter or _ and hold only letters, digits, _, - and spaces, and not be "
-                            f"{' or '.join(_RESERVED)}")
+            raise DataError(
+                f"camera {name}: cannot be named in the OpenCV calibration {path}: a name must start "
+                "with a letter or _ and hold only letters, digits, _, - and spaces, and not be "
+                f"{' or '.join(_RESERVED)}"
+            )
         if names.count(name) > 1:
             raise DataError(f"camera {name}: two cameras of that name to write to {path}")
     storage = cv2.FileStorage(path.name, cv2.FILE_STORAGE_WRITE | cv2.FILE_STORAGE_MEMORY)
@@ -239,8 +248,10 @@ def _decide_units(where: str, parsed: _Parsed, units: str, key: str) -> tuple[st
     Messages name the setting ``key``."""
     if parsed.stated_units is not None:
         if units not in ("auto", parsed.stated_units):
-            raise DataError(f"{where} states that its translations are in {parsed.stated_units}, but "
-                            f"{key} is {units}; set {key} to {parsed.stated_units} or auto")
+            raise DataError(
+                f"{where} states that its translations are in {parsed.stated_units}, but "
+                f"{key} is {units}; set {key} to {parsed.stated_units} or auto"
+            )
         return parsed.stated_units, "stated in the file"
     if units != "auto":
         return units, f"as set by {key}"
@@ -254,9 +265,11 @@ def _decide_units(where: str, parsed: _Parsed, units: str, key: str) -> tuple[st
     elif median > MILLIMETRES_ABOVE:
         detected = "mm"
     else:
-        raise DataError(f"{where}: cannot tell whether its translations are in mm or m: its cameras stand "
-                        f"{low:.4g}-{high:.4g} (median {median:.4g}) from the world origin, between "
-                        f"{METRES_BELOW:g} (metres) and {MILLIMETRES_ABOVE:g} (mm); set {key} to mm or m")
+        raise DataError(
+            f"{where}: cannot tell whether its translations are in mm or m: its cameras stand "
+            f"{low:.4g}-{high:.4g} (median {median:.4g}) from the world origin, between "
+            f"{METRES_BELOW:g} (metres) and {MILLIMETRES_ABOVE:g} (mm); set {key} to mm or m"
+        )
     return detected, f"detected from camera distances {_rounded(low)}-{_rounded(high)} {detected}"
 
 
@@ -272,8 +285,10 @@ def _read_file(path: Path) -> _Parsed:
     suffix = path.suffix.lower()
     if suffix not in CALIBRATION_FORMATS:
         accepted = "; ".join(f"{s} ({f})" for s, f in CALIBRATION_FORMATS.items())
-        raise DataError(f"calibration file {path}: unknown format {path.suffix or '(no suffix)'}; accepted: "
-                        f"{accepted}, or a folder of per-camera files")
+        raise DataError(
+            f"calibration file {path}: unknown format {path.suffix or '(no suffix)'}; accepted: "
+            f"{accepted}, or a folder of per-camera files"
+        )
     if suffix == ".toml":
         return _read_toml(path)
     if suffix == ".json" and _is_mmocap_json(path):
@@ -296,23 +311,32 @@ def _read_folder(folder: Path) -> _Parsed:
     files = sorted(p for p in folder.iterdir() if p.is_file() and p.suffix.lower() in CALIBRATION_FORMATS)
     kinds = sorted({"json" if p.suffix.lower() == ".json" else "FileStorage" for p in files})
     if not files:
-        raise DataError(f"calibration folder {folder} holds no calibration files (looked for "
-                        f"*{', *'.join(CALIBRATION_FORMATS)}, or {' and '.join(EASYMOCAP_FILES)})")
+        raise DataError(
+            f"calibration folder {folder} holds no calibration files (looked for "
+            f"*{', *'.join(CALIBRATION_FORMATS)}, or {' and '.join(EASYMOCAP_FILES)})"
+        )
     if len(kinds) > 1 or any(p.suffix.lower() == ".toml" for p in files):
-        raise DataError(f"calibration folder {folder} mixes calibration formats "
-                        f"({', '.join(p.name for p in files)}); keep one camera file per camera, in one format, "
-                        "or pass the one calibration file instead of the folder")
+        raise DataError(
+            f"calibration folder {folder} mixes calibration formats "
+            f"({', '.join(p.name for p in files)}); keep one camera file per camera, in one format, "
+            "or pass the one calibration file instead of the folder"
+        )
     parts = [_read_file(p) for p in files]
     for file, part in zip(files, parts, strict=True):
         if not part.cameras:
-            raise DataError(f"calibration file {file} holds no camera ({part.format}: {part.expected}); "
-                            f"every file of the calibration folder {folder} must hold one")
+            raise DataError(
+                f"calibration file {file} holds no camera ({part.format}: {part.expected}); "
+                f"every file of the calibration folder {folder} must hold one"
+            )
     stated = {part.stated_units for part in parts}
     if len(stated) > 1:
-        raise DataError(f"calibration folder {folder}: its files state different units "
-                        f"({', '.join(sorted(str(s) for s in stated))}); give every camera the same units")
-    return _Parsed([camera for part in parts for camera in part.cameras], stated.pop(), parts[0].format,
-                   parts[0].expected)
+        raise DataError(
+            f"calibration folder {folder}: its files state different units "
+            f"({', '.join(sorted(str(s) for s in stated))}); give every camera the same units"
+        )
+    return _Parsed(
+        [camera for part in parts for camera in part.cameras], stated.pop(), parts[0].format, parts[0].expected
+    )
 
 
 # --- OpenCV FileStorage --------------------------------------------------------------------
@@ -355,9 +379,13 @@ def _read_storages(roots: list, paths: list[Path], single_name: str | None, form
                 node = root.getNode(key)
                 if node.isMap() and not _is_matrix(node) and _holds_camera(lambda k, n=node: _child_value(n, k)):  # type: ignore[misc]  # a lambda's default
                     cameras.append(_camera(source, key, _MapKeys(lambda k, n=node: _child_value(n, k), key)))  # type: ignore[misc]
-    return _Parsed(cameras, stated, format_name,
-                   "looked for a sequence 'names', a camera matrix (K, camera_matrix, ...) at the top level, "
-                   "and maps holding camera keys")
+    return _Parsed(
+        cameras,
+        stated,
+        format_name,
+        "looked for a sequence 'names', a camera matrix (K, camera_matrix, ...) at the top level, "
+        "and maps holding camera keys",
+    )
 
 
 def _open_filestorage(path: Path) -> cv2.FileStorage:
@@ -368,10 +396,15 @@ def _open_filestorage(path: Path) -> cv2.FileStorage:
         storage = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
     except (cv2.error, SystemError) as exc:  # OpenCV's Python binding wraps a parse error in a SystemError
         header = path.read_bytes()[:16].lstrip()
-        hint = "" if header.startswith((b"%YAML", b"<?xml", b"{")) else (
-            "; OpenCV YAML starts with %YAML:1.0 or %YAML 1.2 (plain YAML, such as ROS camera_info, is not read)")
-        raise DataError(f"calibration file {path} cannot be read as OpenCV FileStorage "
-                        f"(%YAML:1.0 or %YAML 1.2 YAML, XML or JSON): {_cv_message(exc)}{hint}") from None
+        hint = (
+            ""
+            if header.startswith((b"%YAML", b"<?xml", b"{"))
+            else ("; OpenCV YAML starts with %YAML:1.0 or %YAML 1.2 (plain YAML, such as ROS camera_info, is not read)")
+        )
+        raise DataError(
+            f"calibration file {path} cannot be read as OpenCV FileStorage "
+            f"(%YAML:1.0 or %YAML 1.2 YAML, XML or JSON): {_cv_message(exc)}{hint}"
+        ) from None
     if not storage.isOpened():
         raise DataError(f"calibration file {path} cannot be opened")
     if not storage.root().isMap():
@@ -451,8 +484,11 @@ class _NamedKeys:
     def _lookup(self, key: str):
         for root in self.roots:
             camera_map = root.getNode(self.name)
-            if (camera_map.isMap() and not _is_matrix(camera_map)
-                    and (value := _child_value(camera_map, key)) is not None):
+            if (
+                camera_map.isMap()
+                and not _is_matrix(camera_map)
+                and (value := _child_value(camera_map, key)) is not None
+            ):
                 return value
             if (value := _top_value(root, f"{key}_{self.name}")) is not None:
                 return value
@@ -462,8 +498,10 @@ class _NamedKeys:
         return next(((key, v) for key in spellings if (v := self._lookup(key)) is not None), None)
 
     def describe(self, spellings: Sequence[str]) -> str:
-        return (f"one of the keys {', '.join(spellings)} in the map {self.name}, or "
-                f"{', '.join(f'{key}_{self.name}' for key in spellings)} at the top level")
+        return (
+            f"one of the keys {', '.join(spellings)} in the map {self.name}, or "
+            f"{', '.join(f'{key}_{self.name}' for key in spellings)} at the top level"
+        )
 
 
 def _holds_camera(value: Callable[[str], object], which: Sequence[str] = ("K", "dist", "R", "t")) -> bool:
@@ -491,8 +529,9 @@ def _read_toml(path: Path) -> _Parsed:
         if not isinstance(name, str) or not name:
             raise DataError(f"camera {table_name}: {source}: 'name' must be a non-empty string, got {name!r}")
         cameras.append(_camera(source, name, _MapKeys(table.get, f"[{table_name}]")))
-    return _Parsed(cameras, None, CALIBRATION_FORMATS[".toml"],
-                   f"looked for tables other than {', '.join(TOML_SKIPPED)}")
+    return _Parsed(
+        cameras, None, CALIBRATION_FORMATS[".toml"], f"looked for tables other than {', '.join(TOML_SKIPPED)}"
+    )
 
 
 # --- one camera ----------------------------------------------------------------------------
@@ -515,8 +554,11 @@ def _camera(source: str, name: str, keys: _MapKeys | _NamedKeys) -> Camera:
 
     fisheye = keys.get(KEYS["fisheye"][1])
     if fisheye is not None and fisheye[1] not in (False, 0):
-        raise fail(fisheye[0], f"is {fisheye[1]!r}: fisheye lenses are not supported (mmocap's lens model is "
-                               "OpenCV's pin-hole one, k1 k2 p1 p2 k3); calibrate with the standard model")
+        raise fail(
+            fisheye[0],
+            f"is {fisheye[1]!r}: fisheye lenses are not supported (mmocap's lens model is "
+            "OpenCV's pin-hole one, k1 k2 p1 p2 k3); calibrate with the standard model",
+        )
     k_key, K = required("K")
     dist_key, dist = required("dist")
     r_key, rotation = required("R")
@@ -530,10 +572,27 @@ def _camera(source: str, name: str, keys: _MapKeys | _NamedKeys) -> Camera:
     t = _array(t_key, t, fail)
     if t.size == 3:
         t = t.reshape(3)
-    labels = {"K": k_key, "dist": dist_key, "R": r_key, "t_mm": t_key, "width": width_height[0][0],
-              "height": width_height[1][0], "colour": colour_key}
-    return checked_camera(source, name, K, _distortion(dist_key, dist, fail), R, t, width_height[0][1],
-                          width_height[1][1], colour_value, keys=labels)
+    labels = {
+        "K": k_key,
+        "dist": dist_key,
+        "R": r_key,
+        "t_mm": t_key,
+        "width": width_height[0][0],
+        "height": width_height[1][0],
+        "colour": colour_key,
+    }
+    return checked_camera(
+        source,
+        name,
+        K,
+        _distortion(dist_key, dist, fail),
+        R,
+        t,
+        width_height[0][1],
+        width_height[1][1],
+        colour_value,
+        keys=labels,
+    )
 
 
 def _array(key: str, value, fail) -> np.ndarray:
@@ -550,14 +609,20 @@ def _distortion(key: str, value, fail) -> np.ndarray:
     if coefficients.ndim == 2 and 1 in coefficients.shape:
         coefficients = coefficients.ravel()
     if coefficients.ndim != 1 or coefficients.size not in DISTORTION_COUNTS:
-        raise fail(key, f"must be {', '.join(map(str, DISTORTION_COUNTS[:-1]))} or {DISTORTION_COUNTS[-1]} "
-                        f"distortion coefficients (k1 k2 p1 p2 [k3 ...]), got shape {coefficients.shape}")
+        raise fail(
+            key,
+            f"must be {', '.join(map(str, DISTORTION_COUNTS[:-1]))} or {DISTORTION_COUNTS[-1]} "
+            f"distortion coefficients (k1 k2 p1 p2 [k3 ...]), got shape {coefficients.shape}",
+        )
     extra = {n: c for n, c in zip(DISTORTION_NAMES[5:], coefficients[5:], strict=False) if c != 0}
     if extra:
         listed = ", ".join(f"{n} = {c:g}" for n, c in extra.items())
-        raise fail(key, f"has nonzero coefficients beyond k1 k2 p1 p2 k3 ({listed}), which mmocap's lens model "
-                        "cannot represent; calibrate again without OpenCV's rational, thin-prism and tilted models "
-                        "(CALIB_RATIONAL_MODEL, CALIB_THIN_PRISM_MODEL, CALIB_TILTED_MODEL)")
+        raise fail(
+            key,
+            f"has nonzero coefficients beyond k1 k2 p1 p2 k3 ({listed}), which mmocap's lens model "
+            "cannot represent; calibrate again without OpenCV's rational, thin-prism and tilted models "
+            "(CALIB_RATIONAL_MODEL, CALIB_THIN_PRISM_MODEL, CALIB_TILTED_MODEL)",
+        )
     return np.concatenate([coefficients[:5], np.zeros(5 - min(5, coefficients.size))])
 
 

@@ -7,6 +7,7 @@ smooth, seeded per-joint variation (sums of slow sines) on all 39 axes, the wris
 ankles and upper spine included, so that no two sequences are identical and the 28-DOF
 model cannot represent the motion exactly.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -110,8 +111,8 @@ def boxing(t: np.ndarray, p: _Pose, rng: np.random.Generator) -> None:
     p["LHip.rz"], p["RHip.rz"] = 0.12, -0.12
     interval = rng.uniform(0.6, 0.8)
     k = np.floor(t / interval)
-    s = (t - k * interval) / interval                    # 0..1 within each punch
-    punch = np.sin(np.pi * s) ** 2                       # out and back again
+    s = (t - k * interval) / interval  # 0..1 within each punch
+    punch = np.sin(np.pi * s) ** 2  # out and back again
     left = (k % 2 == 0).astype(float)
     for side, active, sign in (("L", left, 1.0), ("R", 1 - left, -1.0)):
         extend = punch * active
@@ -123,8 +124,9 @@ def boxing(t: np.ndarray, p: _Pose, rng: np.random.Generator) -> None:
     p["Neck.rx"] = 0.1
 
 
-def generate_motion(action: str, n_frames: int, fps: float, floor_offset_mm: float,
-                    seed: int = 0, variation_rad: float = 0.05) -> np.ndarray:
+def generate_motion(
+    action: str, n_frames: int, fps: float, floor_offset_mm: float, seed: int = 0, variation_rad: float = 0.05
+) -> np.ndarray:
     """(n_frames, 51) ground-truth poses of one action, clipped to the joint limits.
 
     ``floor_offset_mm`` is the root height of the standing rest pose (feet on y = 0).

@@ -37,6 +37,7 @@ the dataset's own settings (``conf/dataset/synthetic.yaml``) and are the same in
 realism level. What was drawn (true height and girth, each camera's calibration error and
 time offset) is written to ``sequence.json`` under ``realism``; the tracker never reads it.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -52,9 +53,16 @@ from mmocap.validate import check_number
 
 #: the largest value each setting may take (the smallest is 0)
 LIMITS = {
-    "height_sd_mm": 200.0, "girth_sd": 0.3, "marker_standoff_mm": 50.0,
-    "marker_placement_sd_mm": 100.0, "rotation_sd_deg": 5.0, "translation_sd_mm": 200.0,
-    "focal_sd": 0.2, "principal_point_sd_px": 50.0, "sync_frames": 0.5, "camouflage": 1.0,
+    "height_sd_mm": 200.0,
+    "girth_sd": 0.3,
+    "marker_standoff_mm": 50.0,
+    "marker_placement_sd_mm": 100.0,
+    "rotation_sd_deg": 5.0,
+    "translation_sd_mm": 200.0,
+    "focal_sd": 0.2,
+    "principal_point_sd_px": 50.0,
+    "sync_frames": 0.5,
+    "camouflage": 1.0,
 }
 
 
@@ -83,8 +91,7 @@ class Realism:
         known = {f.name for f in dataclasses.fields(Realism)}
         unknown = sorted(set(values) - known)
         if unknown:
-            raise ConfigError(f"realism: unknown setting(s) {', '.join(unknown)}; known: "
-                              f"{', '.join(sorted(known))}")
+            raise ConfigError(f"realism: unknown setting(s) {', '.join(unknown)}; known: {', '.join(sorted(known))}")
         name = values.get("name", "exact")
         if not isinstance(name, str):
             raise ConfigError(f"realism.name must be a name, got {name!r}")
@@ -108,18 +115,15 @@ def draw_rng(seed: int, subject: str, action: str) -> np.random.Generator:
     return np.random.default_rng([seed, sum(map(ord, subject)), sum(map(ord, action)), 1])
 
 
-def true_dimensions(preset: SubjectDimensions, realism: Realism,
-                    rng: np.random.Generator) -> SubjectDimensions:
+def true_dimensions(preset: SubjectDimensions, realism: Realism, rng: np.random.Generator) -> SubjectDimensions:
     """The rendered person's dimensions: the preset's, changed by the drawn differences
     (kept inside the model's height and girth ranges)."""
     height = preset.height_mm + realism.height_sd_mm * rng.standard_normal()
     girth = preset.girth * (1 + realism.girth_sd * rng.standard_normal())
-    return SubjectDimensions(preset.name, float(np.clip(height, *HEIGHT_RANGE_MM)),
-                             float(np.clip(girth, *GIRTH_RANGE)))
+    return SubjectDimensions(preset.name, float(np.clip(height, *HEIGHT_RANGE_MM)), float(np.clip(girth, *GIRTH_RANGE)))
 
 
-def marker_offsets(mesh: SkinMesh, indices: np.ndarray, realism: Realism,
-                   rng: np.random.Generator) -> np.ndarray:
+def marker_offsets(mesh: SkinMesh, indices: np.ndarray, realism: Realism, rng: np.random.Generator) -> np.ndarray:
     """(M, 3) rest-pose offsets, mm, from the model's marker points ``mesh.vertices[indices]``
     to the markers' centres: the standoff along the skin's normal plus a placement offset
     in the skin's tangent plane."""
@@ -129,12 +133,12 @@ def marker_offsets(mesh: SkinMesh, indices: np.ndarray, realism: Realism,
     return realism.marker_standoff_mm * normals + placement
 
 
-def posed_markers(mesh: SkinMesh, indices: np.ndarray, offsets: np.ndarray,
-                  skinning: np.ndarray) -> np.ndarray:
+def posed_markers(mesh: SkinMesh, indices: np.ndarray, offsets: np.ndarray, skinning: np.ndarray) -> np.ndarray:
     """(n, M, 3) world positions, mm, of markers stuck at ``mesh.vertices[indices] + offsets``
     (rest pose, mm) that move with the skin, for skinning transforms (n, 16, 4, 4)."""
-    stuck = SkinMesh(mesh.vertices[indices] + offsets, np.empty((0, 3), int),
-                     mesh.weights[indices], mesh.pivots, mesh.segment_ends)
+    stuck = SkinMesh(
+        mesh.vertices[indices] + offsets, np.empty((0, 3), int), mesh.weights[indices], mesh.pivots, mesh.segment_ends
+    )
     return np.stack([stuck.posed(S) for S in skinning])
 
 
@@ -155,11 +159,13 @@ def calibrated(camera: Camera, realism: Realism, rng: np.random.Generator) -> tu
     K[0, 0] *= 1 + focal_error
     K[1, 1] *= 1 + focal_error
     K[:2, 2] += point_error
-    seen = Camera(camera.name, K, camera.dist.copy(), R, -R @ centre, camera.width,
-                  camera.height, camera.colour)
-    errors = {"rotation_deg": float(np.rad2deg(abs(angle))),
-              "position_mm": float(np.linalg.norm(centre_error)),
-              "focal": float(focal_error), "principal_point_px": point_error.tolist()}
+    seen = Camera(camera.name, K, camera.dist.copy(), R, -R @ centre, camera.width, camera.height, camera.colour)
+    errors = {
+        "rotation_deg": float(np.rad2deg(abs(angle))),
+        "position_mm": float(np.linalg.norm(centre_error)),
+        "focal": float(focal_error),
+        "principal_point_px": point_error.tolist(),
+    }
     return seen, errors
 
 

@@ -20,6 +20,7 @@ converted to grey for a greyscale camera, and recorded with read and shot noise.
 casts a soft shadow on the floor plane (:func:`floor_shadow`), which darkens the background
 but not the person.
 """
+
 from __future__ import annotations
 
 import cv2
@@ -27,19 +28,30 @@ import numpy as np
 
 from mmocap.camera import Camera
 
-SUBPIXEL = 16           # vertex snapping grid: 1/16 pixel, as cv2's shift=4
-MIN_DEPTH_MM = 1.0      # triangles with a vertex closer than this (or behind) are dropped
-MAX_PIXEL = 2.0 ** 24   # projected coordinates are clipped to this, keeping int64 exact
-SHADE_JITTER = 0.03     # relative standard deviation of the per-face shade jitter
-CHUNK = 1 << 22         # candidate pixels rasterised at once
+SUBPIXEL = 16  # vertex snapping grid: 1/16 pixel, as cv2's shift=4
+MIN_DEPTH_MM = 1.0  # triangles with a vertex closer than this (or behind) are dropped
+MAX_PIXEL = 2.0**24  # projected coordinates are clipped to this, keeping int64 exact
+SHADE_JITTER = 0.03  # relative standard deviation of the per-face shade jitter
+CHUNK = 1 << 22  # candidate pixels rasterised at once
 LIGHT_DIR = (0.3, -1.0, 0.5)  # world direction the key light travels (y up: from above)
 
 # RGB in [0, 1]: skin, hair and clothing tones for clutter that resembles a person.
-_BODY_LIKE = np.array([
-    [0.87, 0.67, 0.55], [0.70, 0.52, 0.42], [0.55, 0.38, 0.30], [0.93, 0.78, 0.68],
-    [0.15, 0.12, 0.10], [0.20, 0.22, 0.35], [0.12, 0.14, 0.20], [0.55, 0.20, 0.18],
-    [0.25, 0.40, 0.60], [0.60, 0.60, 0.55], [0.30, 0.45, 0.25], [0.75, 0.70, 0.35],
-])
+_BODY_LIKE = np.array(
+    [
+        [0.87, 0.67, 0.55],
+        [0.70, 0.52, 0.42],
+        [0.55, 0.38, 0.30],
+        [0.93, 0.78, 0.68],
+        [0.15, 0.12, 0.10],
+        [0.20, 0.22, 0.35],
+        [0.12, 0.14, 0.20],
+        [0.55, 0.20, 0.18],
+        [0.25, 0.40, 0.60],
+        [0.60, 0.60, 0.55],
+        [0.30, 0.45, 0.25],
+        [0.75, 0.70, 0.35],
+    ]
+)
 
 
 def make_background(camera: Camera, rng: np.random.Generator) -> np.ndarray:
@@ -54,10 +66,9 @@ def make_background(camera: Camera, rng: np.random.Generator) -> np.ndarray:
     base = np.empty((h, w, 3), np.float32)
     base[:horizon] = rng.uniform(110, 210, 3)
     base[horizon:] = rng.uniform(50, 150, 3)
-    for x in np.sort(rng.integers(0, w, rng.integers(1, 3))):     # wall corners
+    for x in np.sort(rng.integers(0, w, rng.integers(1, 3))):  # wall corners
         base[:horizon, x:] *= rng.uniform(0.8, 1.15, 3).astype(np.float32)
-    base += cv2.resize(rng.normal(0, 15, (5, 7, 3)).astype(np.float32), (w, h),
-                       interpolation=cv2.INTER_CUBIC)
+    base += cv2.resize(rng.normal(0, 15, (5, 7, 3)).astype(np.float32), (w, h), interpolation=cv2.INTER_CUBIC)
     img = np.clip(base, 0, 255).astype(np.uint8)
 
     def colour():
@@ -72,40 +83,38 @@ def make_background(camera: Camera, rng: np.random.Generator) -> np.ndarray:
 
     vx, vy = rng.uniform(0, w), horizon - rng.uniform(h / 4, h)
     seam = colour()
-    for x in np.linspace(-w, 2 * w, rng.integers(6, 12)):                # floor seams
+    for x in np.linspace(-w, 2 * w, rng.integers(6, 12)):  # floor seams
         top = vx + (x - vx) * (horizon - vy) / (2 * h - vy)
         cv2.line(img, (int(top), horizon), (int(x), 2 * h), seam, 1, cv2.LINE_AA)
-    for _ in range(rng.integers(4, 9)):                                  # posters, shelves
+    for _ in range(rng.integers(4, 9)):  # posters, shelves
         x, y = point(0, horizon)
         pw, ph = (int(s) for s in rng.uniform(0.04, 0.2, 2) * (w, h))
         cv2.rectangle(img, (x, y), (x + pw, y + ph), colour(), -1, cv2.LINE_AA)
         if rng.random() < 0.5:
             cv2.rectangle(img, (x, y), (x + pw, y + ph), colour(), int(rng.integers(1, 4)))
-    for _ in range(rng.integers(3, 7)):                                  # furniture
+    for _ in range(rng.integers(3, 7)):  # furniture
         x, y = point(horizon - h // 6, h)
         fw, fh = (int(s) for s in rng.uniform(0.06, 0.25, 2) * (w, h))
         cv2.rectangle(img, (x, y - fh), (x + fw, y), colour(), -1, cv2.LINE_AA)
         cv2.rectangle(img, (x, y - fh), (x + fw, y - fh + max(2, fh // 8)), colour(), -1)
-    for _ in range(rng.integers(3, 8)):                                  # lamps, plants, balls
+    for _ in range(rng.integers(3, 8)):  # lamps, plants, balls
         centre = point(0, h)
         axes = tuple(int(a) for a in rng.uniform(0.01, 0.08, 2) * w)
-        cv2.ellipse(img, centre, axes, float(rng.uniform(0, 180)), 0, 360, colour(), -1,
-                    cv2.LINE_AA)
-    for _ in range(rng.integers(3, 8)):                                  # cables
+        cv2.ellipse(img, centre, axes, float(rng.uniform(0, 180)), 0, 360, colour(), -1, cv2.LINE_AA)
+    for _ in range(rng.integers(3, 8)):  # cables
         pts = np.stack([rng.integers(0, w, 3), rng.integers(horizon, h, 3)], axis=1)
-        cv2.polylines(img, [pts.astype(np.int32)], False, colour(), int(rng.integers(1, 4)),
-                      cv2.LINE_AA)
+        cv2.polylines(img, [pts.astype(np.int32)], False, colour(), int(rng.integers(1, 4)), cv2.LINE_AA)
 
-    texture: np.ndarray = cv2.resize(rng.normal(0, 5, (h // 4 + 1, w // 4 + 1, 3)).astype(np.float32),
-                         (w, h), interpolation=cv2.INTER_LINEAR)
+    texture: np.ndarray = cv2.resize(
+        rng.normal(0, 5, (h // 4 + 1, w // 4 + 1, 3)).astype(np.float32), (w, h), interpolation=cv2.INTER_LINEAR
+    )
     texture += rng.standard_normal((h, w, 3), dtype=np.float32) * 3
     texture += img
     texture += 0.5
     return np.clip(texture, 0, 255).astype(np.uint8)
 
 
-def _add_noise(image: np.ndarray, rng: np.random.Generator, sigma: float,
-               shot_noise: float = 0.0) -> np.ndarray:
+def _add_noise(image: np.ndarray, rng: np.random.Generator, sigma: float, shot_noise: float = 0.0) -> np.ndarray:
     """Image (grey levels, any dtype) plus sensor noise, rounded and clipped to uint8.
 
     The noise is Gaussian with variance ``sigma**2 + shot_noise * I`` at grey level ``I``:
@@ -118,8 +127,14 @@ def _add_noise(image: np.ndarray, rng: np.random.Generator, sigma: float,
     return np.clip(noisy + 0.5, 0, 255).astype(np.uint8)
 
 
-def _sensor_image(image: np.ndarray, camera: Camera, rng: np.random.Generator,
-                  noise_sigma: float, gain: float = 1.0, shot_noise: float = 0.0) -> np.ndarray:
+def _sensor_image(
+    image: np.ndarray,
+    camera: Camera,
+    rng: np.random.Generator,
+    noise_sigma: float,
+    gain: float = 1.0,
+    shot_noise: float = 0.0,
+) -> np.ndarray:
     """BGR (H, W, 3) scene -> what the camera records: the scene times the light's ``gain``,
     greyscale if needed, then noise (see :func:`_add_noise`), uint8."""
     scene: np.ndarray = np.asarray(image, dtype=np.float32)
@@ -130,9 +145,15 @@ def _sensor_image(image: np.ndarray, camera: Camera, rng: np.random.Generator,
     return _add_noise(scene, rng, noise_sigma, shot_noise)
 
 
-def noisy_background_frames(background: np.ndarray, camera: Camera, rng: np.random.Generator,
-                            n: int, noise_sigma: float, gains=None,
-                            shot_noise: float = 0.0) -> list[np.ndarray]:
+def noisy_background_frames(
+    background: np.ndarray,
+    camera: Camera,
+    rng: np.random.Generator,
+    n: int,
+    noise_sigma: float,
+    gains=None,
+    shot_noise: float = 0.0,
+) -> list[np.ndarray]:
     """``n`` recordings of the empty scene: (H, W, 3) BGR or (H, W) grey uint8 each.
 
     ``background`` is (H, W, 3) uint8 BGR; ``gains`` (n,) the light's gain in each frame
@@ -160,9 +181,16 @@ def light_directions(light_dir, radius: float, samples: int) -> np.ndarray:
     return dirs / np.linalg.norm(dirs, axis=1, keepdims=True)
 
 
-def floor_shadow(camera: Camera, vertices_mm: np.ndarray, faces: np.ndarray, light_dir,
-                 strength: float, light_radius: float = 0.15, samples: int = 5,
-                 blur_px: float = 1.5) -> np.ndarray:
+def floor_shadow(
+    camera: Camera,
+    vertices_mm: np.ndarray,
+    faces: np.ndarray,
+    light_dir,
+    strength: float,
+    light_radius: float = 0.15,
+    samples: int = 5,
+    blur_px: float = 1.5,
+) -> np.ndarray:
     """(H, W) float32 light factor of the floor, in [1 - strength, 1]: the soft shadow the
     mesh casts on the floor plane y = 0 from an area light (:func:`light_directions`).
 
@@ -184,7 +212,7 @@ def floor_shadow(camera: Camera, vertices_mm: np.ndarray, faces: np.ndarray, lig
             raise ValueError(f"light direction {d} does not point down (y up)")
         on_floor = vertices - height * (d / d[1])
         on_floor[:, 1] = 0.0
-        uv = (camera.project(on_floor) + 0.5) / 2 - 0.5             # half-resolution pixels
+        uv = (camera.project(on_floor) + 0.5) / 2 - 0.5  # half-resolution pixels
         ok = np.isfinite(uv).all(axis=1) & (camera.to_camera(on_floor)[:, 2] > MIN_DEPTH_MM)
         tris = np.asarray(faces)[ok[faces].all(axis=1)]
         q = np.rint(np.clip(uv[tris], -MAX_PIXEL, MAX_PIXEL) * SUBPIXEL).astype(np.int64)
@@ -207,9 +235,9 @@ def _fragments(q: np.ndarray, width: int, height: int):
     """
     a, b, c = q[:, 0], q[:, 1], q[:, 2]
     area = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
-    flip = area < 0                                   # orient all with positive area
+    flip = area < 0  # orient all with positive area
     b, c = np.where(flip[:, None], c, b), np.where(flip[:, None], b, c)
-    lo = -(-np.minimum(np.minimum(a, b), c) // SUBPIXEL)     # ceil: first pixel centre
+    lo = -(-np.minimum(np.minimum(a, b), c) // SUBPIXEL)  # ceil: first pixel centre
     hi = np.maximum(np.maximum(a, b), c) // SUBPIXEL
     lo = np.maximum(lo, 0)
     hi = np.minimum(hi, [width - 1, height - 1])
@@ -244,11 +272,20 @@ def _fragments(q: np.ndarray, width: int, height: int):
         start = stop
 
 
-def render_view(camera: Camera, vertices_mm: np.ndarray, faces: np.ndarray,
-                face_colours: np.ndarray, background: np.ndarray, rng: np.random.Generator,
-                light_dir=LIGHT_DIR, ambient: float = 0.35, noise_sigma: float = 2.0,
-                shot_noise: float = 0.0, gain: float = 1.0,
-                shadow: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+def render_view(
+    camera: Camera,
+    vertices_mm: np.ndarray,
+    faces: np.ndarray,
+    face_colours: np.ndarray,
+    background: np.ndarray,
+    rng: np.random.Generator,
+    light_dir=LIGHT_DIR,
+    ambient: float = 0.35,
+    noise_sigma: float = 2.0,
+    shot_noise: float = 0.0,
+    gain: float = 1.0,
+    shadow: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
     """Render a shaded triangle mesh over ``background`` as ``camera`` records it.
 
     Args:
@@ -273,8 +310,7 @@ def render_view(camera: Camera, vertices_mm: np.ndarray, faces: np.ndarray,
     """
     h, w = camera.height, camera.width
     if background.shape != (h, w, 3):
-        raise ValueError(f"background is {background.shape}, camera {camera.name} "
-                         f"needs {(h, w, 3)}")
+        raise ValueError(f"background is {background.shape}, camera {camera.name} needs {(h, w, 3)}")
     vertices = np.asarray(vertices_mm, dtype=np.float64)
     faces = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
     cam_pts = camera.to_camera(vertices)
@@ -283,7 +319,7 @@ def render_view(camera: Camera, vertices_mm: np.ndarray, faces: np.ndarray,
     kept = np.flatnonzero(ok[faces[:, 0]] & ok[faces[:, 1]] & ok[faces[:, 2]])
     faces = faces[kept]
 
-    tri_cam = cam_pts[faces]                                          # (T, 3, 3)
+    tri_cam = cam_pts[faces]  # (T, 3, 3)
     normal_cam = np.cross(tri_cam[:, 1] - tri_cam[:, 0], tri_cam[:, 2] - tri_cam[:, 0])
     front = np.einsum("ij,ij->i", normal_cam, tri_cam.mean(axis=1)) < 0
     tri_world = vertices[faces]
@@ -293,8 +329,9 @@ def render_view(camera: Camera, vertices_mm: np.ndarray, faces: np.ndarray,
     lambert = np.clip(-(normal @ (light / np.linalg.norm(light))), 0, None)
     shade = ambient + (1 - ambient) * lambert
     shade *= 1 + SHADE_JITTER * rng.standard_normal(len(faces))
-    bgr = np.clip(np.asarray(face_colours, np.float64)[kept, ::-1] * shade[:, None] * 255 + 0.5,
-                  0, 255).astype(np.uint8)
+    bgr = np.clip(np.asarray(face_colours, np.float64)[kept, ::-1] * shade[:, None] * 255 + 0.5, 0, 255).astype(
+        np.uint8
+    )
 
     q = np.rint(np.clip(uv[faces], -MAX_PIXEL, MAX_PIXEL) * SUBPIXEL).astype(np.int64)
     inv_depth = 1.0 / tri_cam[:, :, 2]
@@ -304,9 +341,9 @@ def render_view(camera: Camera, vertices_mm: np.ndarray, faces: np.ndarray,
     for tri, pix, bary in _fragments(q, w, h):
         silhouette[pix] = True
         tri, pix, bary = tri[front[tri]], pix[front[tri]], bary[front[tri]]
-        iz = np.einsum("ij,ij->i", bary, inv_depth[tri])     # 1/z is affine on the screen
+        iz = np.einsum("ij,ij->i", bary, inv_depth[tri])  # 1/z is affine on the screen
         order = np.lexsort((-iz, pix))
-        first = order[np.diff(pix[order], prepend=-1) != 0]           # nearest per pixel
+        first = order[np.diff(pix[order], prepend=-1) != 0]  # nearest per pixel
         nearer = iz[first] > zbuf[pix[first]]
         zbuf[pix[first[nearer]]] = iz[first[nearer]]
         face_at[pix[first[nearer]]] = tri[first[nearer]]

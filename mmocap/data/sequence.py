@@ -24,6 +24,7 @@ sequence is opened), each image (:func:`read_image`) and ``markers_mm.csv``
 :class:`SequenceBase` is what the pipeline reads from any dataset; :class:`Sequence` reads
 this folder layout and :class:`mmocap.data.humaneva.dataset.HumanEvaSequence` the HumanEva-I one.
 """
+
 from __future__ import annotations
 
 import math
@@ -71,18 +72,26 @@ def read_image(path: Path, camera: Camera) -> np.ndarray:
     if image is None:
         raise DataError(f"camera {camera.name}: cannot read image {path} (damaged, or not an image file)")
     if image.dtype != np.uint8:
-        raise DataError(f"camera {camera.name}: image {path} has {image.dtype} pixels; mmocap reads 8-bit "
-                        "images (convert it to 8 bits per channel)")
+        raise DataError(
+            f"camera {camera.name}: image {path} has {image.dtype} pixels; mmocap reads 8-bit "
+            "images (convert it to 8 bits per channel)"
+        )
     channels = 1 if image.ndim == 2 else image.shape[2]
     if channels != (3 if camera.colour else 1):
-        kind, fix = (("colour", "3-channel BGR images, or set \"colour\": false in its calibration")
-                     if camera.colour else
-                     ("greyscale", "1-channel greyscale images, or set \"colour\": true in its calibration"))
-        raise DataError(f"camera {camera.name}: image {path} has {channels} channel{'s' * (channels > 1)}, "
-                        f"but the calibration says camera {camera.name} is {kind}: give it {fix}")
+        kind, fix = (
+            ("colour", '3-channel BGR images, or set "colour": false in its calibration')
+            if camera.colour
+            else ("greyscale", '1-channel greyscale images, or set "colour": true in its calibration')
+        )
+        raise DataError(
+            f"camera {camera.name}: image {path} has {channels} channel{'s' * (channels > 1)}, "
+            f"but the calibration says camera {camera.name} is {kind}: give it {fix}"
+        )
     if image.shape[:2] != (camera.height, camera.width):
-        raise DataError(f"camera {camera.name}: image {path} is {image.shape[1]}x{image.shape[0]}, "
-                        f"calibration says {camera.width}x{camera.height}")
+        raise DataError(
+            f"camera {camera.name}: image {path} is {image.shape[1]}x{image.shape[0]}, "
+            f"calibration says {camera.width}x{camera.height}"
+        )
     return image
 
 
@@ -93,8 +102,9 @@ def read_meta(path: Path) -> dict:
     order, ``x0`` 51 finite numbers in mm and rad). Errors name the file and the key."""
     if not path.is_file():
         raise DataError(f"not a sequence folder (no sequence.json): {path.parent}")
-    meta = read_json_object(path, wanted=f"a JSON object with the keys {', '.join(META_KEYS)}",
-                            fix="is it truncated or damaged?")
+    meta = read_json_object(
+        path, wanted=f"a JSON object with the keys {', '.join(META_KEYS)}", fix="is it truncated or damaged?"
+    )
     missing = [key for key in META_KEYS if key not in meta]
     if missing:
         raise DataError(f"{path} lacks the key{'s' * (len(missing) > 1)} {', '.join(missing)}")
@@ -112,14 +122,17 @@ def read_meta(path: Path) -> dict:
     if not is_real(meta["fps"]) or not math.isfinite(meta["fps"]) or meta["fps"] <= 0:
         raise fail("fps", "a positive number")
     cameras = meta["cameras"]
-    if (not isinstance(cameras, list) or not cameras or not all(isinstance(c, str) and c for c in cameras)
-            or len(set(cameras)) != len(cameras)):
+    if (
+        not isinstance(cameras, list)
+        or not cameras
+        or not all(isinstance(c, str) and c for c in cameras)
+        or len(set(cameras)) != len(cameras)
+    ):
         raise fail("cameras", "a non-empty list of distinct camera names")
     if meta["marker_names"] != list(MARKER_NAMES):
         raise fail("marker_names", f"the body model's markers in its order ({', '.join(MARKER_NAMES)})")
     x0 = meta["x0"]
-    if (not isinstance(x0, list) or len(x0) != N_FULL or not all(is_real(v) for v in x0)
-            or not np.all(np.isfinite(x0))):
+    if not isinstance(x0, list) or len(x0) != N_FULL or not all(is_real(v) for v in x0) or not np.all(np.isfinite(x0)):
         raise fail("x0", f"the first frame's pose: a list of {N_FULL} finite numbers (mm, rad)")
     return meta
 
@@ -128,8 +141,9 @@ def check_missing_markers(action: str) -> str:
     """``action`` if it is one of :data:`MISSING_MARKERS_ACTIONS`, else a ConfigError naming
     ``evaluation.missing_markers``."""
     if action not in MISSING_MARKERS_ACTIONS:
-        raise ConfigError(f"evaluation.missing_markers must be one of {', '.join(MISSING_MARKERS_ACTIONS)}, "
-                          f"got {action!r}")
+        raise ConfigError(
+            f"evaluation.missing_markers must be one of {', '.join(MISSING_MARKERS_ACTIONS)}, got {action!r}"
+        )
     return action
 
 
@@ -212,14 +226,22 @@ class SequenceBase(ABC):
         unscored = np.flatnonzero(np.isnan(truth).any(axis=2).all(axis=1))
         if unscored.size == 0:
             return truth
-        which = (f"none of the {len(truth)} tracked frames has ground-truth markers" if unscored.size == len(truth)
-                 else f"{unscored.size} of the {len(truth)} tracked frames (frame{'s' * (unscored.size > 1)} "
-                      f"{listed(unscored)}) have no ground-truth markers")
+        which = (
+            f"none of the {len(truth)} tracked frames has ground-truth markers"
+            if unscored.size == len(truth)
+            else f"{unscored.size} of the {len(truth)} tracked frames (frame{'s' * (unscored.size > 1)} "
+            f"{listed(unscored)}) have no ground-truth markers"
+        )
         if missing_markers == "stop":
-            raise DataError(f"{self.markers_source}: {which}; add them, track other frames, or set "
-                            "evaluation.missing_markers=warn to score only the frames that have them")
-        scored = ("no marker error is measured (null in summary.json)" if unscored.size == len(truth) else
-                  f"the marker error is over the {len(truth) - unscored.size} frames scored")
+            raise DataError(
+                f"{self.markers_source}: {which}; add them, track other frames, or set "
+                "evaluation.missing_markers=warn to score only the frames that have them"
+            )
+        scored = (
+            "no marker error is measured (null in summary.json)"
+            if unscored.size == len(truth)
+            else f"the marker error is over the {len(truth) - unscored.size} frames scored"
+        )
         warnings.warn(f"{self.markers_source}: {which}: {scored}", MmocapWarning, stacklevel=2)
         return truth
 
@@ -238,8 +260,7 @@ class Sequence(SequenceBase):
         names = list(available) if cameras is None else list(cameras)
         missing = [c for c in names if c not in available]
         if missing:
-            raise DataError(f"camera {', '.join(missing)} not in sequence {root} "
-                            f"(it has {', '.join(available)})")
+            raise DataError(f"camera {', '.join(missing)} not in sequence {root} (it has {', '.join(available)})")
         if not names:
             raise DataError("no cameras selected")
         cams = []
@@ -250,13 +271,17 @@ class Sequence(SequenceBase):
             present = {p.name for p in folder.iterdir()}
             absent = [f"{f:06d}.png" for f in range(meta["frames"]) if f"{f:06d}.png" not in present]
             if absent:
-                raise DataError(f"camera {name}: {folder} lacks {len(absent)} of the {meta['frames']} frames "
-                                f"that {root / 'sequence.json'} gives: {listed(absent)}")
+                raise DataError(
+                    f"camera {name}: {folder} lacks {len(absent)} of the {meta['frames']} frames "
+                    f"that {root / 'sequence.json'} gives: {listed(absent)}"
+                )
             path = root / "calibration" / f"{name}.json"
             camera = Camera.load(path)
             if camera.name != name:
-                raise DataError(f"camera {name}: calibration file {path}: 'name' is {camera.name!r}; "
-                                "is it the calibration of another camera?")
+                raise DataError(
+                    f"camera {name}: calibration file {path}: 'name' is {camera.name!r}; "
+                    "is it the calibration of another camera?"
+                )
             cams.append(camera)
         return Sequence(root, meta, cams)
 
@@ -298,14 +323,17 @@ def read_markers(path: Path, n_frames: int, names: list[str]) -> np.ndarray:
     try:
         table = pd.read_csv(path, skip_blank_lines=False, dtype={"marker": str})
     except pd.errors.EmptyDataError:
-        raise DataError(f"{path} is empty; it needs the header {','.join(MARKER_COLUMNS)} and one row "
-                        "per frame and marker") from None
+        raise DataError(
+            f"{path} is empty; it needs the header {','.join(MARKER_COLUMNS)} and one row per frame and marker"
+        ) from None
     except (pd.errors.ParserError, UnicodeDecodeError) as exc:
         raise DataError(f"{path} is not a readable CSV table: {' '.join(str(exc).split())}") from None
     absent = [c for c in MARKER_COLUMNS if c not in table.columns]
     if absent:
-        raise DataError(f"{path} lacks the column{'s' * (len(absent) > 1)} {', '.join(absent)} "
-                        f"(it needs {', '.join(MARKER_COLUMNS)})")
+        raise DataError(
+            f"{path} lacks the column{'s' * (len(absent) > 1)} {', '.join(absent)} "
+            f"(it needs {', '.join(MARKER_COLUMNS)})"
+        )
     table = table.dropna(how="all")  # blank lines; the index + 2 stays the line number
     if table.empty:
         raise DataError(f"{path} holds no rows, only its header")
@@ -324,12 +352,16 @@ def read_markers(path: Path, n_frames: int, names: list[str]) -> np.ndarray:
     frames = frames.astype(int)
     outside = (frames < 0) | (frames >= n_frames)
     if outside.any():
-        raise DataError(f"{path}: frame {frames[outside.idxmax()]} is outside the sequence's "
-                        f"{n_frames} frames (0-{n_frames - 1}); {line(outside)}")
+        raise DataError(
+            f"{path}: frame {frames[outside.idxmax()]} is outside the sequence's "
+            f"{n_frames} frames (0-{n_frames - 1}); {line(outside)}"
+        )
     idx = table["marker"].map({n: i for i, n in enumerate(names)})
     if idx.isna().any():
-        raise DataError(f"{path}: unknown marker names {sorted(set(table['marker'][idx.isna()].astype(str)))} "
-                        f"(known: {', '.join(names)}); {line(idx.isna())}")
+        raise DataError(
+            f"{path}: unknown marker names {sorted(set(table['marker'][idx.isna()].astype(str)))} "
+            f"(known: {', '.join(names)}); {line(idx.isna())}"
+        )
     coordinates = {}
     for column in MARKER_COLUMNS[2:]:
         values = pd.to_numeric(table[column], errors="coerce")
@@ -340,10 +372,14 @@ def read_markers(path: Path, n_frames: int, names: list[str]) -> np.ndarray:
     repeated = pd.DataFrame({"frame": frames, "marker": table["marker"]}).duplicated(keep=False)
     if repeated.any():
         first = repeated.idxmax()
-        lines = [i + 2 for i in repeated.index[repeated & (frames == frames[first])
-                                               & (table["marker"] == table["marker"][first])]]
-        raise DataError(f"{path}: frame {frames[first]} marker {table['marker'][first]} appears "
-                        f"{len(lines)} times (lines {listed(lines)}); give each frame and marker one row")
+        lines = [
+            i + 2
+            for i in repeated.index[repeated & (frames == frames[first]) & (table["marker"] == table["marker"][first])]
+        ]
+        raise DataError(
+            f"{path}: frame {frames[first]} marker {table['marker'][first]} appears "
+            f"{len(lines)} times (lines {listed(lines)}); give each frame and marker one row"
+        )
     out = np.full((n_frames, len(names), 3), np.nan)
     out[frames.to_numpy(), idx.to_numpy(int)] = np.stack(list(coordinates.values()), axis=1)
     return out
@@ -353,11 +389,15 @@ def write_markers(path: Path, markers: np.ndarray, names) -> None:
     """(frames, M, 3) mm -> long-format CSV ``frame, marker, x_mm, y_mm, z_mm``, written
     atomically; NaN (a missing marker) becomes an empty cell."""
     F, M, _ = markers.shape
-    table = pd.DataFrame({
-        "frame": np.repeat(np.arange(F), M),
-        "marker": np.tile(np.asarray(names), F),
-        "x_mm": markers[..., 0].ravel(), "y_mm": markers[..., 1].ravel(), "z_mm": markers[..., 2].ravel(),
-    })
+    table = pd.DataFrame(
+        {
+            "frame": np.repeat(np.arange(F), M),
+            "marker": np.tile(np.asarray(names), F),
+            "x_mm": markers[..., 0].ravel(),
+            "y_mm": markers[..., 1].ravel(),
+            "z_mm": markers[..., 2].ravel(),
+        }
+    )
     with atomic_writer(path, "w", newline="") as f:
         table.to_csv(f, index=False, float_format="%.3f")
 

@@ -8,6 +8,7 @@ person's soft shadow on the floor, lighting flicker and sensor noise; the tracke
 uses rigidly attached surface samples, so the data is not made by the tracker's own model.
 Layout on disk: :mod:`mmocap.data.sequence`.
 """
+
 from __future__ import annotations
 
 import hashlib
@@ -39,13 +40,19 @@ log = logging.getLogger(__name__)
 # name, colour sensor, azimuth in degrees: the first four are spread evenly so that the
 # usual 4-camera subset (C1, C2, C3, BW1) surrounds the subject.
 CAMERA_RING = (
-    ("C1", True, 20), ("C2", True, 110), ("C3", True, 200), ("BW1", False, 290),
-    ("BW2", False, 65), ("BW3", False, 155), ("BW4", False, 245),
+    ("C1", True, 20),
+    ("C2", True, 110),
+    ("C3", True, 200),
+    ("BW1", False, 290),
+    ("BW2", False, 65),
+    ("BW3", False, 155),
+    ("BW4", False, 245),
 )
 
 
-def camera_rig(names, width: int, height: int, rng: np.random.Generator,
-               radius_mm: float = 4000.0, distortion: float = 1.0) -> list[Camera]:
+def camera_rig(
+    names, width: int, height: int, rng: np.random.Generator, radius_mm: float = 4000.0, distortion: float = 1.0
+) -> list[Camera]:
     """Cameras on a ring looking at the centre of the capture volume (y up, mm).
 
     ``distortion`` scales the lens distortion (0 gives ideal pin-holes).
@@ -62,8 +69,15 @@ def camera_rig(names, width: int, height: int, rng: np.random.Generator,
         eye = (r * np.sin(az), rng.uniform(1700, 2300), r * np.cos(az))
         target = (rng.uniform(-150, 150), 950, rng.uniform(-150, 150))
         focal = rng.uniform(580, 640) * width / 640
-        dist = distortion * np.array([rng.uniform(-0.25, -0.15), rng.uniform(0.05, 0.15),
-                                      rng.uniform(-1e-3, 1e-3), rng.uniform(-1e-3, 1e-3), 0.0])
+        dist = distortion * np.array(
+            [
+                rng.uniform(-0.25, -0.15),
+                rng.uniform(0.05, 0.15),
+                rng.uniform(-1e-3, 1e-3),
+                rng.uniform(-1e-3, 1e-3),
+                0.0,
+            ]
+        )
         cameras.append(Camera.look_at(name, eye, target, focal, width, height, dist, colour))
     return cameras
 
@@ -87,8 +101,9 @@ def face_colours(mesh: SkinMesh, rng: np.random.Generator) -> np.ndarray:
     centre = mesh.vertices[mesh.faces].mean(axis=1)
     head = mesh.pivots[joint_of["Neck"]]
     top = np.ptp(mesh.vertices[:, 1]) * 0.06
-    hair = (face_joint == joint_of["Neck"]) & ((centre[:, 1] > head[1] + 2.2 * top)
-                                               | ((centre[:, 1] > head[1] + top) & (centre[:, 2] < head[2] - 30)))
+    hair = (face_joint == joint_of["Neck"]) & (
+        (centre[:, 1] > head[1] + 2.2 * top) | ((centre[:, 1] > head[1] + top) & (centre[:, 2] < head[2] - 30))
+    )
     colours[hair] = rng.uniform(0.05, 0.3) * np.array([1.0, 0.8, 0.6])
     return colours
 
@@ -103,8 +118,24 @@ def settings_digest(settings: dict) -> str:
 MAX_SIDE = 16384
 
 
-def check_settings(*, subject, action, frames, cameras, width, height, fps, seed, background_frames,
-                   noise_sigma, shot_noise, flicker, shadow_strength, shadow_softness, distortion) -> None:
+def check_settings(
+    *,
+    subject,
+    action,
+    frames,
+    cameras,
+    width,
+    height,
+    fps,
+    seed,
+    background_frames,
+    noise_sigma,
+    shot_noise,
+    flicker,
+    shadow_strength,
+    shadow_softness,
+    distortion,
+) -> None:
     """ConfigError naming the ``dataset.*`` key of the first bad generator setting (before
     anything is rendered or allocated)."""
     subject_dimensions(subject)
@@ -114,9 +145,14 @@ def check_settings(*, subject, action, frames, cameras, width, height, fps, seed
     check_number("dataset.fps", fps, 0, 10_000, low_open=True)
     check_number("dataset.seed", seed, 0, 2**32 - 1, integer=True)
     check_number("dataset.background_frames", background_frames, 2, 10_000, integer=True)
-    for name, value, high in (("noise_sigma", noise_sigma, 50), ("shot_noise", shot_noise, 5),
-                              ("flicker", flicker, 0.3), ("shadow_strength", shadow_strength, 1),
-                              ("shadow_softness", shadow_softness, 0.5), ("distortion", distortion, 10)):
+    for name, value, high in (
+        ("noise_sigma", noise_sigma, 50),
+        ("shot_noise", shot_noise, 5),
+        ("flicker", flicker, 0.3),
+        ("shadow_strength", shadow_strength, 1),
+        ("shadow_softness", shadow_softness, 0.5),
+        ("distortion", distortion, 10),
+    ):
         check_number(f"dataset.{name}", value, 0, high)
     known = [name for name, _, _ in CAMERA_RING]
     if isinstance(cameras, str) or not all(isinstance(c, str) for c in cameras) or not cameras:
@@ -128,12 +164,26 @@ def check_settings(*, subject, action, frames, cameras, width, height, fps, seed
         raise ConfigError(f"dataset.action must be a name, got {action!r}")
 
 
-def generate(root, subject: str = "S1", action: str = "walking", frames: int = 60,
-             cameras=("C1", "C2", "C3", "BW1", "BW2", "BW3", "BW4"), width: int = 640,
-             height: int = 480, fps: float = 60.0, seed: int = 0, background_frames: int = 10,
-             noise_sigma: float = 2.0, shot_noise: float = 0.02, flicker: float = 0.02,
-             shadow_strength: float = 0.4, shadow_softness: float = 0.15,
-             distortion: float = 1.0, realism: Realism = EXACT, progress: bool = True) -> Path:
+def generate(
+    root,
+    subject: str = "S1",
+    action: str = "walking",
+    frames: int = 60,
+    cameras=("C1", "C2", "C3", "BW1", "BW2", "BW3", "BW4"),
+    width: int = 640,
+    height: int = 480,
+    fps: float = 60.0,
+    seed: int = 0,
+    background_frames: int = 10,
+    noise_sigma: float = 2.0,
+    shot_noise: float = 0.02,
+    flicker: float = 0.02,
+    shadow_strength: float = 0.4,
+    shadow_softness: float = 0.15,
+    distortion: float = 1.0,
+    realism: Realism = EXACT,
+    progress: bool = True,
+) -> Path:
     """Render one sequence into ``root`` (replacing what is there) and return its path.
 
     ``sequence.json`` is written last, so a folder without it is an interrupted generation; a
@@ -149,16 +199,41 @@ def generate(root, subject: str = "S1", action: str = "walking", frames: int = 6
     the calibration written is then the calibrated cameras', the images are rendered with
     the true ones.
     """
-    check_settings(subject=subject, action=action, frames=frames, cameras=cameras, width=width, height=height,
-                   fps=fps, seed=seed, background_frames=background_frames, noise_sigma=noise_sigma,
-                   shot_noise=shot_noise, flicker=flicker, shadow_strength=shadow_strength,
-                   shadow_softness=shadow_softness, distortion=distortion)
-    settings = dict(subject=subject, action=action, frames=frames, cameras=list(cameras),
-                    width=width, height=height, fps=fps, seed=seed,
-                    background_frames=background_frames, noise_sigma=noise_sigma,
-                    shot_noise=shot_noise, flicker=flicker, shadow_strength=shadow_strength,
-                    shadow_softness=shadow_softness, distortion=distortion,
-                    realism=realism.as_dict())
+    check_settings(
+        subject=subject,
+        action=action,
+        frames=frames,
+        cameras=cameras,
+        width=width,
+        height=height,
+        fps=fps,
+        seed=seed,
+        background_frames=background_frames,
+        noise_sigma=noise_sigma,
+        shot_noise=shot_noise,
+        flicker=flicker,
+        shadow_strength=shadow_strength,
+        shadow_softness=shadow_softness,
+        distortion=distortion,
+    )
+    settings = dict(
+        subject=subject,
+        action=action,
+        frames=frames,
+        cameras=list(cameras),
+        width=width,
+        height=height,
+        fps=fps,
+        seed=seed,
+        background_frames=background_frames,
+        noise_sigma=noise_sigma,
+        shot_noise=shot_noise,
+        flicker=flicker,
+        shadow_strength=shadow_strength,
+        shadow_softness=shadow_softness,
+        distortion=distortion,
+        realism=realism.as_dict(),
+    )
     drawn = realism_draws.draw_rng(seed, subject, action)
     dims = realism_draws.true_dimensions(subject_dimensions(subject), realism, drawn)
     rng = np.random.default_rng([seed, sum(map(ord, subject)), sum(map(ord, action))])
@@ -189,8 +264,11 @@ def generate(root, subject: str = "S1", action: str = "walking", frames: int = 6
                 backgrounds[cam.name] = render.make_background(cam, rng)
                 folder = root / "background" / cam.name
                 folder.mkdir()
-                for k, img in enumerate(render.noisy_background_frames(
-                        backgrounds[cam.name], cam, rng, background_frames, gains=background_gains, **sensor)):
+                for k, img in enumerate(
+                    render.noisy_background_frames(
+                        backgrounds[cam.name], cam, rng, background_frames, gains=background_gains, **sensor
+                    )
+                ):
                     write_image(folder / f"{k:04d}.png", img)
                 (root / "images" / cam.name).mkdir()
                 (root / "silhouettes" / cam.name).mkdir()
@@ -211,27 +289,46 @@ def generate(root, subject: str = "S1", action: str = "walking", frames: int = 6
                     if id(S_cam) not in posed:
                         posed[id(S_cam)] = mesh.posed(S_cam[f])
                     vertices = posed[id(S_cam)]
-                    shadow = render.floor_shadow(cam, vertices, mesh.faces, render.LIGHT_DIR,
-                                                 shadow_strength, shadow_softness)
-                    image, silhouette = render.render_view(cam, vertices, mesh.faces, colours,
-                                                           backgrounds[cam.name], rng, gain=frame_gains[f],
-                                                           shadow=shadow, **sensor)
+                    shadow = render.floor_shadow(
+                        cam, vertices, mesh.faces, render.LIGHT_DIR, shadow_strength, shadow_softness
+                    )
+                    image, silhouette = render.render_view(
+                        cam,
+                        vertices,
+                        mesh.faces,
+                        colours,
+                        backgrounds[cam.name],
+                        rng,
+                        gain=frame_gains[f],
+                        shadow=shadow,
+                        **sensor,
+                    )
                     write_image(root / "images" / cam.name / f"{f:06d}.png", image)
-                    write_image(root / "silhouettes" / cam.name / f"{f:06d}.png",
-                                silhouette.astype(np.uint8) * 255)
+                    write_image(root / "silhouettes" / cam.name / f"{f:06d}.png", silhouette.astype(np.uint8) * 255)
 
             write_markers(root / "markers_mm.csv", markers, MARKER_NAMES)
             np.save(root / "poses.npy", poses)
             meta = {
-                "format": FORMAT, "subject": subject, "action": action, "fps": fps, "frames": frames,
-                "cameras": [c.name for c in cams], "marker_names": list(MARKER_NAMES),
+                "format": FORMAT,
+                "subject": subject,
+                "action": action,
+                "fps": fps,
+                "frames": frames,
+                "cameras": [c.name for c in cams],
+                "marker_names": list(MARKER_NAMES),
                 "dimensions": {"height_mm": dims.height_mm, "girth": dims.girth},
-                "x0": poses[0].tolist(), "units": {"length": "mm", "angle": "rad"},
+                "x0": poses[0].tolist(),
+                "units": {"length": "mm", "angle": "rad"},
                 "generator": {**settings, "digest": settings_digest(settings)},
                 "realism": {
-                    "cameras": {cam.name: {**errors, "time_offset_frames": float(offset),
-                                           "reprojection_px": realism_draws.reprojection_px(cam, seen, markers[0])}
-                                for cam, (seen, errors), offset in zip(cams, calibrations, offsets_frames)},
+                    "cameras": {
+                        cam.name: {
+                            **errors,
+                            "time_offset_frames": float(offset),
+                            "reprojection_px": realism_draws.reprojection_px(cam, seen, markers[0]),
+                        }
+                        for cam, (seen, errors), offset in zip(cams, calibrations, offsets_frames)
+                    },
                 },
             }
             # Written last: a folder without it is an interrupted generation and is redone.
@@ -251,30 +348,71 @@ class SyntheticDataset:
     :class:`mmocap.data.realism.Realism`) differ from those recorded in its ``sequence.json``.
     """
 
-    def __init__(self, root: str = "outputs/data", subject: str = "S1", action: str = "walking",
-                 frames: int = 60, cameras=("C1", "C2", "C3", "BW1"),
-                 all_cameras=("C1", "C2", "C3", "BW1", "BW2", "BW3", "BW4"), width: int = 640,
-                 height: int = 480, fps: float = 60.0, seed: int = 0, background_frames: int = 10,
-                 noise_sigma: float = 2.0, shot_noise: float = 0.02, flicker: float = 0.02,
-                 shadow_strength: float = 0.4, shadow_softness: float = 0.15,
-                 distortion: float = 1.0, realism=None):
+    def __init__(
+        self,
+        root: str = "outputs/data",
+        subject: str = "S1",
+        action: str = "walking",
+        frames: int = 60,
+        cameras=("C1", "C2", "C3", "BW1"),
+        all_cameras=("C1", "C2", "C3", "BW1", "BW2", "BW3", "BW4"),
+        width: int = 640,
+        height: int = 480,
+        fps: float = 60.0,
+        seed: int = 0,
+        background_frames: int = 10,
+        noise_sigma: float = 2.0,
+        shot_noise: float = 0.02,
+        flicker: float = 0.02,
+        shadow_strength: float = 0.4,
+        shadow_softness: float = 0.15,
+        distortion: float = 1.0,
+        realism=None,
+    ):
         self.realism = Realism.from_config(realism)
-        check_settings(subject=subject, action=action, frames=frames, cameras=list(all_cameras), width=width,
-                       height=height, fps=fps, seed=seed, background_frames=background_frames,
-                       noise_sigma=noise_sigma, shot_noise=shot_noise, flicker=flicker,
-                       shadow_strength=shadow_strength, shadow_softness=shadow_softness, distortion=distortion)
+        check_settings(
+            subject=subject,
+            action=action,
+            frames=frames,
+            cameras=list(all_cameras),
+            width=width,
+            height=height,
+            fps=fps,
+            seed=seed,
+            background_frames=background_frames,
+            noise_sigma=noise_sigma,
+            shot_noise=shot_noise,
+            flicker=flicker,
+            shadow_strength=shadow_strength,
+            shadow_softness=shadow_softness,
+            distortion=distortion,
+        )
         missing = [c for c in cameras if c not in all_cameras]
         if missing:
-            raise ConfigError(f"dataset.cameras: {', '.join(map(str, missing))} not in dataset.all_cameras "
-                              f"({', '.join(all_cameras)}); add them there")
+            raise ConfigError(
+                f"dataset.cameras: {', '.join(map(str, missing))} not in dataset.all_cameras "
+                f"({', '.join(all_cameras)}); add them there"
+            )
         level = "" if self.realism.name == "exact" else f"_{self.realism.name}"
         self.path = Path(root) / f"{subject}_{action}{level}"
         self.cameras = list(cameras)
-        self.settings: dict[str, Any] = dict(subject=subject, action=action, frames=frames, cameras=list(all_cameras),
-                             width=width, height=height, fps=fps, seed=seed,
-                             background_frames=background_frames, noise_sigma=noise_sigma,
-                             shot_noise=shot_noise, flicker=flicker, shadow_strength=shadow_strength,
-                             shadow_softness=shadow_softness, distortion=distortion)
+        self.settings: dict[str, Any] = dict(
+            subject=subject,
+            action=action,
+            frames=frames,
+            cameras=list(all_cameras),
+            width=width,
+            height=height,
+            fps=fps,
+            seed=seed,
+            background_frames=background_frames,
+            noise_sigma=noise_sigma,
+            shot_noise=shot_noise,
+            flicker=flicker,
+            shadow_strength=shadow_strength,
+            shadow_softness=shadow_softness,
+            distortion=distortion,
+        )
 
     def open(self, progress: bool = True) -> Sequence:
         """The sequence, rendered first unless its folder holds one made with these settings

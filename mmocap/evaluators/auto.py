@@ -11,6 +11,7 @@ The choice and its reason are logged in one line; the evaluator returned is the 
 backend's own, whose ``name`` (``"opencl"`` or ``"numpy"``) the run summary reports as its
 ``backend``.
 """
+
 from __future__ import annotations
 
 import logging

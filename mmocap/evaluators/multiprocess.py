@@ -11,6 +11,7 @@ Workers are started with ``spawn`` on the first :meth:`setup` (about a second) a
 until :meth:`close`; BLAS in the workers is limited to one thread, so that ``workers``
 processes use ``workers`` cores.
 """
+
 from __future__ import annotations
 
 import multiprocessing
@@ -48,9 +49,11 @@ class MultiprocessingEvaluator(SilhouetteEvaluator):
             raise ConfigError(f"workers must be an integer >= 1, got {workers!r}")
         available = registry.available("evaluator")
         if inner == "multiprocessing" or inner not in available:
-            raise ConfigError(f"inner must be a single-process evaluator, one of "
-                              f"{', '.join(n for n in sorted(available) if n != 'multiprocessing')}; "
-                              f"got {inner!r}")
+            raise ConfigError(
+                f"inner must be a single-process evaluator, one of "
+                f"{', '.join(n for n in sorted(available) if n != 'multiprocessing')}; "
+                f"got {inner!r}"
+            )
         self.workers, self.inner = int(workers), inner
         self._pool: list = []
         self._sent_body = None
@@ -73,8 +76,7 @@ class MultiprocessingEvaluator(SilhouetteEvaluator):
         with _env(**{name: "1" for name in _ONE_THREAD}):
             for _ in range(self.workers):
                 parent, child = ctx.Pipe()
-                proc = ctx.Process(target=_serve, args=(child, self.inner, self.patch_scale),
-                                   daemon=True)
+                proc = ctx.Process(target=_serve, args=(child, self.inner, self.patch_scale), daemon=True)
                 proc.start()
                 child.close()
                 self._pool.append((proc, parent))
@@ -88,8 +90,7 @@ class MultiprocessingEvaluator(SilhouetteEvaluator):
             try:
                 status, value = conn.recv()
             except EOFError:
-                raise RuntimeError(f"evaluator worker {proc.pid} died "
-                                   f"(exit code {proc.exitcode})") from None
+                raise RuntimeError(f"evaluator worker {proc.pid} died (exit code {proc.exitcode})") from None
             if status == "error":
                 raise RuntimeError(f"evaluator worker {proc.pid}: {value}")
             replies.append(value)
@@ -156,7 +157,7 @@ def _serve(conn, inner: str, patch_scale: float) -> None:
                 masks, start = [], 0
                 for cam in cameras:
                     size = cam.height * cam.width
-                    masks.append(pixels[start:start + size].reshape(cam.height, cam.width))
+                    masks.append(pixels[start : start + size].reshape(cam.height, cam.width))
                     start += size
                 evaluator.setup(body, cameras, masks)
                 reply: object = None

@@ -4,6 +4,7 @@ Slow (a Python loop over every vertex of every view; ``make bench`` times it) an
 be read and trusted: every other backend is tested against its pixel counts
 (:mod:`mmocap.testing.evaluators`).
 """
+
 from __future__ import annotations
 
 import math
@@ -73,5 +74,5 @@ class NaiveEvaluator(SilhouetteEvaluator):
             col0, col1 = max(cx - (s - 1) // 2, 0), min(cx + s // 2, W - 1)
             row0, row1 = max(cy - (s - 1) // 2, 0), min(cy + s // 2, H - 1)
             if col0 <= col1 and row0 <= row1:
-                image[row0:row1 + 1, col0:col1 + 1] = True
+                image[row0 : row1 + 1, col0 : col1 + 1] = True
         return image

@@ -18,6 +18,7 @@ Views with a patch side above :data:`MAX_DILATE_SIDE` (a body part within a few
 centimetres of a camera) are rendered one by one instead, with rectangles summed into a
 difference image over the whole image.
 """
+
 from __future__ import annotations
 
 import ctypes
@@ -37,9 +38,9 @@ from mmocap.evaluators.silhouette import (
 
 MAX_DILATE_SIDE = 33
 _MAX_REACH = MAX_DILATE_SIDE // 2
-_MARGIN = 2 * _MAX_REACH + 1      # padding of the code images on every side, pixels
-_CHUNK = 1 << 21                   # views x vertices projected at once (bounds the memory)
-_ON = 255                          # a covered canvas pixel; ANDed with a code it keeps the code
+_MARGIN = 2 * _MAX_REACH + 1  # padding of the code images on every side, pixels
+_CHUNK = 1 << 21  # views x vertices projected at once (bounds the memory)
+_ON = 255  # a covered canvas pixel; ANDed with a code it keeps the code
 
 
 def keep_freed_memory() -> None:
@@ -88,13 +89,13 @@ class NumpyEvaluator(SilhouetteEvaluator):
         pad = 2 * _MARGIN
         codes = np.zeros((len(self.cameras), self._hmax + pad, self._wmax + pad), np.uint8)
         for c, (cam, fg) in enumerate(zip(self.cameras, self.foreground)):
-            inside = codes[c, _MARGIN:_MARGIN + cam.height, _MARGIN:_MARGIN + cam.width]
+            inside = codes[c, _MARGIN : _MARGIN + cam.height, _MARGIN : _MARGIN + cam.width]
             inside[:] = 1 + 2 * fg.view(np.uint8)
         self._codes = codes
 
     def _counts(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         step = max(1, _CHUNK // (len(self.cameras) * len(self._joint)))
-        parts = [self._chunk_counts(X[i:i + step]) for i in range(0, len(X), step)]
+        parts = [self._chunk_counts(X[i : i + step]) for i in range(0, len(X), step)]
         return np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
 
     def _chunk_counts(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -128,7 +129,7 @@ class NumpyEvaluator(SilhouetteEvaluator):
             r0, r1 = max(oy[0], 0), min(oy[0] + Hc, cam.height)
             c0, c1 = max(ox[0], 0), min(ox[0] + Wc, cam.width)
             if r0 < r1 and c0 < c1:
-                image[r0:r1, c0:c1] = canvas[0, r0 - oy[0]:r1 - oy[0], c0 - ox[0]:c1 - ox[0]] != 0
+                image[r0:r1, c0:c1] = canvas[0, r0 - oy[0] : r1 - oy[0], c0 - ox[0] : c1 - ox[0]] != 0
         return image
 
     def _stamp(self, X: np.ndarray, cams: np.ndarray):
@@ -149,22 +150,24 @@ class NumpyEvaluator(SilhouetteEvaluator):
         coefficients = coefficients.reshape(nV, J, 16)
         side = side.reshape(nV, J)
         big = (side > MAX_DILATE_SIDE).any(axis=1)
-        exact = {int(view): _exact_view(coefficients[view], side[view], cameras[view % C],
-                                        self._table, self._joint)
-                 for view in np.flatnonzero(big)}
+        exact = {
+            int(view): _exact_view(coefficients[view], side[view], cameras[view % C], self._table, self._joint)
+            for view in np.flatnonzero(big)
+        }
 
         side = np.where(big[:, None], 0, side)  # type: ignore[index]  # sides on the dilation path
-        coefficients[side == 0, 8:12] = 0                           # depth 0: never kept
+        coefficients[side == 0, 8:12] = 0  # depth 0: never kept
         coefficients = np.ascontiguousarray(coefficients.transpose(1, 2, 0))[..., None]  # (J, 16, nV, 1)
 
         N = self._table.shape[1]
         keep = np.empty((nV, N), bool)
-        centres = np.empty((2, nV, N), np.float32)                 # cx, cy per view and vertex
+        centres = np.empty((2, nV, N), np.float32)  # cx, cy per view and vertex
         for j in range(J):
             lo, hi = self._bounds[j], self._bounds[j + 1]
             if lo < hi:
                 keep[:, lo:hi], centres[0, :, lo:hi], centres[1, :, lo:hi] = project(
-                    coefficients[j], self._table[:, lo:hi])
+                    coefficients[j], self._table[:, lo:hi]
+                )
         counts = np.count_nonzero(keep, axis=1)
         oy = np.full(nV, -_MARGIN, dtype=np.int64)
         ox = np.full(nV, -_MARGIN, dtype=np.int64)
@@ -172,7 +175,7 @@ class NumpyEvaluator(SilhouetteEvaluator):
         if present.size == 0:
             return None, oy, ox, exact
 
-        k = np.flatnonzero(keep)                                    # view * N + vertex
+        k = np.flatnonzero(keep)  # view * N + vertex
         cx, cy = centres.reshape(2, nV * N).take(k, axis=1)
         sides = np.unique(side[side > 0])
         reach = int(sides[-1]) // 2
@@ -189,7 +192,7 @@ class NumpyEvaluator(SilhouetteEvaluator):
         lin += cx
         lin += np.repeat(np.arange(nV) * (Hc * Wc) - oy * Wc - ox, counts)
 
-        if len(sides) > 1:                                          # one layer per patch side
+        if len(sides) > 1:  # one layer per patch side
             layer = np.searchsorted(sides, side).astype(np.uint8)
             lin += np.repeat(layer, np.diff(self._bounds), axis=1).take(k) * np.int64(nV * Hc * Wc)
         layers = np.zeros((len(sides), nV * Hc, Wc), dtype=np.uint8)
@@ -208,8 +211,7 @@ def _clamped(centre: np.ndarray, reach: int, size: int) -> np.ndarray:
     return np.clip(centre, -reach - 1, size + reach).astype(np.int64)
 
 
-def _exact_view(coefficients: np.ndarray, side: np.ndarray, camera, table: np.ndarray,
-                joint: np.ndarray) -> np.ndarray:
+def _exact_view(coefficients: np.ndarray, side: np.ndarray, camera, table: np.ndarray, joint: np.ndarray) -> np.ndarray:
     """One view, any patch sizes: (J, 16) float32 projection coefficients, (J,) sides, the
     (7, N) vertex table and (N,) joint of each vertex -> (H, W) bool silhouette."""
     H, W = camera.height, camera.width
@@ -223,8 +225,9 @@ def _exact_view(coefficients: np.ndarray, side: np.ndarray, camera, table: np.nd
     col0, col1, row0, row1 = (a[ok].astype(np.int64) for a in (col0, col1, row0, row1))
     # +1 at each rectangle's top-left, -1 right of it and below it, +1 diagonally past it;
     # the 2-D prefix sum then counts the rectangles covering each pixel.
-    corners = np.concatenate([row0 * (W + 1) + col0, row0 * (W + 1) + col1 + 1,
-                              (row1 + 1) * (W + 1) + col0, (row1 + 1) * (W + 1) + col1 + 1])
+    corners = np.concatenate(
+        [row0 * (W + 1) + col0, row0 * (W + 1) + col1 + 1, (row1 + 1) * (W + 1) + col0, (row1 + 1) * (W + 1) + col1 + 1]
+    )
     weights = np.repeat([1.0, -1.0, -1.0, 1.0], len(col0))
     diff = np.bincount(corners, weights, minlength=(H + 1) * (W + 1)).reshape(H + 1, W + 1)
     return np.cumsum(np.cumsum(diff, axis=0), axis=1)[:H, :W] > 0.5

@@ -37,6 +37,7 @@ and a CPU), or over PoCL sub-devices when the selection is one CPU device, in pr
 each device's measured speed; every (candidate, camera) pair is computed by the same kernel
 on one device, so the counts are those of a single device.
 """
+
 from __future__ import annotations
 
 import logging
@@ -112,22 +113,25 @@ class _DeviceQueue:
     def __init__(self, device, ctx, local_size: int | None, lanes: int | None):
         cl = self.cl = pyopencl()
         if not device.endian_little:
-            raise ConfigError(f"OpenCL device {device.name.strip()!r} is big-endian; the bit "
-                              "masks need a little-endian device")
+            raise ConfigError(
+                f"OpenCL device {device.name.strip()!r} is big-endian; the bit masks need a little-endian device"
+            )
         if not device.double_fp_config:
-            raise ConfigError(f"OpenCL device {device.name.strip()!r} has no double precision "
-                              "(cl_khr_fp64), which the kernel's culling bounds need")
+            raise ConfigError(
+                f"OpenCL device {device.name.strip()!r} has no double precision "
+                "(cl_khr_fp64), which the kernel's culling bounds need"
+            )
         largest = min(device.max_work_group_size, device.max_work_item_sizes[0])
         if local_size is None:
             local_size = 1 if device.type & cl.device_type.CPU else min(64, largest)
         if not 1 <= int(local_size) <= largest:
-            raise ConfigError(f"local_size must be in [1, {largest}] on "
-                              f"{device.name.strip()!r}, got {local_size}")
+            raise ConfigError(f"local_size must be in [1, {largest}] on {device.name.strip()!r}, got {local_size}")
         if lanes is None:
             lanes = default_lanes(device)
         if lanes not in (4, 8, 16):
-            raise ConfigError(f"lanes must be 4, 8 or 16 (or null: the CPU's vector width, 4 on "
-                              f"other devices), got {lanes!r}")
+            raise ConfigError(
+                f"lanes must be 4, 8 or 16 (or null: the CPU's vector width, 4 on other devices), got {lanes!r}"
+            )
         self.device, self.ctx, self.local_size, self.simd_lanes = device, ctx, int(local_size), lanes
         self.queue = cl.CommandQueue(ctx, device)
         self.frame: dict = {}  # name -> pyopencl.Buffer
@@ -139,11 +143,12 @@ class _DeviceQueue:
         info = cl.kernel_work_group_info
         fits = self.kernel.get_work_group_info(info.WORK_GROUP_SIZE, device)
         if self.local_size > fits:
-            raise ConfigError(f"local_size={self.local_size} is more than the kernel can run on "
-                              f"{device.name.strip()!r}; set local_size to at most {fits}")
+            raise ConfigError(
+                f"local_size={self.local_size} is more than the kernel can run on "
+                f"{device.name.strip()!r}; set local_size to at most {fits}"
+            )
         #: bytes of local memory left for the masks: the device's less the kernel's own
-        self.local_bytes = device.local_mem_size - self.kernel.get_work_group_info(
-            info.LOCAL_MEM_SIZE, device)
+        self.local_bytes = device.local_mem_size - self.kernel.get_work_group_info(info.LOCAL_MEM_SIZE, device)
 
     def build(self, block: int) -> None:
         """Take the kernels built for culling blocks of ``block`` vertices (once per process,
@@ -158,8 +163,7 @@ class _DeviceQueue:
         """Read-only buffers kept until replaced (per frame, or per body)."""
         cl = self.cl
         flags = cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR
-        self.frame.update({k: cl.Buffer(self.ctx, flags, hostbuf=np.ascontiguousarray(a))
-                           for k, a in arrays.items()})
+        self.frame.update({k: cl.Buffer(self.ctx, flags, hostbuf=np.ascontiguousarray(a)) for k, a in arrays.items()})
 
     def bind(self, kernel, *args) -> None:
         """Set a kernel's arguments unless they are its last call's (the same buffer objects,
@@ -215,9 +219,15 @@ class OpenCLEvaluator(SilhouetteEvaluator):
         what to install; None when it can."""
         return opencl_devices.unavailable()
 
-    def __init__(self, patch_scale: float = PATCH_SCALE, platform=None, device: int = 0,
-                 local_size: int | None = None, lanes: int | None = None,
-                 accept_inexact: bool = False):
+    def __init__(
+        self,
+        patch_scale: float = PATCH_SCALE,
+        platform=None,
+        device: int = 0,
+        local_size: int | None = None,
+        lanes: int | None = None,
+        accept_inexact: bool = False,
+    ):
         super().__init__(patch_scale)
         self._device_queues = self._make_device_queues(platform, device, local_size, lanes)
         self._body_uploaded = None
@@ -228,9 +238,13 @@ class OpenCLEvaluator(SilhouetteEvaluator):
     @property
     def where(self) -> str:
         """'device (platform), local_size k, lanes m' for each distinct device configuration."""
-        return "; ".join(dict.fromkeys(
-            f"{device_queue.device.name.strip()} ({device_queue.device.platform.name.strip()}), local_size "
-            f"{device_queue.local_size}, lanes {device_queue.simd_lanes}" for device_queue in self._device_queues))
+        return "; ".join(
+            dict.fromkeys(
+                f"{device_queue.device.name.strip()} ({device_queue.device.platform.name.strip()}), local_size "
+                f"{device_queue.local_size}, lanes {device_queue.simd_lanes}"
+                for device_queue in self._device_queues
+            )
+        )
 
     def _self_check(self, accept_inexact: bool) -> str:
         """Count :func:`check_scene` here and with NumPy (once per process and
@@ -251,17 +265,25 @@ class OpenCLEvaluator(SilhouetteEvaluator):
             outcome = "exact"
         elif within and accept_inexact:
             outcome = f"within tolerance (largest difference {worst} px)"
-            log.warning("OpenCL device %s counts a test scene within %g %% of numpy, not "
-                        "exactly (accept_inexact)", self.where, 100 * TOLERANCE)
+            log.warning(
+                "OpenCL device %s counts a test scene within %g %% of numpy, not exactly (accept_inexact)",
+                self.where,
+                100 * TOLERANCE,
+            )
         else:
-            change = ("set accept_inexact=true to run it within that tolerance" if within
-                      else "choose another device (platform, device) or evaluator=numpy")
-            raise ConfigError(f"OpenCL device {self.where} counts a test scene differently "
-                              f"from numpy (model pixels {got[0].ravel().tolist()}, numpy's "
-                              f"{expected[0].ravel().tolist()}; overlap {got[1].ravel().tolist()}"
-                              f", numpy's {expected[1].ravel().tolist()}), "
-                              f"{'within' if within else 'beyond'} the {100 * TOLERANCE:g} % of "
-                              f"accept_inexact: {change}")
+            change = (
+                "set accept_inexact=true to run it within that tolerance"
+                if within
+                else "choose another device (platform, device) or evaluator=numpy"
+            )
+            raise ConfigError(
+                f"OpenCL device {self.where} counts a test scene differently "
+                f"from numpy (model pixels {got[0].ravel().tolist()}, numpy's "
+                f"{expected[0].ravel().tolist()}; overlap {got[1].ravel().tolist()}"
+                f", numpy's {expected[1].ravel().tolist()}), "
+                f"{'within' if within else 'beyond'} the {100 * TOLERANCE:g} % of "
+                f"accept_inexact: {change}"
+            )
         provenance.record_device_check(self.where, outcome)
         return outcome
 
@@ -298,8 +320,9 @@ class OpenCLEvaluator(SilhouetteEvaluator):
             joints = joint_rows(self.body, self.patch_scale)
             for device_queue in self._device_queues:
                 device_queue.build(block)
-                device_queue.upload(vertices=interleaved(vertices, device_queue.simd_lanes), start=start,
-                                    cones=cones, joints=joints)
+                device_queue.upload(
+                    vertices=interleaved(vertices, device_queue.simd_lanes), start=start, cones=cones, joints=joints
+                )
             self._chain = device_chain(self.body)
             if self._chain is not None:
                 for device_queue in self._device_queues:
@@ -309,25 +332,28 @@ class OpenCLEvaluator(SilhouetteEvaluator):
         # multiple of 8 words; in local memory that mask or as many padded layers (see PAD)
         # as fit, at most MAX_LAYERS
         mask = max(pitch(cam.width) * cam.height + 1 for cam in self.cameras)
-        layer = max(layer_words(cam, device_queue.local_size)
-                    for cam in self.cameras for device_queue in self._device_queues)
+        layer = max(
+            layer_words(cam, device_queue.local_size) for cam in self.cameras for device_queue in self._device_queues
+        )
         self._mask_words = (mask + 7) // 8 * 8
         # words of local memory for the masks
         small = min(self._device_queues, key=lambda device_queue: device_queue.local_bytes)
         room = small.local_bytes // 4
         if mask > room:
             big = max(self.cameras, key=lambda cam: pitch(cam.width) * cam.height)
-            raise ConfigError(f"a {big.width}x{big.height} px mask needs {4 * mask} bytes of "
-                              f"OpenCL local memory; {small.device.name.strip()!r} has "
-                              f"{4 * room}: use smaller masks, a device with more local memory "
-                              "(platform, device) or evaluator=numpy")
+            raise ConfigError(
+                f"a {big.width}x{big.height} px mask needs {4 * mask} bytes of "
+                f"OpenCL local memory; {small.device.name.strip()!r} has "
+                f"{4 * room}: use smaller masks, a device with more local memory "
+                "(platform, device) or evaluator=numpy"
+            )
         self._max_layers = min(MAX_LAYERS, (room - SINK_WORDS) // layer)
         self._local_words = (max(mask, self._max_layers * layer + SINK_WORDS) + 7) // 8 * 8
-        shapes = np.array([(cam.width, cam.height, c * self._mask_words)
-                           for c, cam in enumerate(self.cameras)], np.int32)
+        shapes = np.array(
+            [(cam.width, cam.height, c * self._mask_words) for c, cam in enumerate(self.cameras)], np.int32
+        )
         packed = self._packed or [None] * len(self.foreground)
-        fg = np.concatenate([pack_bits(m, self._mask_words, p)
-                             for m, p in zip(self.foreground, packed)])
+        fg = np.concatenate([pack_bits(m, self._mask_words, p) for m, p in zip(self.foreground, packed)])
         cameras = camera_rows(self.cameras)
         for device_queue in self._device_queues:
             device_queue.upload(shapes=shapes, fg=fg, cameras=cameras)
@@ -339,9 +365,9 @@ class OpenCLEvaluator(SilhouetteEvaluator):
     def _render(self, x: np.ndarray, camera_index: int) -> np.ndarray:
         _, masks = self._run(x[None], write_masks=True)
         cam = self.cameras[camera_index]
-        words = masks[camera_index, :pitch(cam.width) * cam.height].reshape(cam.height, -1)
+        words = masks[camera_index, : pitch(cam.width) * cam.height].reshape(cam.height, -1)
         bits = np.unpackbits(words.view(np.uint8), axis=1, bitorder="little")
-        return bits[:, :cam.width].astype(bool)
+        return bits[:, : cam.width].astype(bool)
 
     def _run(self, X: np.ndarray, write_masks: bool):
         """Counts (n, C, 2) int32 and, with ``write_masks``, masks (n * C, mask_words) uint32."""
@@ -367,12 +393,14 @@ class OpenCLEvaluator(SilhouetteEvaluator):
             nV = (b - a) * C
             # a new buffer, filled as it is made: far quicker than an enqueued write into a
             # kept one, which PoCL runs as a command of its own
-            given = cl.Buffer(device_queue.ctx, cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR,
-                              hostbuf=rows_in[a:b])
+            given = cl.Buffer(
+                device_queue.ctx, cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR, hostbuf=rows_in[a:b]
+            )
             if self._chain is not None:
                 rows = device_queue.buffer("transforms", (b - a) * J * 12 * 8)
-                device_queue.bind(device_queue.kinematics, None, device_queue.frame["chain"], np.int32(b - a),
-                                  np.int32(J), rows)
+                device_queue.bind(
+                    device_queue.kinematics, None, device_queue.frame["chain"], np.int32(b - a), np.int32(J), rows
+                )
                 device_queue.kinematics.set_arg(_POSES_ARG, given)
                 cl.enqueue_nd_range_kernel(device_queue.queue, device_queue.kinematics, (b - a,), (1,))
             else:
@@ -380,14 +408,29 @@ class OpenCLEvaluator(SilhouetteEvaluator):
             out = device_queue.buffer("counts", counts[views].nbytes)
             img = device_queue.buffer("masks", masks[views].nbytes if write_masks else 4)
             f = device_queue.frame
-            device_queue.bind(device_queue.kernel, f["vertices"], f["start"], f["cones"], None, f["cameras"],
-                              f["joints"], f["shapes"], f["fg"],
-                              np.int32(C), np.int32(J), cl.LocalMemory(4 * self._local_words),
-                              np.int32(self._max_layers), out,
-                              np.int32(write_masks), np.int32(self._mask_words), img)
+            device_queue.bind(
+                device_queue.kernel,
+                f["vertices"],
+                f["start"],
+                f["cones"],
+                None,
+                f["cameras"],
+                f["joints"],
+                f["shapes"],
+                f["fg"],
+                np.int32(C),
+                np.int32(J),
+                cl.LocalMemory(4 * self._local_words),
+                np.int32(self._max_layers),
+                out,
+                np.int32(write_masks),
+                np.int32(self._mask_words),
+                img,
+            )
             device_queue.kernel.set_arg(_TRANSFORMS_ARG, rows)
-            cl.enqueue_nd_range_kernel(device_queue.queue, device_queue.kernel, (nV * device_queue.local_size,),
-                                       (device_queue.local_size,))
+            cl.enqueue_nd_range_kernel(
+                device_queue.queue, device_queue.kernel, (nV * device_queue.local_size,), (device_queue.local_size,)
+            )
             copies = [cl.enqueue_copy(device_queue.queue, counts[views], out, is_blocking=False)]
             if write_masks:
                 copies.append(cl.enqueue_copy(device_queue.queue, masks[views], img, is_blocking=False))
@@ -423,9 +466,16 @@ class MultiDeviceEvaluator(OpenCLEvaluator):
 
     name = "multidevice"
 
-    def __init__(self, patch_scale: float = PATCH_SCALE, platform=None, devices=None,
-                 sub_devices: int | None = None, local_size: int | None = None,
-                 lanes: int | None = None, accept_inexact: bool = False):
+    def __init__(
+        self,
+        patch_scale: float = PATCH_SCALE,
+        platform=None,
+        devices=None,
+        sub_devices: int | None = None,
+        local_size: int | None = None,
+        lanes: int | None = None,
+        accept_inexact: bool = False,
+    ):
         self._sub_devices = sub_devices
         self._measured_body = None
         super().__init__(patch_scale, platform, devices, local_size, lanes, accept_inexact)
@@ -433,8 +483,10 @@ class MultiDeviceEvaluator(OpenCLEvaluator):
     def _make_device_queues(self, platform, devices, local_size, lanes) -> list[_DeviceQueue]:
         several = not isinstance(platform, (str, int, np.integer, type(None)))
         if several and devices is not None:
-            raise ConfigError("multidevice: devices picks devices of one platform; with a list of "
-                              "platforms every device of each is used (leave devices null)")
+            raise ConfigError(
+                "multidevice: devices picks devices of one platform; with a list of "
+                "platforms every device of each is used (leave devices null)"
+            )
         if several:
             chosen = [d for p in dict.fromkeys(select_platform(p) for p in platform) for d in p.get_devices()]
         elif devices is None:
@@ -446,8 +498,11 @@ class MultiDeviceEvaluator(OpenCLEvaluator):
         if len(chosen) == 1 and chosen[0].type & pyopencl().device_type.CPU:
             count = self._sub_devices or chosen[0].max_compute_units
             chosen = sub_devices(chosen[0], count)
-        log.info("multidevice evaluator on %d devices: %s", len(chosen),
-                 ", ".join(f"{d.name.strip()} ({d.platform.name.strip()})" for d in chosen))
+        log.info(
+            "multidevice evaluator on %d devices: %s",
+            len(chosen),
+            ", ".join(f"{d.name.strip()} ({d.platform.name.strip()})" for d in chosen),
+        )
         # devices of one platform share a context, hence one program build
         by_platform: dict = {}
         for d in chosen:
@@ -478,12 +533,14 @@ class MultiDeviceEvaluator(OpenCLEvaluator):
             seconds.append(best)
         speed = 1.0 / np.maximum(seconds, 1e-9)
         self._weights = speed / speed.sum()
-        log.info("multidevice shares by measured speed: %s", ", ".join(
-            f"{device_queue.device.name.strip()} ({device_queue.device.platform.name.strip()}) {share:.2f}"
-            for device_queue, share in zip(self._device_queues, self._weights)))
+        log.info(
+            "multidevice shares by measured speed: %s",
+            ", ".join(
+                f"{device_queue.device.name.strip()} ({device_queue.device.platform.name.strip()}) {share:.2f}"
+                for device_queue, share in zip(self._device_queues, self._weights)
+            ),
+        )
         return self._weights
-
-
 
 
 def device_checks() -> list[str]:
@@ -509,9 +566,10 @@ class _Ball:
 
     def __init__(self, count: int = 300, radius: float = 100.0):
         i = np.arange(count) + 0.5  # a Fibonacci sphere
-        polar, azimuth = np.arccos(1 - 2 * i / count), np.pi * (1 + 5 ** 0.5) * i
-        self.rest_normals = np.stack([np.sin(polar) * np.cos(azimuth), np.cos(polar),
-                                      np.sin(polar) * np.sin(azimuth)], axis=1)
+        polar, azimuth = np.arccos(1 - 2 * i / count), np.pi * (1 + 5**0.5) * i
+        self.rest_normals = np.stack(
+            [np.sin(polar) * np.cos(azimuth), np.cos(polar), np.sin(polar) * np.sin(azimuth)], axis=1
+        )
         self.rest_vertices = radius * self.rest_normals
         self.vertex_joint = np.zeros(count, int)
         self.joint_rest_positions = np.zeros((1, 3))

@@ -22,6 +22,7 @@ temporary folder per process, so that parallel runs of a sweep never share one, 
 PoCL's worker threads to cores (``POCL_AFFINITY=1``) unless that variable is already set.
 Both take effect only if nothing else started OpenCL in the process before.
 """
+
 from __future__ import annotations
 
 import atexit
@@ -70,8 +71,9 @@ def pyopencl():
         try:
             import pyopencl as cl
         except (ImportError, OSError) as err:
-            raise ConfigError(f"pyopencl cannot be imported ({err}); install with: {INSTALL}; "
-                              "or choose evaluator=numpy") from None
+            raise ConfigError(
+                f"pyopencl cannot be imported ({err}); install with: {INSTALL}; or choose evaluator=numpy"
+            ) from None
         _cl = cl
     return _cl
 
@@ -96,17 +98,20 @@ def platforms() -> list:
     else:
         reason = "the ICD loader lists none"
     if not found:
-        raise ConfigError(f"no OpenCL platform found ({reason}); install with: pip install "
-                          "pocl-binary-distribution (a CPU platform), or a GPU's OpenCL driver; "
-                          "or choose evaluator=numpy")
+        raise ConfigError(
+            f"no OpenCL platform found ({reason}); install with: pip install "
+            "pocl-binary-distribution (a CPU platform), or a GPU's OpenCL driver; "
+            "or choose evaluator=numpy"
+        )
     return found
 
 
 def describe(found) -> str:
     """'[0] PoCL: [0] cpu-name, ...' for an error message."""
-    return "; ".join(f"[{i}] {p.name}: " + ", ".join(f"[{k}] {d.name.strip()}"
-                                                      for k, d in enumerate(p.get_devices()))
-                     for i, p in enumerate(found))
+    return "; ".join(
+        f"[{i}] {p.name}: " + ", ".join(f"[{k}] {d.name.strip()}" for k, d in enumerate(p.get_devices()))
+        for i, p in enumerate(found)
+    )
 
 
 def select_platform(platform):
@@ -117,20 +122,20 @@ def select_platform(platform):
         for p in found:
             if p.get_devices() and not any(name in p.name.lower() for name in SIMULATORS):
                 return p
-        raise ConfigError(f"no OpenCL platform has a device ({describe(found)}); install with: "
-                          "pip install pocl-binary-distribution (a CPU platform), or a GPU's "
-                          "OpenCL driver; or choose evaluator=numpy")
+        raise ConfigError(
+            f"no OpenCL platform has a device ({describe(found)}); install with: "
+            "pip install pocl-binary-distribution (a CPU platform), or a GPU's "
+            "OpenCL driver; or choose evaluator=numpy"
+        )
     if isinstance(platform, (int, np.integer)) and not isinstance(platform, bool):
         if 0 <= platform < len(found):
             return found[platform]
-        raise ConfigError(f"OpenCL platform index {platform} does not exist; there are "
-                          f"{len(found)}: {describe(found)}")
+        raise ConfigError(f"OpenCL platform index {platform} does not exist; there are {len(found)}: {describe(found)}")
     if isinstance(platform, str):
         match = [p for p in found if platform.lower() in p.name.lower()]
         if match:
             return match[0]
-    raise ConfigError(f"no OpenCL platform matches platform={platform!r}; there are: "
-                      f"{describe(found)}")
+    raise ConfigError(f"no OpenCL platform matches platform={platform!r}; there are: {describe(found)}")
 
 
 def select_device(platform, device):
@@ -140,8 +145,10 @@ def select_device(platform, device):
     if isinstance(device, bool) or not isinstance(device, (int, np.integer)):
         raise ConfigError(f"OpenCL device must be an index, got {device!r}")
     if not 0 <= device < len(devices):
-        raise ConfigError(f"OpenCL device index {device} does not exist on platform "
-                          f"{p.name!r}, which has {len(devices)}: {describe([p])}")
+        raise ConfigError(
+            f"OpenCL device index {device} does not exist on platform "
+            f"{p.name!r}, which has {len(devices)}: {describe([p])}"
+        )
     return devices[device]
 
 
@@ -173,8 +180,10 @@ def sub_devices(device, count: int) -> list:
     if key not in _SUB_DEVICES:
         units = device.max_compute_units
         if not 1 <= count <= units:
-            raise ConfigError(f"cannot split OpenCL device {device.name.strip()!r} with {units} "
-                              f"compute units into {count} sub-devices")
+            raise ConfigError(
+                f"cannot split OpenCL device {device.name.strip()!r} with {units} "
+                f"compute units into {count} sub-devices"
+            )
         partition = pyopencl().device_partition_property.EQUALLY
         _SUB_DEVICES[key] = device.create_sub_devices([partition, units // count])[:count]
     return _SUB_DEVICES[key]

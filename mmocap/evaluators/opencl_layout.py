@@ -16,6 +16,7 @@ Layout, for the kernel ``silhouette_counts``:
   :data:`MAX_LAYERS` layers padded by :data:`PAD` px (:func:`layer_words`) and
   :data:`SINK_WORDS` after them.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -61,12 +62,20 @@ def build_options(local_size: int, lanes: int, block: int) -> list[str]:
     """The kernel's build options for a work-group size, vector width and block size: every
     constant it uses, and correctly rounded float32 division and square root (the
     silhouette rule)."""
-    constants = {"LOCAL_SIZE": local_size, "LANES": lanes, "COUNT_WORDS": count_words(local_size),
-                 "BLOCK": block, "PAD": PAD, "MAX_LAYERS": MAX_LAYERS, "MAX_JOINTS": MAX_JOINTS,
-                 "PITCH_WORDS": PITCH_WORDS, "NEAR_MM": repr(NEAR_MM), "ROUNDING": repr(ROUNDING),
-                 "MAX_SIDE": MAX_SIDE}
-    return [f"-D{name}={value}" for name, value in constants.items()] + [
-        "-cl-fp32-correctly-rounded-divide-sqrt"]
+    constants = {
+        "LOCAL_SIZE": local_size,
+        "LANES": lanes,
+        "COUNT_WORDS": count_words(local_size),
+        "BLOCK": block,
+        "PAD": PAD,
+        "MAX_LAYERS": MAX_LAYERS,
+        "MAX_JOINTS": MAX_JOINTS,
+        "PITCH_WORDS": PITCH_WORDS,
+        "NEAR_MM": repr(NEAR_MM),
+        "ROUNDING": repr(ROUNDING),
+        "MAX_SIDE": MAX_SIDE,
+    }
+    return [f"-D{name}={value}" for name, value in constants.items()] + ["-cl-fp32-correctly-rounded-divide-sqrt"]
 
 
 def pitch(width: int) -> int:
@@ -88,7 +97,7 @@ def pack_bits(mask: np.ndarray, size: int, packed: np.ndarray | None = None) -> 
     rows = pack_rows(mask) if packed is None else packed
     H, W = np.shape(mask)
     out = np.zeros(size, np.uint32)
-    out[:H * pitch(W)].reshape(H, -1)[:, :rows.shape[1]] = rows
+    out[: H * pitch(W)].reshape(H, -1)[:, : rows.shape[1]] = rows
     return out
 
 
@@ -97,8 +106,7 @@ def device_chain(body) -> KinematicChain | None:
     a :class:`KinematicChain` of at most MAX_JOINTS joints), else None."""
     chain = getattr(body, "chain", None)
     joints = len(body.joint_rest_positions)
-    if (isinstance(chain, KinematicChain) and len(chain.rest_positions) == joints
-            and joints <= MAX_JOINTS):
+    if isinstance(chain, KinematicChain) and len(chain.rest_positions) == joints and joints <= MAX_JOINTS:
         return chain
     return None
 
@@ -128,8 +136,9 @@ def vertex_arrays(body, patch_scale: float, block: int) -> tuple[np.ndarray, np.
     J = len(body.joint_rest_positions)
     table = vertex_table(body, patch_scale)
     normals = table[3:6].T
-    order = np.concatenate([part for j in range(J)
-                            for part in normal_blocks(normals, np.flatnonzero(joint == j), block)])
+    order = np.concatenate(
+        [part for j in range(J) for part in normal_blocks(normals, np.flatnonzero(joint == j), block)]
+    )
     sizes = np.bincount(joint, minlength=J)
     padded = (sizes + block - 1) // block * block
     start = np.r_[0, np.cumsum(padded)].astype(np.int32)
@@ -170,7 +179,7 @@ def culling_cones(vertices: np.ndarray, block: int) -> np.ndarray:
     blocks = vertices.shape[1] // block
     points = vertices[:3].T.reshape(blocks, block, 3)
     normals = vertices[3:6].T.reshape(blocks, block, 3)
-    real = np.any(normals != 0, axis=2)                                   # (blocks, block)
+    real = np.any(normals != 0, axis=2)  # (blocks, block)
     count = real.sum(axis=1)
     mean = normals.sum(axis=1)
     length = np.linalg.norm(mean, axis=1)
@@ -179,7 +188,7 @@ def culling_cones(vertices: np.ndarray, block: int) -> np.ndarray:
     half_angle = np.arccos(np.clip(cos_to_axis.min(axis=1), -1.0, 1.0)) + 1e-6
     lo = np.where(real[..., None], points, np.inf).min(axis=1)
     hi = np.where(real[..., None], points, -np.inf).max(axis=1)
-    with np.errstate(invalid="ignore"):                                   # inf - inf: padding only
+    with np.errstate(invalid="ignore"):  # inf - inf: padding only
         centre = np.where(count[:, None] > 0, 0.5 * (lo + hi), 0.0)
     radius = np.where(real, np.linalg.norm(points - centre[:, None], axis=2), 0.0).max(axis=1)
     radius = radius * (1 + 1e-9) + 1e-6

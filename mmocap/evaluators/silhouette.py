@@ -62,6 +62,7 @@ Every backend exposes the per-view counts through :meth:`SilhouetteEvaluator.cou
 silhouette through :meth:`SilhouetteEvaluator.render`; the conformance suite
 :mod:`mmocap.testing.evaluators` holds every installed backend to naive's counts.
 """
+
 from __future__ import annotations
 
 from typing import Any, Self
@@ -72,7 +73,7 @@ from threadpoolctl import threadpool_limits
 from mmocap.errors import ConfigError, DataError
 
 NEAR_MM = 1.0
-MAX_SIDE = 2 ** 30  # patch sides are capped here (far beyond any image)
+MAX_SIDE = 2**30  # patch sides are capped here (far beyond any image)
 
 
 def camera_rows(cameras) -> np.ndarray:
@@ -104,8 +105,7 @@ def body_transforms(body, X: np.ndarray) -> np.ndarray:
     return T
 
 
-def view_geometry(body, cameras, X: np.ndarray,
-                  patch_scale: float) -> tuple[np.ndarray, np.ndarray]:
+def view_geometry(body, cameras, X: np.ndarray, patch_scale: float) -> tuple[np.ndarray, np.ndarray]:
     """Steps 1-2 and the coefficients of steps 3-4 for a batch, in float64, each operation
     rounded, in the order written here (the OpenCL kernel computes the same).
 
@@ -124,22 +124,20 @@ def view_geometry(body, cameras, X: np.ndarray,
     T = body_transforms(body, X)
     cams, joints = camera_rows(cameras), joint_rows(body, patch_scale)
     n, J, C = len(T), T.shape[1], len(cams)
-    R = T[:, None, :, :3, :3]                                # (n, 1, J, 3, 3)
-    t = T[:, None, :, :3, 3]                                 # (n, 1, J, 3)
+    R = T[:, None, :, :3, :3]  # (n, 1, J, 3, 3)
+    t = T[:, None, :, :3, 3]  # (n, 1, J, 3)
     P = cams[None, :, None, :12].reshape(1, C, 1, 3, 4)
     out = np.zeros((n, C, J, 16))
     A = out[..., :12].reshape(n, C, J, 3, 4)
     # A[i, k] = (P[i, 0] R[0, k] + P[i, 1] R[1, k]) + P[i, 2] R[2, k] for k < 3
-    A[..., :3] = ((P[..., :, 0, None] * R[..., None, 0, :]
-                   + P[..., :, 1, None] * R[..., None, 1, :])
-                  + P[..., :, 2, None] * R[..., None, 2, :])
+    A[..., :3] = (P[..., :, 0, None] * R[..., None, 0, :] + P[..., :, 1, None] * R[..., None, 1, :]) + P[
+        ..., :, 2, None
+    ] * R[..., None, 2, :]
     # A[i, 3] = ((P[i, 0] t0 + P[i, 1] t1) + P[i, 2] t2) + P[i, 3]
-    A[..., 3] = (((P[..., 0] * t[..., None, 0] + P[..., 1] * t[..., None, 1])
-                  + P[..., 2] * t[..., None, 2]) + P[..., 3])
+    A[..., 3] = ((P[..., 0] * t[..., None, 0] + P[..., 1] * t[..., None, 1]) + P[..., 2] * t[..., None, 2]) + P[..., 3]
     # b[k] = (R[0, k] d0 + R[1, k] d1) + R[2, k] d2 with d = t - o
-    d = t - cams[None, :, None, 12:15]                       # (n, C, J, 3)
-    out[..., 12:15] = ((R[..., 0, :] * d[..., 0, None] + R[..., 1, :] * d[..., 1, None])
-                       + R[..., 2, :] * d[..., 2, None])
+    d = t - cams[None, :, None, 12:15]  # (n, C, J, 3)
+    out[..., 12:15] = (R[..., 0, :] * d[..., 0, None] + R[..., 1, :] * d[..., 1, None]) + R[..., 2, :] * d[..., 2, None]
     # z = ((A[2, 0] p0 + A[2, 1] p1) + A[2, 2] p2) + A[2, 3]; s = ceil((f * patch) / z)
     p = joints[:, :3]
     z = ((A[..., 2, 0] * p[:, 0] + A[..., 2, 1] * p[:, 1]) + A[..., 2, 2] * p[:, 2]) + A[..., 2, 3]
@@ -202,8 +200,9 @@ def fitness_from_counts(model_px: np.ndarray, overlap_px: np.ndarray, fg_px: np.
     o = np.asarray(overlap_px, dtype=np.float64)
     f = np.asarray(fg_px, dtype=np.float64)
     if m.ndim != 2 or o.shape != m.shape or f.shape != m.shape[1:]:
-        raise ValueError(f"model_px, overlap_px and fg_px must be (n, C), (n, C) and (C,), "
-                         f"got {m.shape}, {o.shape} and {f.shape}")
+        raise ValueError(
+            f"model_px, overlap_px and fg_px must be (n, C), (n, C) and (C,), got {m.shape}, {o.shape} and {f.shape}"
+        )
     model_term = np.where(m > 0, (m - o) / (2 * np.maximum(m, 1)), 0.5)
     fg_term = np.where(f > 0, (f - o) / (2 * np.maximum(f, 1)), 0.5)
     per_view = np.where((m == 0) & (f == 0), 0.0, model_term + fg_term)
@@ -224,20 +223,27 @@ def check_poses(X: np.ndarray) -> np.ndarray:
 def check_foreground(cameras, foreground) -> list[np.ndarray]:
     """One (height, width) mask per camera -> list of (H_c, W_c) bool; DataError otherwise."""
     if not hasattr(foreground, "__len__"):
-        raise DataError("foreground must be a list with one (height, width) mask per camera, "
-                        f"got {type(foreground).__name__}")
+        raise DataError(
+            f"foreground must be a list with one (height, width) mask per camera, got {type(foreground).__name__}"
+        )
     if len(foreground) != len(cameras):
-        raise DataError(f"got {len(foreground)} foreground masks for {len(cameras)} cameras "
-                        f"({', '.join(cam.name for cam in cameras)})")
+        raise DataError(
+            f"got {len(foreground)} foreground masks for {len(cameras)} cameras "
+            f"({', '.join(cam.name for cam in cameras)})"
+        )
     masks = []
     for cam, mask in zip(cameras, foreground):
         mask = np.asarray(mask)
         if mask.shape != (cam.height, cam.width):
-            raise DataError(f"foreground mask of camera {cam.name} has shape {mask.shape}, "
-                            f"expected {(cam.height, cam.width)} (height, width)")
+            raise DataError(
+                f"foreground mask of camera {cam.name} has shape {mask.shape}, "
+                f"expected {(cam.height, cam.width)} (height, width)"
+            )
         if mask.dtype != bool and not np.issubdtype(mask.dtype, np.number):
-            raise DataError(f"foreground mask of camera {cam.name} has dtype {mask.dtype}, "
-                            "expected bool or numbers (nonzero = foreground)")
+            raise DataError(
+                f"foreground mask of camera {cam.name} has dtype {mask.dtype}, "
+                "expected bool or numbers (nonzero = foreground)"
+            )
         masks.append(np.array(mask, dtype=bool))  # a copy; nonzero = foreground
     return masks
 
@@ -251,11 +257,14 @@ def check_body(body) -> None:
     patch = np.asarray(body.patch_mm)
     J = len(pivots)
     if v.ndim != 2 or v.shape[1] != 3 or n.shape != v.shape or vj.shape != (len(v),):
-        raise ValueError(f"body: rest_vertices {v.shape}, rest_normals {n.shape} and vertex_joint "
-                         f"{vj.shape} must be (N, 3), (N, 3) and (N,)")
+        raise ValueError(
+            f"body: rest_vertices {v.shape}, rest_normals {n.shape} and vertex_joint "
+            f"{vj.shape} must be (N, 3), (N, 3) and (N,)"
+        )
     if pivots.shape != (J, 3) or patch.shape != (J,):
-        raise ValueError(f"body: joint_rest_positions {pivots.shape} and patch_mm {patch.shape} "
-                         "must be (J, 3) and (J,)")
+        raise ValueError(
+            f"body: joint_rest_positions {pivots.shape} and patch_mm {patch.shape} must be (J, 3) and (J,)"
+        )
     if vj.size and (not np.issubdtype(vj.dtype, np.integer) or vj.min() < 0 or vj.max() >= J):
         raise ValueError(f"body: vertex_joint must hold joint indices in [0, {J})")
 
@@ -379,8 +388,7 @@ class SilhouetteEvaluator:
         self._require_setup()
         x = check_poses(np.asarray(x, dtype=np.float64)[None])[0]
         if not 0 <= camera_index < len(self.cameras):
-            raise IndexError(f"camera_index {camera_index} is out of range for "
-                             f"{len(self.cameras)} cameras")
+            raise IndexError(f"camera_index {camera_index} is out of range for {len(self.cameras)} cameras")
         return self._render(x, int(camera_index))
 
     def _counts(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -1,4 +1,5 @@
 """An evaluator wrapper that measures the time spent evaluating candidates."""
+
 from __future__ import annotations
 
 import time

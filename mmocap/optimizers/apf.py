@@ -51,6 +51,7 @@ Inspection: ``schedule`` lists ``(partition, layer, n)`` for all rounds; per rou
 ``betas``, ``survival_rates`` (achieved delta) and ``diffusion_std`` (RMS standard deviation
 of the noise added to the round's particles over the diffused coordinates, normalised units).
 """
+
 from __future__ import annotations
 
 import math
@@ -123,12 +124,10 @@ class AnnealedParticleFilter(PopulationOptimizer):
     #: search ``space.partitions`` one after another (PSAPF) instead of all at once
     partitioned = False
 
-    def __init__(self, layers: int = 10, survival_rate: float = 0.5, init_spread: float = 0.05,
-                 diffusion: float = 1.0):
+    def __init__(self, layers: int = 10, survival_rate: float = 0.5, init_spread: float = 0.05, diffusion: float = 1.0):
         super().__init__()
         self.layers = check_number("optimizer.layers", layers, 1, integer=True)
-        self.survival_rate = check_number("optimizer.survival_rate", survival_rate, 0, 1,
-                                          low_open=True, high_open=True)
+        self.survival_rate = check_number("optimizer.survival_rate", survival_rate, 0, 1, low_open=True, high_open=True)
         self.init_spread = check_number("optimizer.init_spread", init_spread, 0.0, low_open=True)
         self.diffusion = check_number("optimizer.diffusion", diffusion, 0.0, low_open=True)
 
@@ -145,10 +144,8 @@ class AnnealedParticleFilter(PopulationOptimizer):
         if not self.partitioned or parts is None:
             parts = (np.arange(self.dim),)
         parts = tuple(np.asarray(p, dtype=int) for p in parts)
-        if (any(len(p) == 0 for p in parts)
-                or not np.array_equal(np.sort(np.concatenate(parts)), np.arange(self.dim))):
-            raise ConfigError("search space partitions must be non-empty and cover each "
-                              "coordinate once")
+        if any(len(p) == 0 for p in parts) or not np.array_equal(np.sort(np.concatenate(parts)), np.arange(self.dim)):
+            raise ConfigError("search space partitions must be non-empty and cover each coordinate once")
         self._parts = parts
         self.schedule = self._split_budget([len(p) for p in parts])
         self._round = 0
@@ -167,8 +164,7 @@ class AnnealedParticleFilter(PopulationOptimizer):
         spare = self.budget - self.min_budget(self.dim, len(dims))
         shares = MIN_PARTICLES * L + spare * dims // dims.sum()
         shares[: self.budget - shares.sum()] += 1
-        return [(k, l, int(share // L + (l < share % L)))
-                for k, share in enumerate(shares) for l in range(L)]
+        return [(k, l, int(share // L + (l < share % L))) for k, share in enumerate(shares) for l in range(L)]
 
     def _propose(self, n_max: int) -> np.ndarray:
         part, layer, n = self.schedule[self._round]

@@ -15,6 +15,7 @@ Normalised coordinates ``z = (x - x0) / scale`` (``scale = space.radius``, the s
 of each coordinate) make one unit the search radius in every coordinate (rad or mm alike);
 :meth:`PopulationOptimizer.to_unit` and :meth:`PopulationOptimizer.from_unit` convert.
 """
+
 from __future__ import annotations
 
 import math
@@ -68,8 +69,9 @@ class PopulationOptimizer(ABC):
         if x0.ndim != 1 or x0.shape[0] == 0:
             raise ConfigError(f"search space x0 must have shape (D,), got {x0.shape}")
         dim = x0.shape[0]
-        lower, upper, scale = (np.broadcast_to(np.asarray(a, dtype=float), (dim,)).copy()
-                               for a in (space.lower, space.upper, space.radius))
+        lower, upper, scale = (
+            np.broadcast_to(np.asarray(a, dtype=float), (dim,)).copy() for a in (space.lower, space.upper, space.radius)
+        )
         if not np.all(scale > 0):
             raise ConfigError(f"search space radius must be > 0, got {scale}")
         if not np.all(lower < upper):
@@ -77,9 +79,11 @@ class PopulationOptimizer(ABC):
         n_parts = 1 if space.partitions is None else len(space.partitions)
         needed = self.min_budget(dim, n_parts)
         if space.budget < needed:
-            raise ConfigError(f"optimizer '{self.name}' needs a budget of at least {needed} "
-                              f"evaluations for {dim} coordinates in {n_parts} partition(s), "
-                              f"got {space.budget}")
+            raise ConfigError(
+                f"optimizer '{self.name}' needs a budget of at least {needed} "
+                f"evaluations for {dim} coordinates in {n_parts} partition(s), "
+                f"got {space.budget}"
+            )
         self._space = space
         self.x0, self.lower, self.upper, self.scale = x0, lower, upper, scale
         self.dim = dim
@@ -102,8 +106,10 @@ class PopulationOptimizer(ABC):
             raise RuntimeError(f"evaluation budget of {self.budget} is exhausted")
         X: np.ndarray = np.asarray(self._propose(remaining), dtype=float)
         if X.ndim != 2 or X.shape[1] != self.dim or not 1 <= X.shape[0] <= remaining:
-            raise RuntimeError(f"{type(self).__name__} proposed an array of shape {X.shape}; "
-                               f"expected (n, {self.dim}) with 1 <= n <= {remaining}")
+            raise RuntimeError(
+                f"{type(self).__name__} proposed an array of shape {X.shape}; "
+                f"expected (n, {self.dim}) with 1 <= n <= {remaining}"
+            )
         X = np.clip(X, self.lower, self.upper)
         self._pending = X
         return X.copy()
@@ -117,8 +123,7 @@ class PopulationOptimizer(ABC):
         X = np.asarray(X)
         f = np.asarray(f, dtype=float)
         if X.shape != asked.shape or not np.array_equal(X, asked):
-            raise ValueError(f"tell() needs exactly the {asked.shape} array that ask() "
-                             f"returned, got shape {X.shape}")
+            raise ValueError(f"tell() needs exactly the {asked.shape} array that ask() returned, got shape {X.shape}")
         if f.shape != (X.shape[0],):
             raise ValueError(f"tell() needs fitness of shape ({X.shape[0]},), got {f.shape}")
         if np.isnan(f).any():
@@ -149,8 +154,7 @@ class PopulationOptimizer(ABC):
         ``xbest`` is (0,) before setup, so that ``isinstance(opt, Optimizer)`` works)."""
         if self._space is None:
             return Result(np.empty(0), math.inf, 0, 0, {})
-        return Result(self._xbest.copy(), self._fbest, self.evaluations, self.iterations,
-                      self.stop())
+        return Result(self._xbest.copy(), self._fbest, self.evaluations, self.iterations, self.stop())
 
     # -- helpers for subclasses --------------------------------------------------------------
     def to_unit(self, X: np.ndarray) -> np.ndarray:

@@ -35,6 +35,7 @@ every 4 generations at 39 DOF and lambda 14; every generation in small dimension
 update of pycma; in between, candidates are sampled from the last decomposed ``C``. At 39 DOF
 the decomposition, done every generation, would be a large share of CMA-ES's own time.
 """
+
 from __future__ import annotations
 
 import math
@@ -73,13 +74,15 @@ class BoxTransform:
     def __init__(self, lower: np.ndarray, upper: np.ndarray):
         lower, upper = np.asarray(lower, dtype=float), np.asarray(upper, dtype=float)
         if not (np.all(np.isfinite(lower)) and np.all(np.isfinite(upper))):
-            raise ConfigError("optimizer.bounds=transform needs finite search bounds; use "
-                              "optimizer.bounds=clip for a search space with infinite bounds")
+            raise ConfigError(
+                "optimizer.bounds=transform needs finite search bounds; use "
+                "optimizer.bounds=clip for a search space with infinite bounds"
+            )
         half_width = (upper - lower) / 2
         self.lower, self.upper = lower, upper
         self.margin_lower = np.minimum(half_width, (1 + np.abs(lower)) / 20)
         self.margin_upper = np.minimum(half_width, (1 + np.abs(upper)) / 20)
-        self._start = lower - self.margin_lower   # the base period is [start, start + period)
+        self._start = lower - self.margin_lower  # the base period is [start, start + period)
         self._end = upper + self.margin_upper
         self._period = 2 * (self._end - self._start)
         self._period_end = self._start + self._period
@@ -164,8 +167,7 @@ def strategy_parameters(dim: int, popsize: int | None = None) -> StrategyParamet
         1.0, (2 * mu_eff - 1) / ((dim + 2) ** 2 + mu_eff)
     )
     chi_n = math.sqrt(dim) * (1 - 1 / (4 * dim) + 1 / (21 * dim**2))
-    return StrategyParameters(dim, lam, mu, weights, mu_eff, c_sigma, d_sigma, c_c, mu_cov,
-                              c_cov, chi_n)
+    return StrategyParameters(dim, lam, mu, weights, mu_eff, c_sigma, d_sigma, c_c, mu_cov, c_cov, chi_n)
 
 
 class CMAES(PopulationOptimizer):
@@ -186,16 +188,21 @@ class CMAES(PopulationOptimizer):
 
     name = "cmaes"
 
-    def __init__(self, popsize: int | None = None, sigma0: float = 0.03, tolx: float = 1e-12,
-                 tolfun: float = 1e-12, bounds: str = "transform"):
+    def __init__(
+        self,
+        popsize: int | None = None,
+        sigma0: float = 0.03,
+        tolx: float = 1e-12,
+        tolfun: float = 1e-12,
+        bounds: str = "transform",
+    ):
         super().__init__()
         self.popsize = None if popsize is None else check_number("optimizer.popsize", popsize, 2, integer=True)
         self.sigma0 = check_number("optimizer.sigma0", sigma0, 0.0, low_open=True)
         self.tolx = check_number("optimizer.tolx", tolx, 0.0)
         self.tolfun = check_number("optimizer.tolfun", tolfun, 0.0)
         if bounds not in BOUND_HANDLING:
-            raise ConfigError(f"optimizer.bounds must be one of {', '.join(BOUND_HANDLING)}, "
-                              f"got {bounds!r}")
+            raise ConfigError(f"optimizer.bounds must be one of {', '.join(BOUND_HANDLING)}, got {bounds!r}")
         self.bounds = bounds
         self.params: StrategyParameters | None = None
 
@@ -237,7 +244,7 @@ class CMAES(PopulationOptimizer):
         order = np.argsort(f, kind="stable")
         self._last_f = f
         self._best_history.append(float(f[order[0]]))
-        del self._best_history[:-self._history_len]
+        del self._best_history[: -self._history_len]
         mu = cast(StrategyParameters, self.params).mu
         if X.shape[0] >= mu:
             self._update(z[order[:mu]])
@@ -257,14 +264,14 @@ class CMAES(PopulationOptimizer):
         y_w = p.weights @ y
         self._mean = self._mean + self._sigma * y_w
         inv_sqrt_C_y_w = self._B @ ((self._B.T @ y_w) / self._D)
-        self._p_sigma = ((1 - p.c_sigma) * self._p_sigma
-                         + math.sqrt(p.c_sigma * (2 - p.c_sigma) * p.mu_eff) * inv_sqrt_C_y_w)
+        self._p_sigma = (1 - p.c_sigma) * self._p_sigma + math.sqrt(
+            p.c_sigma * (2 - p.c_sigma) * p.mu_eff
+        ) * inv_sqrt_C_y_w
         self._updates += 1
         norm_p_sigma = math.sqrt(self._p_sigma @ self._p_sigma)
         bias = math.sqrt(1 - (1 - p.c_sigma) ** (2 * self._updates))
         h_sigma = norm_p_sigma / bias < (1.4 + 2 / (p.dim + 1)) * p.chi_n
-        self._p_c = ((1 - p.c_c) * self._p_c
-                     + h_sigma * math.sqrt(p.c_c * (2 - p.c_c) * p.mu_eff) * y_w)
+        self._p_c = (1 - p.c_c) * self._p_c + h_sigma * math.sqrt(p.c_c * (2 - p.c_c) * p.mu_eff) * y_w
         c_one = p.c_cov / p.mu_cov
         c_mu = p.c_cov - c_one
         rank_one = np.multiply.outer(self._p_c, self._p_c)
@@ -292,8 +299,9 @@ class CMAES(PopulationOptimizer):
         if std < self.tolx:
             reasons["tolx"] = std
         if len(self._best_history) == self._history_len:
-            f_range = max(float(self._last_f.max() - self._last_f.min()),
-                          max(self._best_history) - min(self._best_history))
+            f_range = max(
+                float(self._last_f.max() - self._last_f.min()), max(self._best_history) - min(self._best_history)
+            )
             if f_range < self.tolfun:
                 reasons["tolfun"] = f_range
         d_min = float(self._D.min())

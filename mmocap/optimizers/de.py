@@ -56,6 +56,7 @@ Budget. A search needs at least ``N`` evaluations (generation 0). The last gener
 truncated to the evaluations left; only its evaluated trials (those of the first members)
 take part in selection, the other members stay as they are.
 """
+
 from __future__ import annotations
 
 import logging
@@ -72,8 +73,7 @@ log = logging.getLogger(__name__)
 ALPHA_RESET = 0.1
 
 
-def assortative_mating(candidates: list[int], Z: np.ndarray, ref: np.ndarray, alpha: float,
-                       keys: np.ndarray) -> int:
+def assortative_mating(candidates: list[int], Z: np.ndarray, ref: np.ndarray, alpha: float, keys: np.ndarray) -> int:
     """Mate chosen from ``candidates`` (m row indices into the population ``Z`` (N, D)) for
     the reference vector ``ref`` (D,) with mating trend ``alpha`` in [-1, 1]: of
     ``k = 1 + round(|alpha| (m - 1))`` candidates picked at random (those with the k smallest
@@ -116,15 +116,22 @@ class DifferentialEvolution(PopulationOptimizer):
 
     name = "de"
 
-    def __init__(self, popsize: int = 10, n_placing: int = 5, n_leading: int = 5,
-                 n_correcting: int = 5, cr: float = 0.5, f: float = 0.5,
-                 init_spread: float = 0.3, include_x0: bool = True):
+    def __init__(
+        self,
+        popsize: int = 10,
+        n_placing: int = 5,
+        n_leading: int = 5,
+        n_correcting: int = 5,
+        cr: float = 0.5,
+        f: float = 0.5,
+        init_spread: float = 0.3,
+        include_x0: bool = True,
+    ):
         super().__init__()
         self.popsize = check_number("optimizer.popsize", popsize, 4, integer=True)
         self.n_placing = check_number("optimizer.n_placing", n_placing, 1, self.popsize, integer=True)
         self.n_leading = check_number("optimizer.n_leading", n_leading, 1, self.popsize, integer=True)
-        self.n_correcting = check_number("optimizer.n_correcting", n_correcting, 1, self.popsize,
-                                         integer=True)
+        self.n_correcting = check_number("optimizer.n_correcting", n_correcting, 1, self.popsize, integer=True)
         self.cr = check_number("optimizer.cr", cr, 0.0, 1.0)
         self.f = check_number("optimizer.f", f, 0.0, low_open=True)
         self.init_spread = check_number("optimizer.init_spread", init_spread, 0.0, low_open=True)
@@ -134,8 +141,8 @@ class DifferentialEvolution(PopulationOptimizer):
         return self.popsize
 
     def _start(self) -> None:
-        self._Z: np.ndarray | None = None   # (N, D) population, normalised
-        self._fit = np.empty(0)              # (N,) its fitness
+        self._Z: np.ndarray | None = None  # (N, D) population, normalised
+        self._fit = np.empty(0)  # (N,) its fitness
         self._alpha = self.rng.uniform(-1.0, 1.0, (self.popsize, 2))  # (alpha_L, alpha_C)
         self._trial_alpha = self._alpha
 
@@ -157,8 +164,11 @@ class DifferentialEvolution(PopulationOptimizer):
         n, rng = self.popsize, self.rng
         Z = cast(np.ndarray, self._Z)  # evaluated: generation 0 has been told
         order = np.argsort(self._fit, kind="stable").tolist()
-        placing, leading, correcting = (order[:self.n_placing], order[:self.n_leading],
-                                        order[n - self.n_correcting:])
+        placing, leading, correcting = (
+            order[: self.n_placing],
+            order[: self.n_leading],
+            order[n - self.n_correcting :],
+        )
         pick = rng.random(n)
         reset = rng.random((n, 2)) < ALPHA_RESET
         fresh = rng.uniform(-1.0, 1.0, (n, 2))
@@ -176,8 +186,7 @@ class DifferentialEvolution(PopulationOptimizer):
             alpha[i] = np.where(reset[i], fresh[i], self._alpha[p])
             ref = Z[p]
             l = assortative_mating(pool(leading, (i, p)), Z, ref, alpha[i, 0], keys[i, 0])
-            c = assortative_mating(pool(correcting, (i, p, l)), Z, ref, alpha[i, 1],
-                                   keys[i, 1])
+            c = assortative_mating(pool(correcting, (i, p, l)), Z, ref, alpha[i, 1], keys[i, 1])
             idx[i] = p, l, c
         return idx, alpha
 
@@ -212,6 +221,12 @@ class DifferentialEvolution(PopulationOptimizer):
             self._alpha[:n][won] = self._trial_alpha[:n][won]
         if self.evaluations >= self.budget:
             s = self.spread()
-            log.debug("de: population spread after %d evaluations: mean %.3g, min %.3g, "
-                      "max %.3g search radii over %d coordinates", self.evaluations, s.mean(),
-                      s.min(), s.max(), self.dim)
+            log.debug(
+                "de: population spread after %d evaluations: mean %.3g, min %.3g, "
+                "max %.3g search radii over %d coordinates",
+                self.evaluations,
+                s.mean(),
+                s.min(),
+                s.max(),
+                self.dim,
+            )

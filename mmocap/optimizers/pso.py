@@ -31,6 +31,7 @@ Budget. A search needs at least ``N`` evaluations (generation 0). The last gener
 truncated to the evaluations left: only its first particles move; the others keep their
 position and velocity.
 """
+
 from __future__ import annotations
 
 import math
@@ -77,9 +78,17 @@ class ParticleSwarm(PopulationOptimizer):
 
     name = "pso"
 
-    def __init__(self, popsize: int = 10, phi1: float = 2.0, phi2: float = 2.0,
-                 w_max: float = 2.0, w_min: float = 0.1, v_max: float | None = 0.1,
-                 init_spread: float = 0.1, include_x0: bool = True):
+    def __init__(
+        self,
+        popsize: int = 10,
+        phi1: float = 2.0,
+        phi2: float = 2.0,
+        w_max: float = 2.0,
+        w_min: float = 0.1,
+        v_max: float | None = 0.1,
+        init_spread: float = 0.1,
+        include_x0: bool = True,
+    ):
         super().__init__()
         self.popsize = check_number("optimizer.popsize", popsize, 2, integer=True)
         self.phi1 = check_number("optimizer.phi1", phi1, 0.0)
@@ -87,8 +96,7 @@ class ParticleSwarm(PopulationOptimizer):
         self.w_max = check_number("optimizer.w_max", w_max, 0.0, low_open=True)
         self.w_min = check_number("optimizer.w_min", w_min, 0.0, low_open=True)
         if self.w_min > self.w_max:
-            raise ConfigError(f"optimizer.w_min must be <= optimizer.w_max ({self.w_max}), "
-                              f"got {self.w_min}")
+            raise ConfigError(f"optimizer.w_min must be <= optimizer.w_max ({self.w_max}), got {self.w_min}")
         self.v_max = None if v_max is None else check_number("optimizer.v_max", v_max, 0.0, low_open=True)
         self.init_spread = check_number("optimizer.init_spread", init_spread, 0.0, low_open=True)
         self.include_x0 = check_flag("optimizer.include_x0", include_x0)
@@ -97,22 +105,20 @@ class ParticleSwarm(PopulationOptimizer):
         return self.popsize
 
     def _start(self) -> None:
-        self.moves = 0                       # velocity updates done
-        self.inertia = math.nan              # w of the latest move
-        self.schedule = inertia_schedule(self.w_max, self.w_min,
-                                         math.ceil(self.budget / self.popsize) - 1)
+        self.moves = 0  # velocity updates done
+        self.inertia = math.nan  # w of the latest move
+        self.schedule = inertia_schedule(self.w_max, self.w_min, math.ceil(self.budget / self.popsize) - 1)
         self._zlo, self._zhi = self.to_unit(self.lower), self.to_unit(self.upper)
-        self._Z: np.ndarray | None = None    # (N, D) positions, normalised
-        self._V = np.empty(0)                # (N, D) velocities, normalised
-        self._P = np.empty(0)                # (N, D) particle bests
-        self._pfit = np.empty(0)             # (N,) their fitness
+        self._Z: np.ndarray | None = None  # (N, D) positions, normalised
+        self._V = np.empty(0)  # (N, D) velocities, normalised
+        self._P = np.empty(0)  # (N, D) particle bests
+        self._pfit = np.empty(0)  # (N,) their fitness
 
     def _propose(self, n_max: int) -> np.ndarray:
         """Generation 0: the initial positions (N, D). Later: the moved swarm, cut to n_max."""
         s = self.init_spread
         if self._Z is None:
-            Z = self.rng.uniform(np.maximum(self._zlo, -s), np.minimum(self._zhi, s),
-                                 (self.popsize, self.dim))
+            Z = self.rng.uniform(np.maximum(self._zlo, -s), np.minimum(self._zhi, s), (self.popsize, self.dim))
             if self.include_x0:
                 Z[0] = 0.0
             self._new_V = self.rng.uniform(-s, s, Z.shape)
@@ -121,8 +127,7 @@ class ParticleSwarm(PopulationOptimizer):
         r1 = self.rng.random(self._Z.shape)
         r2 = self.rng.random(self._Z.shape)
         best = self._P[np.argmin(self._pfit)]
-        V = (self.inertia * self._V + self.phi1 * r1 * (self._P - self._Z)
-             + self.phi2 * r2 * (best - self._Z))
+        V = self.inertia * self._V + self.phi1 * r1 * (self._P - self._Z) + self.phi2 * r2 * (best - self._Z)
         if self.v_max is not None:
             V = np.clip(V, -self.v_max, self.v_max)
         Z = self._Z + V

@@ -24,6 +24,7 @@ files (as in ``frames.csv``) and from 1 in TRC and C3D (their convention); the t
   (Blender's unit: it imports at true size with Scale 1; its BVH importer also takes Y up), the
   root with 6 channels, every other joint with ``Zrotation Xrotation Yrotation`` in degrees.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -52,8 +53,12 @@ from mmocap.validate import check_number
 #: the formats :func:`export_run` writes, each into the files of :data:`FILES`
 FORMATS = ("csv", "trc", "c3d", "bvh")
 #: format -> the names of the files it writes into the export folder
-FILES = {"csv": ("markers_mm.csv", "joints_mm.csv", "pose.csv"), "trc": ("motion.trc",),
-         "c3d": ("motion.c3d",), "bvh": ("motion.bvh",)}
+FILES = {
+    "csv": ("markers_mm.csv", "joints_mm.csv", "pose.csv"),
+    "trc": ("motion.trc",),
+    "c3d": ("motion.c3d",),
+    "bvh": ("motion.bvh",),
+}
 #: the Euler order of every BVH rotation: channels ``Zrotation Xrotation Yrotation``, R = Rz Rx Ry
 BVH_ROTATION_ORDER = "ZXY"
 #: the pip command that installs the C3D writer
@@ -65,8 +70,9 @@ def check_formats(formats, key: str) -> tuple[str, ...]:
     ConfigError naming ``key`` (``export`` in the config, ``--format`` on the command line) for a
     value that is not such a list, an unknown format, or ``c3d`` without the ``c3d`` package."""
     if isinstance(formats, str) or not isinstance(formats, Iterable):
-        raise ConfigError(f"{key} must be a list of formats from {', '.join(FORMATS)} (e.g. [trc, bvh]), "
-                          f"got {formats!r}")
+        raise ConfigError(
+            f"{key} must be a list of formats from {', '.join(FORMATS)} (e.g. [trc, bvh]), got {formats!r}"
+        )
     chosen = tuple(dict.fromkeys(formats))
     unknown = [f for f in chosen if f not in FORMATS]
     if unknown:
@@ -90,8 +96,9 @@ def c3d_writer(key: str):
     try:
         c3d = importlib.import_module("c3d")
     except ImportError:
-        raise ConfigError(f"{key}: format c3d needs the c3d package, which is not installed: "
-                          f"{C3D_INSTALL}, or leave c3d out") from None
+        raise ConfigError(
+            f"{key}: format c3d needs the c3d package, which is not installed: {C3D_INSTALL}, or leave c3d out"
+        ) from None
     writer = getattr(c3d, "Writer", None)
     if writer is None or not hasattr(writer, "set_point_labels"):
         raise ConfigError(f"{key}: format c3d needs c3d>=0.5 (point labels): {C3D_INSTALL} --upgrade")
@@ -119,25 +126,31 @@ def read_poses(path: Path) -> np.ndarray:
     columns = ["frame", *skeleton.parameter_names()]
     absent = [c for c in columns if c not in table.columns]
     if absent:
-        raise DataError(f"{path} lacks the pose column{'s' * (len(absent) > 1)} {', '.join(absent[:6])}"
-                        f"{' ...' if len(absent) > 6 else ''}; a run's frames.csv has frame and the 51 "
-                        "parameters of mmocap.body.skeleton.parameter_names()")
+        raise DataError(
+            f"{path} lacks the pose column{'s' * (len(absent) > 1)} {', '.join(absent[:6])}"
+            f"{' ...' if len(absent) > 6 else ''}; a run's frames.csv has frame and the 51 "
+            "parameters of mmocap.body.skeleton.parameter_names()"
+        )
     if table.empty:
         raise DataError(f"{path} holds no frames, only its header")
     values = table[columns].apply(pd.to_numeric, errors="coerce").to_numpy(np.float64)
     bad = ~np.isfinite(values)
     if bad.any():
         row, col = np.argwhere(bad)[0]
-        raise DataError(f"{path}: column {columns[col]} of line {row + 2} is not a number "
-                        f"({table[columns[col]].iloc[row]!r})")
+        raise DataError(
+            f"{path}: column {columns[col]} of line {row + 2} is not a number ({table[columns[col]].iloc[row]!r})"
+        )
     if not np.array_equal(values[:, 0], np.arange(len(values))):
-        raise DataError(f"{path}: column frame must count the frames 0, 1, 2, ... in order; "
-                        f"it holds {', '.join(f'{f:g}' for f in values[:5, 0])}{' ...' if len(values) > 5 else ''}")
+        raise DataError(
+            f"{path}: column frame must count the frames 0, 1, 2, ... in order; "
+            f"it holds {', '.join(f'{f:g}' for f in values[:5, 0])}{' ...' if len(values) > 5 else ''}"
+        )
     return values[:, 1:]
 
 
-def export_run(run_dir: str | Path, formats: Sequence[str], out_dir: str | Path | None = None,
-               fps: float | None = None) -> list[Path]:
+def export_run(
+    run_dir: str | Path, formats: Sequence[str], out_dir: str | Path | None = None, fps: float | None = None
+) -> list[Path]:
     """Write ``formats`` (from :data:`FORMATS`) of the finished run in ``run_dir`` into
     ``out_dir`` (default ``run_dir/export``); returns the paths written.
 
@@ -154,22 +167,35 @@ def export_run(run_dir: str | Path, formats: Sequence[str], out_dir: str | Path 
     if not run_dir.is_dir():
         raise DataError(f"run folder {run_dir} not found")
     if not summary_path.is_file() or not frames_path.is_file():
-        what = (f"it holds {FRAMES_PARTIAL}, the frames of a run that stopped" if (run_dir / FRAMES_PARTIAL).is_file()
-                else f"{SUMMARY} is missing" if not summary_path.is_file() else f"{FRAMES} is missing")
-        raise DataError(f"{run_dir} is not a finished run ({what}); export a folder where a tracking run "
-                        f"wrote {SUMMARY} and {FRAMES}, or run it again")
+        what = (
+            f"it holds {FRAMES_PARTIAL}, the frames of a run that stopped"
+            if (run_dir / FRAMES_PARTIAL).is_file()
+            else f"{SUMMARY} is missing"
+            if not summary_path.is_file()
+            else f"{FRAMES} is missing"
+        )
+        raise DataError(
+            f"{run_dir} is not a finished run ({what}); export a folder where a tracking run "
+            f"wrote {SUMMARY} and {FRAMES}, or run it again"
+        )
     summary = read_summary(run_dir)
     recorded_fps = summary.fps
     if recorded_fps is not None:
         recorded_fps = check_number(f"fps in {summary_path}", recorded_fps, 0, low_open=True)
     if fps is None:
         if recorded_fps is None:
-            raise DataError(f"{summary_path} does not record the frame rate (fps), as an older mmocap wrote it: "
-                            "pass --fps N, the tracked sequence's frames per second")
+            raise DataError(
+                f"{summary_path} does not record the frame rate (fps), as an older mmocap wrote it: "
+                "pass --fps N, the tracked sequence's frames per second"
+            )
         fps = recorded_fps
     elif recorded_fps is not None and not math.isclose(fps, recorded_fps):
-        warnings.warn(f"--fps {fps:g} differs from the run's {recorded_fps:g} frames per second "
-                      f"({summary_path}); the exported times use {fps:g}", MmocapWarning, stacklevel=2)
+        warnings.warn(
+            f"--fps {fps:g} differs from the run's {recorded_fps:g} frames per second "
+            f"({summary_path}); the exported times use {fps:g}",
+            MmocapWarning,
+            stacklevel=2,
+        )
     body = _rebuild_body(summary, summary_path)
     poses = read_poses(frames_path)
     return export_motion(run_dir / EXPORT_FOLDER if out_dir is None else Path(out_dir), formats, body, poses, fps)
@@ -179,8 +205,9 @@ def _rebuild_body(summary: Summary, summary_path: Path) -> BodyModel:
     """The run's body model from the summary's ``config.body``, with the height and girth the
     run tracked with (``body`` in the summary: an automatic start may have fitted them)."""
     if not isinstance(summary.config.get("body"), dict):
-        raise DataError(f"{summary_path} has no config.body, the run's body model; it is not the summary of a "
-                        "tracking run")
+        raise DataError(
+            f"{summary_path} has no config.body, the run's body model; it is not the summary of a tracking run"
+        )
     fitted = summary.body
     shape = {k: fitted[k] for k in ("height_mm", "girth") if k in fitted} if isinstance(fitted, dict) else {}
     try:
@@ -190,8 +217,9 @@ def _rebuild_body(summary: Summary, summary_path: Path) -> BodyModel:
         raise DataError(f"{summary_path}: config.body does not build the body model: {cause}") from None
 
 
-def export_motion(out_dir: Path, formats: Sequence[str], body: BodyModel, poses: np.ndarray, fps: float,
-                  key: str = "export") -> list[Path]:
+def export_motion(
+    out_dir: Path, formats: Sequence[str], body: BodyModel, poses: np.ndarray, fps: float, key: str = "export"
+) -> list[Path]:
     """Write ``formats`` of the (F, 51) ``poses`` (mm, rad) of ``body``, frames 0 ... F-1 at
     ``fps`` frames per second, into ``out_dir``; returns the paths written (:data:`FILES`).
     ``key`` names the setting that chose the formats in a ConfigError."""
@@ -224,9 +252,15 @@ def write_csv(out_dir: Path, body: BodyModel, poses: np.ndarray, fps: float) -> 
     write_markers(markers_path, body.markers(poses), body.marker_names)  # atomic
     joints = body.joint_positions(poses)
     F, J, _ = joints.shape
-    table = pd.DataFrame({"frame": np.repeat(np.arange(F), J), "joint": np.tile(np.asarray(skeleton.JOINTS), F),
-                          "x_mm": joints[..., 0].ravel(), "y_mm": joints[..., 1].ravel(),
-                          "z_mm": joints[..., 2].ravel()})
+    table = pd.DataFrame(
+        {
+            "frame": np.repeat(np.arange(F), J),
+            "joint": np.tile(np.asarray(skeleton.JOINTS), F),
+            "x_mm": joints[..., 0].ravel(),
+            "y_mm": joints[..., 1].ravel(),
+            "z_mm": joints[..., 2].ravel(),
+        }
+    )
     write_text_atomic(joints_path, table.to_csv(index=False, float_format="%.3f"))
     pose = pd.DataFrame(wrap_angles(poses), columns=skeleton.parameter_names())
     pose.insert(0, "time_s", np.arange(F) / fps)
@@ -249,8 +283,10 @@ def write_trc(path: Path, points: np.ndarray, names: Sequence[str], fps: float) 
         "\t\t" + "".join(f"X{m}\tY{m}\tZ{m}\t" for m in range(1, M + 1)),
         "",
     ]
-    rows = [f"{f + 1}\t{f / fps:.6f}\t" + "\t".join("NaN" if math.isnan(v) else f"{v:.6f}" for v in frame)
-            for f, frame in enumerate(points.reshape(F, -1).tolist())]
+    rows = [
+        f"{f + 1}\t{f / fps:.6f}\t" + "\t".join("NaN" if math.isnan(v) else f"{v:.6f}" for v in frame)
+        for f, frame in enumerate(points.reshape(F, -1).tolist())
+    ]
     return write_text_atomic(path, "\n".join(header + rows) + "\n")
 
 
@@ -328,14 +364,18 @@ def write_bvh(path: Path, body: BodyModel, poses: np.ndarray, fps: float) -> Pat
         lines.append(f"{pad}{{")
         lines.append(f"{pad}\tOFFSET {vector(np.zeros(3) if is_root else rest_m[j] - rest_m[parent[j]])}")
         rotations = " ".join(f"{axis}rotation" for axis in BVH_ROTATION_ORDER)
-        lines.append(f"{pad}\tCHANNELS 6 Xposition Yposition Zposition {rotations}" if is_root
-                     else f"{pad}\tCHANNELS 3 {rotations}")
+        lines.append(
+            f"{pad}\tCHANNELS 6 Xposition Yposition Zposition {rotations}"
+            if is_root
+            else f"{pad}\tCHANNELS 3 {rotations}"
+        )
         children = np.flatnonzero(parent == j)
         for child in children:
             declare(int(child), depth + 1)
         if children.size == 0:
-            lines.extend([f"{pad}\tEnd Site", f"{pad}\t{{", f"{pad}\t\tOFFSET {vector(ends_m[j] - rest_m[j])}",
-                          f"{pad}\t}}"])
+            lines.extend(
+                [f"{pad}\tEnd Site", f"{pad}\t{{", f"{pad}\t\tOFFSET {vector(ends_m[j] - rest_m[j])}", f"{pad}\t}}"]
+            )
         lines.append(f"{pad}}}")
 
     declare(depth_first_joints()[0], 0)
@@ -349,14 +389,18 @@ def main(argv: list[str], prog: str) -> None:
     """``mmocap export RUN_DIR [--format ...] [--out DIR] [--fps FPS]``: write a finished run's
     motion as TRC, C3D, BVH and CSV files."""
     parser = argparse.ArgumentParser(
-        prog=prog, description="Write a finished run's motion as CSV, TRC (OpenSim), C3D and BVH (Blender) "
-                               "files, in mmocap's Y-up world frame.")
+        prog=prog,
+        description="Write a finished run's motion as CSV, TRC (OpenSim), C3D and BVH (Blender) "
+        "files, in mmocap's Y-up world frame.",
+    )
     parser.add_argument("run_dir", type=Path, help=f"a finished run folder ({SUMMARY} and {FRAMES})")
-    parser.add_argument("--format", default=",".join(FORMATS),
-                        help=f"comma-separated formats from {', '.join(FORMATS)} (default: all)")
+    parser.add_argument(
+        "--format", default=",".join(FORMATS), help=f"comma-separated formats from {', '.join(FORMATS)} (default: all)"
+    )
     parser.add_argument("--out", type=Path, help="the folder to write into (default: RUN_DIR/export)")
-    parser.add_argument("--fps", type=float,
-                        help=f"frames per second of the tracked sequence (default: {SUMMARY}'s fps)")
+    parser.add_argument(
+        "--fps", type=float, help=f"frames per second of the tracked sequence (default: {SUMMARY}'s fps)"
+    )
     args = parser.parse_args(argv)
     formats = [f.strip() for f in args.format.split(",") if f.strip()]
     if not formats:

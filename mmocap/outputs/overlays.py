@@ -4,6 +4,7 @@
 Every image is BGR uint8 in the ideal (undistorted) pin-hole geometry of its camera; joints
 and markers are in world mm.
 """
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -16,8 +17,9 @@ from mmocap.errors import DataError
 from mmocap.io import write_image
 
 
-def overlay(image: np.ndarray, camera, silhouette: np.ndarray, joints_mm: np.ndarray,
-            truth_markers_mm: np.ndarray | None = None) -> np.ndarray:
+def overlay(
+    image: np.ndarray, camera, silhouette: np.ndarray, joints_mm: np.ndarray, truth_markers_mm: np.ndarray | None = None
+) -> np.ndarray:
     """BGR image (ideal pin-hole geometry) with the model's outline and skeleton drawn on.
 
     Args:
@@ -42,9 +44,15 @@ def overlay(image: np.ndarray, camera, silhouette: np.ndarray, joints_mm: np.nda
 COMPARISON_COLOURS = {"foreground only": (255, 90, 0), "model only": (0, 0, 255), "both": (0, 200, 0)}
 
 
-def comparison_overlay(image: np.ndarray, camera, foreground: np.ndarray, silhouette: np.ndarray,
-                       joints_mm: np.ndarray, truth_markers_mm: np.ndarray | None = None,
-                       lines: tuple[str, ...] = ()) -> np.ndarray:
+def comparison_overlay(
+    image: np.ndarray,
+    camera,
+    foreground: np.ndarray,
+    silhouette: np.ndarray,
+    joints_mm: np.ndarray,
+    truth_markers_mm: np.ndarray | None = None,
+    lines: tuple[str, ...] = (),
+) -> np.ndarray:
     """BGR image (ideal pin-hole geometry) comparing the foreground with the model: pixels of
     the foreground only, of the model only, and of both tinted in the colours of
     :data:`COMPARISON_COLOURS` (with a legend), the skeleton and true markers drawn as
@@ -62,8 +70,9 @@ def comparison_overlay(image: np.ndarray, camera, foreground: np.ndarray, silhou
     out = cv2.cvtColor(image, cv2.COLOR_GRAY2BGR) if image.ndim == 2 else image.copy()
     foreground, silhouette = np.asarray(foreground, bool), np.asarray(silhouette, bool)
     tint = out.copy()
-    for (_, colour), where in zip(COMPARISON_COLOURS.items(),
-                                  (foreground & ~silhouette, silhouette & ~foreground, foreground & silhouette)):
+    for (_, colour), where in zip(
+        COMPARISON_COLOURS.items(), (foreground & ~silhouette, silhouette & ~foreground, foreground & silhouette)
+    ):
         tint[where] = colour
     out = cv2.addWeighted(tint, 0.5, out, 0.5, 0)
     _draw_projected_skeleton(out, camera, joints_mm, truth_markers_mm)
@@ -82,15 +91,22 @@ def _label(image: np.ndarray, text: str, origin: tuple[int, int], scale: float, 
     cv2.putText(image, text, origin, cv2.FONT_HERSHEY_SIMPLEX, scale, colour, 1, cv2.LINE_AA)
 
 
-def _draw_projected_skeleton(out: np.ndarray, camera, joints_mm: np.ndarray,
-                             truth_markers_mm: np.ndarray | None) -> None:
+def _draw_projected_skeleton(
+    out: np.ndarray, camera, joints_mm: np.ndarray, truth_markers_mm: np.ndarray | None
+) -> None:
     """The skeleton's bones (yellow) and joints (red) of ``joints_mm`` (16, 3) mm, and the true
     markers (green crosses) of ``truth_markers_mm`` (M, 3) mm, drawn into ``out`` in place."""
     uv = camera.project(joints_mm)
     for j, p in enumerate(PARENT_INDEX):
         if p >= 0:
-            cv2.line(out, tuple(np.round(uv[p]).astype(int)), tuple(np.round(uv[j]).astype(int)),
-                     (0, 255, 255), 2, cv2.LINE_AA)
+            cv2.line(
+                out,
+                tuple(np.round(uv[p]).astype(int)),
+                tuple(np.round(uv[j]).astype(int)),
+                (0, 255, 255),
+                2,
+                cv2.LINE_AA,
+            )
     for point in uv:
         cv2.circle(out, tuple(np.round(point).astype(int)), 3, (0, 0, 255), -1, cv2.LINE_AA)
     if truth_markers_mm is not None:
@@ -113,8 +129,16 @@ def write_overlays(folder: Path, sequence, foreground, evaluator, body, results,
             mx, my = cam.undistort_maps()
             ideal_image = cv2.remap(image, mx, my, cv2.INTER_LINEAR)
             tile = overlay(ideal_image, cameras[c], evaluator.render(result.pose, c), joints, truth[result.frame])
-            cv2.putText(tile, f"{cam.name} frame {result.frame}", (8, 20), cv2.FONT_HERSHEY_SIMPLEX,
-                        0.55, (255, 255, 255), 1, cv2.LINE_AA)
+            cv2.putText(
+                tile,
+                f"{cam.name} frame {result.frame}",
+                (8, 20),
+                cv2.FONT_HERSHEY_SIMPLEX,
+                0.55,
+                (255, 255, 255),
+                1,
+                cv2.LINE_AA,
+            )
             tiles.append(tile)
         if not tiles:
             raise DataError("no camera images to draw overlays on")
@@ -127,5 +151,5 @@ def _grid(tiles: list[np.ndarray]) -> np.ndarray:
     tiles = [t if t.shape[:2] == (h, w) else cv2.resize(t, (w, h)) for t in tiles]
     if len(tiles) % 2:
         tiles = tiles + [np.zeros_like(tiles[0])]
-    rows = [np.hstack(tiles[i:i + 2]) for i in range(0, len(tiles), 2)]
+    rows = [np.hstack(tiles[i : i + 2]) for i in range(0, len(tiles), 2)]
     return np.vstack(rows)

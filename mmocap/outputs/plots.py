@@ -1,5 +1,6 @@
 """Plots of a tracking run: its marker error per frame (``error_per_frame.png``), drawn by
 the rules of :mod:`mmocap.analysis.figures`."""
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -20,8 +21,7 @@ def plot_error_per_frame(errors_mm: np.ndarray, path: Path, title: str) -> Figur
     saved (closed) figure."""
     fig, ax = plt.subplots(figsize=(8, 3.2), dpi=110, layout="constrained")
     ax.plot(np.arange(len(errors_mm)), errors_mm, lw=1.4, label="marker error")
-    ax.axhline(np.nanmean(errors_mm), color="tab:red", ls="--", lw=1,
-               label=f"mean {np.nanmean(errors_mm):.1f} mm")
+    ax.axhline(np.nanmean(errors_mm), color="tab:red", ls="--", lw=1, label=f"mean {np.nanmean(errors_mm):.1f} mm")
     ax.xaxis.set_major_locator(MaxNLocator(integer=True))
     ax.set_xlabel("frame")
     ax.set_ylabel("error (mm)")

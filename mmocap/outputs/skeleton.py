@@ -1,6 +1,7 @@
 """Pictures of a run's 3-D skeleton: a strip of stick figures at chosen frames
 (``skeleton.png``) and an animation of the whole run (``skeleton.mp4`` or a GIF), drawn by the
 rules of :mod:`mmocap.analysis.figures`."""
+
 from __future__ import annotations
 
 import io
@@ -47,8 +48,9 @@ SKELETON_ZOOM = 0.92
 SKELETON_VIEW = dict(elev=12.0, azim=115.0)
 
 
-def plot_skeleton_strip(joints_mm: np.ndarray, parents: np.ndarray, path: Path, title: str,
-                        frames=None, every: int | None = None) -> Figure:
+def plot_skeleton_strip(
+    joints_mm: np.ndarray, parents: np.ndarray, path: Path, title: str, frames=None, every: int | None = None
+) -> Figure:
     """A strip of 3-D stick figures, one per frame drawn, titled with its frame number; returns
     the saved (closed) figure.
 
@@ -81,8 +83,9 @@ def plot_skeleton_strip(joints_mm: np.ndarray, parents: np.ndarray, path: Path, 
     return save_figure(fig, path, None)
 
 
-def write_skeleton_animation(joints_mm: np.ndarray, parents: np.ndarray, path: Path, fps: float,
-                             *, title: str = "", progress: bool = True) -> Path:
+def write_skeleton_animation(
+    joints_mm: np.ndarray, parents: np.ndarray, path: Path, fps: float, *, title: str = "", progress: bool = True
+) -> Path:
     """An animation of the 3-D stick figure, one image per frame of ``joints_mm``, titled with
     the frame number, drawn as :func:`plot_skeleton_strip` draws one (the box follows the model
     over the ground, its height fixed); returns ``path``.
@@ -107,14 +110,23 @@ def write_skeleton_animation(joints_mm: np.ndarray, parents: np.ndarray, path: P
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix not in (".gif", ".mp4"):
-        raise ConfigError(f"{path}: a skeleton animation is written as .gif or .mp4, not "
-                          f"{path.suffix or 'a file without a suffix'}; name it <name>.gif or <name>.mp4")
+        raise ConfigError(
+            f"{path}: a skeleton animation is written as .gif or .mp4, not "
+            f"{path.suffix or 'a file without a suffix'}; name it <name>.gif or <name>.mp4"
+        )
     if suffix == ".gif" and fps > GIF_MAX_FPS:
-        warnings.warn(f"{path}: a GIF plays at most {GIF_MAX_FPS} frames per second, so it will play "
-                      f"slower than {fps:g}; write an .mp4 instead", MmocapWarning, stacklevel=2)
-    images = _skeleton_images(joints_mm, parents, title,
-                              tqdm(range(len(joints_mm)), desc=f"animate {path.name}", unit="frame",
-                                   disable=not progress))
+        warnings.warn(
+            f"{path}: a GIF plays at most {GIF_MAX_FPS} frames per second, so it will play "
+            f"slower than {fps:g}; write an .mp4 instead",
+            MmocapWarning,
+            stacklevel=2,
+        )
+    images = _skeleton_images(
+        joints_mm,
+        parents,
+        title,
+        tqdm(range(len(joints_mm)), desc=f"animate {path.name}", unit="frame", disable=not progress),
+    )
     if suffix == ".gif":
         _write_gif(path, images, fps)
     else:
@@ -128,25 +140,29 @@ def _checked_skeleton(joints_mm, parents) -> tuple[np.ndarray, np.ndarray]:
     no finite joint."""
     joints_mm, parents = np.asarray(joints_mm, dtype=float), np.asarray(parents)
     if joints_mm.ndim != 3 or joints_mm.shape[2] != 3 or len(joints_mm) == 0:
-        raise DataError(f"joints_mm must be (frames, joints, 3) with at least one frame, got shape "
-                        f"{joints_mm.shape}")
+        raise DataError(f"joints_mm must be (frames, joints, 3) with at least one frame, got shape {joints_mm.shape}")
     count = joints_mm.shape[1]
-    if (parents.shape != (count,) or not np.issubdtype(parents.dtype, np.integer)
-            or ((parents < -1) | (parents >= count) | (parents == np.arange(count))).any()):
-        raise DataError(f"parents must hold one integer per joint ({count}), each -1 (the root) or the "
-                        f"index of another joint, got {parents.tolist()}")
+    if (
+        parents.shape != (count,)
+        or not np.issubdtype(parents.dtype, np.integer)
+        or ((parents < -1) | (parents >= count) | (parents == np.arange(count))).any()
+    ):
+        raise DataError(
+            f"parents must hold one integer per joint ({count}), each -1 (the root) or the "
+            f"index of another joint, got {parents.tolist()}"
+        )
     empty = np.flatnonzero(~np.isfinite(joints_mm).all(axis=2).any(axis=1))
     if len(empty):
-        raise DataError(f"joints_mm: frames {', '.join(map(str, empty[:10]))} have no finite joint "
-                        "to draw")
+        raise DataError(f"joints_mm: frames {', '.join(map(str, empty[:10]))} have no finite joint to draw")
     return joints_mm, parents
 
 
 def _strip_frames(count: int, frames, every: int | None) -> list[int]:
     """The frame indices a strip of a ``count``-frame sequence draws (:func:`plot_skeleton_strip`)."""
     if frames is not None and every is not None:
-        raise ConfigError(f"give the frames of a skeleton strip or every, not both (got frames={frames!r}, "
-                          f"every={every!r})")
+        raise ConfigError(
+            f"give the frames of a skeleton strip or every, not both (got frames={frames!r}, every={every!r})"
+        )
     if frames is not None:
         shown = [check_number("frames", f, 0, count - 1, integer=True) for f in frames]
     elif every is not None:
@@ -154,8 +170,10 @@ def _strip_frames(count: int, frames, every: int | None) -> list[int]:
     else:
         shown = sorted(set(np.linspace(0, count - 1, min(count, SKELETON_STRIP_FRAMES)).round().astype(int)))
     if not 1 <= len(shown) <= SKELETON_STRIP_MAX_FRAMES:
-        raise ConfigError(f"a skeleton strip draws 1 to {SKELETON_STRIP_MAX_FRAMES} frames, these settings "
-                          f"draw {len(shown)} of {count}; give fewer frames or a larger every")
+        raise ConfigError(
+            f"a skeleton strip draws 1 to {SKELETON_STRIP_MAX_FRAMES} frames, these settings "
+            f"draw {len(shown)} of {count}; give fewer frames or a larger every"
+        )
     return [int(f) for f in shown]
 
 
@@ -164,15 +182,16 @@ def _skeleton_box(joints_mm: np.ndarray) -> tuple[float, tuple[float, float]]:
     of the frames, and the (bottom, top) of a height that holds it in all of them."""
     extent = np.nanmax(joints_mm, axis=1) - np.nanmin(joints_mm, axis=1)  # (F, 3)
     ground_span = float(np.max(extent[:, [0, 2]])) + 2 * SKELETON_MARGIN_MM
-    return ground_span, (float(np.nanmin(joints_mm[..., 1])) - SKELETON_MARGIN_MM,
-                         float(np.nanmax(joints_mm[..., 1])) + SKELETON_MARGIN_MM)
+    return ground_span, (
+        float(np.nanmin(joints_mm[..., 1])) - SKELETON_MARGIN_MM,
+        float(np.nanmax(joints_mm[..., 1])) + SKELETON_MARGIN_MM,
+    )
 
 
 def _bones(joints_mm: np.ndarray, parents: np.ndarray) -> np.ndarray:
     """(3 B, 3) the bones of (J, 3) joints as one polyline: each bone's two ends, then a NaN."""
     children = np.flatnonzero(parents >= 0)
-    ends = np.stack([joints_mm[parents[children]], joints_mm[children],
-                     np.full((len(children), 3), np.nan)], axis=1)
+    ends = np.stack([joints_mm[parents[children]], joints_mm[children], np.full((len(children), 3), np.nan)], axis=1)
     return ends.reshape(-1, 3)
 
 
@@ -180,9 +199,8 @@ def _draw_skeleton(ax, joints_mm: np.ndarray, parents: np.ndarray) -> tuple:
     """Draw (J, 3) joints and their bones on a 3-D axes, x and z (world) on its ground, y up;
     returns the (bones, joints) lines."""
     bones = _bones(joints_mm, parents)
-    bone_line, = ax.plot(bones[:, 0], bones[:, 2], bones[:, 1], color="tab:blue", lw=2)
-    joint_line, = ax.plot(joints_mm[:, 0], joints_mm[:, 2], joints_mm[:, 1], ls="", marker="o", ms=3,
-                          color="tab:red")
+    (bone_line,) = ax.plot(bones[:, 0], bones[:, 2], bones[:, 1], color="tab:blue", lw=2)
+    (joint_line,) = ax.plot(joints_mm[:, 0], joints_mm[:, 2], joints_mm[:, 1], ls="", marker="o", ms=3, color="tab:red")
     return bone_line, joint_line
 
 
@@ -206,8 +224,7 @@ def _frame_skeleton(ax, joints_mm: np.ndarray, ground_span: float, height: tuple
 def _skeleton_images(joints_mm: np.ndarray, parents: np.ndarray, title: str, frames):
     """Yield the (H, W, 3) uint8 RGB image of the stick figure of each frame in ``frames``."""
     ground_span, height = _skeleton_box(joints_mm)
-    fig = plt.figure(figsize=(SKELETON_ANIMATION_INCHES,) * 2, dpi=SKELETON_ANIMATION_DPI,
-                     layout="constrained")
+    fig = plt.figure(figsize=(SKELETON_ANIMATION_INCHES,) * 2, dpi=SKELETON_ANIMATION_DPI, layout="constrained")
     try:
         ax = fig.add_subplot(projection="3d")
         bone_line, joint_line = _draw_skeleton(ax, joints_mm[0], parents)
@@ -228,7 +245,6 @@ def _write_gif(path: Path, images, fps: float) -> None:
     the temporary file has no ``.gif`` suffix for matplotlib's PillowWriter to go by."""
     frames = [Image.fromarray(image).convert("P", palette=Image.Palette.ADAPTIVE) for image in images]
     encoded = io.BytesIO()
-    frames[0].save(encoded, format="GIF", save_all=True, append_images=frames[1:],
-                   duration=round(1000 / fps), loop=0)
+    frames[0].save(encoded, format="GIF", save_all=True, append_images=frames[1:], duration=round(1000 / fps), loop=0)
     with atomic_writer(path, "wb") as f:
         f.write(encoded.getvalue())

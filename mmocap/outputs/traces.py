@@ -7,6 +7,7 @@ start pose) in the order the candidates were evaluated, a recovery's included. C
 it, and one at the frame's last evaluation, which is its ``evaluations`` and ``fitness`` in
 ``frames.csv``. ``mmocap ioh`` (:mod:`mmocap.report.ioh`) turns them into IOHprofiler files.
 """
+
 from __future__ import annotations
 
 import math
@@ -38,8 +39,9 @@ def read_traces(path: str | Path) -> dict[int, np.ndarray]:
     try:
         lines = path.read_text(encoding="utf-8").splitlines()
     except FileNotFoundError:
-        raise DataError(f"{path} is missing: that run was tracked before traces were recorded; "
-                        "track it again") from None
+        raise DataError(
+            f"{path} is missing: that run was tracked before traces were recorded; track it again"
+        ) from None
     except UnicodeDecodeError:
         raise DataError(f"{path} is not a text file") from None
     if not lines or lines[0].strip() != ",".join(TRACE_COLUMNS):
@@ -55,17 +57,22 @@ def read_traces(path: str | Path) -> dict[int, np.ndarray]:
             if not math.isfinite(fitness):
                 raise ValueError
         except ValueError:
-            raise DataError(f"{path} line {number}: {line!r:.60} is not 'frame,evaluations,best_fitness' "
-                            "(integers, then a finite number)") from None
+            raise DataError(
+                f"{path} line {number}: {line!r:.60} is not 'frame,evaluations,best_fitness' "
+                "(integers, then a finite number)"
+            ) from None
         if row_frame != frame:
             if row_frame in rows:
                 raise DataError(f"{path} line {number}: the rows of frame {row_frame} are not together")
             if evaluations != 1:
-                raise DataError(f"{path} line {number}: frame {row_frame}'s trace starts at evaluation "
-                                f"{evaluations}, not 1")
+                raise DataError(
+                    f"{path} line {number}: frame {row_frame}'s trace starts at evaluation {evaluations}, not 1"
+                )
             frame, rows[row_frame] = row_frame, []
         elif evaluations <= rows[frame][-1][0] or fitness > rows[frame][-1][1]:
-            raise DataError(f"{path} line {number}: frame {frame}'s ({evaluations}, {fitness}) follows "
-                            f"{rows[frame][-1]}: the evaluations must rise, the best fitness must not")
+            raise DataError(
+                f"{path} line {number}: frame {frame}'s ({evaluations}, {fitness}) follows "
+                f"{rows[frame][-1]}: the evaluations must rise, the best fitness must not"
+            )
         rows[frame].append((evaluations, fitness))
     return {frame: np.array(trace, dtype=np.float64) for frame, trace in rows.items()}

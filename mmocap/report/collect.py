@@ -3,6 +3,7 @@
 The store's records and the tables' columns are those of :mod:`mmocap.analysis.results`; a
 sweep writes the tables at its end (:mod:`mmocap.sweep`), and this command writes them again.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -18,8 +19,10 @@ def collect(folder) -> tuple[Path, Path]:
     """Write ``runs.csv`` and ``frames.csv`` into the store ``folder``; returns their paths."""
     folder = Path(folder)
     runs, frames = load_runs(folder)
-    return (write_text_atomic(folder / "runs.csv", runs.to_csv(index=False)),
-            write_text_atomic(folder / "frames.csv", frames.to_csv(index=False)))
+    return (
+        write_text_atomic(folder / "runs.csv", runs.to_csv(index=False)),
+        write_text_atomic(folder / "frames.csv", frames.to_csv(index=False)),
+    )
 
 
 def main(argv: list[str], prog: str) -> None:

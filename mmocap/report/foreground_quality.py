@@ -16,6 +16,7 @@ Before anything is computed: an empty or unknown method, and a ``--csv`` or ``--
 folder or cannot be written, end the command with one line; a method named twice counts once.
 A true silhouette of another size than its image is an error naming the camera and frame.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -48,23 +49,23 @@ def scores(counts: np.ndarray) -> tuple[float, float, float]:
     return ratio(tp, tp + fp), ratio(tp, tp + fn), ratio(tp, tp + fp + fn)
 
 
-def evaluate(sequence, make_background, frames=None, progress: bool = False,
-             label: str = "") -> np.ndarray:
+def evaluate(sequence, make_background, frames=None, progress: bool = False, label: str = "") -> np.ndarray:
     """(C, 3) pooled TP, FP, FN per camera of ``sequence`` for one background factory.
 
     ``frames``: iterable of frame indices (default: all).
     """
     frames = range(sequence.n_frames) if frames is None else list(frames)
-    models = [make_background().fit(sequence.background(cam), name=cam.name)
-              for cam in sequence.cameras]
+    models = [make_background().fit(sequence.background(cam), name=cam.name) for cam in sequence.cameras]
     counts = np.zeros((len(sequence.cameras), 3), np.int64)
     for frame in tqdm(frames, desc=f"foreground {label}".strip(), unit="frame", disable=not progress):
         for c, (cam, model, image) in enumerate(zip(sequence.cameras, models, sequence.images(frame))):
             mask, truth = model.apply(image, name=cam.name), sequence.silhouette(frame, cam)
             if truth.shape != mask.shape:
-                raise DataError(f"camera {cam.name}, frame {frame}: the true silhouette is {truth.shape[1]}x"
-                                f"{truth.shape[0]} px but the image {mask.shape[1]}x{mask.shape[0]} px "
-                                f"(under {sequence.root / 'silhouettes' / cam.name}); re-render the sequence")
+                raise DataError(
+                    f"camera {cam.name}, frame {frame}: the true silhouette is {truth.shape[1]}x"
+                    f"{truth.shape[0]} px but the image {mask.shape[1]}x{mask.shape[0]} px "
+                    f"(under {sequence.root / 'silhouettes' / cam.name}); re-render the sequence"
+                )
             counts[c] += confusion(mask, truth)
     return counts
 
@@ -82,8 +83,11 @@ def quality_table(sequence, factories: dict, frames=None, progress: bool = False
 
 def to_markdown(table: pd.DataFrame) -> str:
     """The table with one column per method: ``P / R / IoU`` per camera."""
-    cells = table.assign(cell=[f"{p:.3f} / {r:.3f} / {i:.3f}" for p, r, i in
-                               table[["precision", "recall", "iou"]].itertuples(index=False)])
+    cells = table.assign(
+        cell=[
+            f"{p:.3f} / {r:.3f} / {i:.3f}" for p, r, i in table[["precision", "recall", "iou"]].itertuples(index=False)
+        ]
+    )
     wide = cells.pivot(index="camera", columns="method", values="cell")
     wide = wide.loc[list(dict.fromkeys(table["camera"])), list(dict.fromkeys(table["method"]))]
     head = "| camera | " + " | ".join(f"{m} P / R / IoU" for m in wide.columns) + " |"
@@ -96,16 +100,19 @@ def main(argv: list[str], prog: str) -> None:
     """``mmocap foreground-quality [--methods ...] [OVERRIDES]``: print and write the precision,
     recall and IoU of each background method per camera."""
     parser = argparse.ArgumentParser(prog=prog, description=__doc__.splitlines()[0])
-    parser.add_argument("--methods", default=",".join(METHODS),
-                        help="comma-separated background configs (conf/background/*.yaml)")
+    parser.add_argument(
+        "--methods", default=",".join(METHODS), help="comma-separated background configs (conf/background/*.yaml)"
+    )
     parser.add_argument("--csv", type=Path, default=Path("outputs/tables/foreground.csv"))
     parser.add_argument("--md", type=Path, default=Path("outputs/tables/foreground.md"))
     parser.add_argument("overrides", nargs="*", help="Hydra overrides, e.g. dataset.action=boxing")
     args = parser.parse_intermixed_args(argv)
     methods = list(dict.fromkeys(m.strip() for m in args.methods.split(",")))
     if "" in methods:
-        raise ConfigError(f"--methods {args.methods!r} has an empty name; give comma-separated "
-                          f"background configs, e.g. {','.join(METHODS)}")
+        raise ConfigError(
+            f"--methods {args.methods!r} has an empty name; give comma-separated "
+            f"background configs, e.g. {','.join(METHODS)}"
+        )
     for option, path in (("--csv", args.csv), ("--md", args.md)):
         if path.is_dir():
             raise ConfigError(f"{option} {path} is a folder; give the file to write, e.g. {path / 'foreground'}")
@@ -116,8 +123,9 @@ def main(argv: list[str], prog: str) -> None:
         try:
             configs[m] = config.compose([*args.overrides, f"background={m}"])
         except ConfigCompositionException as exc:
-            raise ConfigError(f"background={m}: {str(exc).splitlines()[0]} (the overrides "
-                              "apply to every method of --methods)") from None
+            raise ConfigError(
+                f"background={m}: {str(exc).splitlines()[0]} (the overrides apply to every method of --methods)"
+            ) from None
     cfg = next(iter(configs.values()))
     sequence = instantiate(cfg.dataset).open(progress=cfg.progress)
     if not (sequence.root / "silhouettes").is_dir():
@@ -125,8 +133,9 @@ def main(argv: list[str], prog: str) -> None:
     factories = {m: instantiate(c.background) for m, c in configs.items()}
     table = quality_table(sequence, factories, progress=cfg.progress)
     write_text_atomic(args.csv, table.to_csv(index=False, float_format="%.4f"))
-    text = (f"Foreground quality on {sequence.subject} {sequence.meta.get('action')} "
-            f"({sequence.n_frames} frames): precision / recall / IoU against the true silhouettes\n\n"
-            + to_markdown(table))
+    text = (
+        f"Foreground quality on {sequence.subject} {sequence.meta.get('action')} "
+        f"({sequence.n_frames} frames): precision / recall / IoU against the true silhouettes\n\n" + to_markdown(table)
+    )
     write_text_atomic(args.md, text)
     print(text, end="")

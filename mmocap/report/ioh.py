@@ -34,6 +34,7 @@ fitness); ioh's ``best.x`` is left out (the poses are in ``frames.csv``), and th
 written in full rather than to ioh's 10 decimals. An export first removes the IOHprofiler
 files an earlier export left in DIR.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -84,8 +85,10 @@ def load_run(folder: str | Path) -> Run:
     missing = sorted(set(range(summary.frames)) - set(traces))
     extra = sorted(set(traces) - set(range(summary.frames)))
     if missing or extra:
-        raise DataError(f"{folder / TRACES} does not hold the {summary.frames} frames of {folder / SUMMARY}: "
-                        f"missing {missing[:5] or 'none'}, unknown {extra[:5] or 'none'}")
+        raise DataError(
+            f"{folder / TRACES} does not hold the {summary.frames} frames of {folder / SUMMARY}: "
+            f"missing {missing[:5] or 'none'}, unknown {extra[:5] or 'none'}"
+        )
     return Run(folder, algorithm, function, summary.dof, summary.evaluations_per_frame, dict(sorted(traces.items())))
 
 
@@ -120,8 +123,11 @@ def run_entry(frame: int, trace: np.ndarray) -> dict:
     """A run of the JSON file's scenario for a frame's ``trace`` ((k, 2) evaluations, best
     fitness): instance frame + 1, the evaluations spent, the first evaluation at the best."""
     best = int(np.argmin(trace[:, 1]))
-    return {"instance": frame + 1, "evals": int(trace[-1, 0]),
-            "best": {"evals": int(trace[best, 0]), "y": float(trace[best, 1])}}
+    return {
+        "instance": frame + 1,
+        "evals": int(trace[-1, 0]),
+        "best": {"evals": int(trace[best, 0]), "y": float(trace[best, 1])},
+    }
 
 
 def clear_export(out: Path) -> None:
@@ -152,17 +158,25 @@ def write_ioh(runs: list[Run], out: str | Path) -> list[Path]:
         folder = out / file_name(algorithm)
         scenarios = []
         for dimension in sorted({run.dimension for run in group}):
-            frames = [(frame, trace) for run in group if run.dimension == dimension
-                      for frame, trace in run.traces.items()]
+            frames = [
+                (frame, trace) for run in group if run.dimension == dimension for frame, trace in run.traces.items()
+            ]
             path = f"data_f{fid}_{name}/IOHprofiler_f{fid}_DIM{dimension}.dat"
             write_text_atomic(folder / path, dat_text([trace for _, trace in frames]))
-            scenarios.append({"dimension": dimension, "path": path,
-                              "runs": [run_entry(frame, trace) for frame, trace in frames]})
+            scenarios.append(
+                {"dimension": dimension, "path": path, "runs": [run_entry(frame, trace) for frame, trace in frames]}
+            )
         budgets = ", ".join(str(b) for b in sorted({run.evaluations_per_frame for run in group}))
-        meta = {"version": IOH_VERSION, "suite": SUITE, "function_id": fid, "function_name": function,
-                "maximization": False,
-                "algorithm": {"name": algorithm, "info": f"mmocap tracking, {budgets} evaluations per frame"},
-                "attributes": DAT_HEADER.split(), "scenarios": scenarios}
+        meta = {
+            "version": IOH_VERSION,
+            "suite": SUITE,
+            "function_id": fid,
+            "function_name": function,
+            "maximization": False,
+            "algorithm": {"name": algorithm, "info": f"mmocap tracking, {budgets} evaluations per frame"},
+            "attributes": DAT_HEADER.split(),
+            "scenarios": scenarios,
+        }
         written.append(write_json_atomic(folder / f"IOHprofiler_f{fid}_{name}.json", meta))
     return written
 
@@ -176,5 +190,7 @@ def main(argv: list[str], prog: str) -> None:
     out = args.folder / "ioh" if args.out is None else args.out
     runs = find_runs(args.folder)
     written = write_ioh(runs, out)
-    print(f"IOHprofiler data of {len(runs)} run(s), {sum(len(run.traces) for run in runs)} frame(s), "
-          f"{len({run.algorithm for run in runs})} algorithm(s), {len(written)} meta-data file(s) in {out}")
+    print(
+        f"IOHprofiler data of {len(runs)} run(s), {sum(len(run.traces) for run in runs)} frame(s), "
+        f"{len({run.algorithm for run in runs})} algorithm(s), {len(written)} meta-data file(s) in {out}"
+    )

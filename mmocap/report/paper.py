@@ -38,6 +38,7 @@ Table 3, and ``tuned``, mmocap's defaults; ``conf/settings/``), their files name
 too (``fig7_realistic_paper.png``, ``cano_table3_exact.md``); a sweep without these columns
 (real data) writes ``NAME`` alone.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -68,8 +69,10 @@ ERROR = "mean_marker_error_mm"
 FITNESS = "mean_best_fitness"
 #: what Tables 4-7 rank, the main table first: column -> (file-name suffix, words of the title).
 #: The paper ranks "the averaged position of its best solutions' fitness" (Yeguas Sec. 5.4).
-RANKINGS = {FITNESS: ("", "mean best fitness (Eq. 5, 0 = perfect), as the paper ranks"),
-            ERROR: ("_marker_error", "mean marker error (mm)")}
+RANKINGS = {
+    FITNESS: ("", "mean best fitness (Eq. 5, 0 = perfect), as the paper ranks"),
+    ERROR: ("_marker_error", "mean marker error (mm)"),
+}
 OPTIMIZER_ORDER = ["cmaes", "de", "pso", "apf", "psapf"]
 DEFAULT_BLOCK = ("sequence", "seed")
 #: columns of runs.csv that are whole numbers (they name, group and label runs)
@@ -182,13 +185,20 @@ def _ranking_groups(tests: list[tuple[str, FriedmanHolm]], alpha: float) -> pd.D
     blocks = []
     for name, test in tests:
         c = test.comparisons
-        group = pd.DataFrame({
-            f"Algorithm ({name})": c["algorithm"],
-            f"Rank ({name})": c["rank"].map(lambda r: f"{r:.3f}"),
-            f"p-value ({name})": [_mark(p, s) for p, s in zip(c["p"], c["significant"])]})
-        friedman = pd.DataFrame({group.columns[0]: ["Fried. Stat."],
-                                 group.columns[1]: [f"{test.statistic:.3f}"],
-                                 group.columns[2]: [f"p = {format_p(test.p_value)}"]})
+        group = pd.DataFrame(
+            {
+                f"Algorithm ({name})": c["algorithm"],
+                f"Rank ({name})": c["rank"].map(lambda r: f"{r:.3f}"),
+                f"p-value ({name})": [_mark(p, s) for p, s in zip(c["p"], c["significant"])],
+            }
+        )
+        friedman = pd.DataFrame(
+            {
+                group.columns[0]: ["Fried. Stat."],
+                group.columns[1]: [f"{test.statistic:.3f}"],
+                group.columns[2]: [f"p = {format_p(test.p_value)}"],
+            }
+        )
         blocks.append(pd.concat([group, friedman], ignore_index=True))
     table = pd.concat(blocks, axis=1).fillna("")
     k = max(t.n_algorithms for _, t in tests)
@@ -201,34 +211,57 @@ def _long_statistics(tests: list[tuple[dict, FriedmanHolm]], compared: str = "al
     by the test's fields."""
     rows = []
     for keys, test in tests:
-        rows.append(test.comparisons.rename(columns={"algorithm": compared}).assign(
-            **keys, n_algorithms=test.n_algorithms, n_blocks=test.n_blocks,
-            friedman_chi2=test.statistic, friedman_p=test.p_value,
-            iman_davenport=test.iman_davenport, iman_davenport_p=test.iman_davenport_p,
-            control=test.control))
+        rows.append(
+            test.comparisons.rename(columns={"algorithm": compared}).assign(
+                **keys,
+                n_algorithms=test.n_algorithms,
+                n_blocks=test.n_blocks,
+                friedman_chi2=test.statistic,
+                friedman_p=test.p_value,
+                iman_davenport=test.iman_davenport,
+                iman_davenport_p=test.iman_davenport_p,
+                control=test.control,
+            )
+        )
     table = pd.concat(rows, ignore_index=True)
     front = list(tests[0][0])
     return table[front + [c for c in table.columns if c not in front]]
 
 
-def _test(runs: pd.DataFrame, labels, value: str, block, alpha: float, source: str, what: str,
-          compared: str = "algorithm") -> FriedmanHolm:
+def _test(
+    runs: pd.DataFrame, labels, value: str, block, alpha: float, source: str, what: str, compared: str = "algorithm"
+) -> FriedmanHolm:
     """Friedman and Holm of the column ``value`` on ``runs`` with ``labels`` as the compared
     column, named ``compared`` in messages, which start with '<source>, <what>: '."""
-    return friedman_holm(runs.assign(**{compared: list(labels)}), list(block), compared, value,
-                         alpha=alpha, source=f"{source}, {what}")
+    return friedman_holm(
+        runs.assign(**{compared: list(labels)}), list(block), compared, value, alpha=alpha, source=f"{source}, {what}"
+    )
 
 
-def _write_rankings(runs: pd.DataFrame, out: Path, name: str, variant: dict, value: str,
-                    caption: str, tests: list[tuple[dict, FriedmanHolm]], headers: list[str],
-                    compared: str, block, alpha: float, source: str) -> Outputs:
+def _write_rankings(
+    runs: pd.DataFrame,
+    out: Path,
+    name: str,
+    variant: dict,
+    value: str,
+    caption: str,
+    tests: list[tuple[dict, FriedmanHolm]],
+    headers: list[str],
+    compared: str,
+    block,
+    alpha: float,
+    source: str,
+) -> Outputs:
     """Write a Yeguas-shaped table of ``tests`` (one group per header) and its data CSV, named
     by :func:`table_stem`."""
     n = sorted({t.n_blocks for _, t in tests})
-    title = (f"Yeguas Table {name[-1]}" + variant_words(variant)
-             + f": {caption}, ranked by {RANKINGS[value][1]}. Friedman ranks over {'/'.join(map(str, n))} "
-             f"blocks ({' x '.join(block)}), the lowest ranked first; p: Holm vs the best-ranked, "
-             f"* significant at alpha = {alpha:g}")
+    title = (
+        f"Yeguas Table {name[-1]}"
+        + variant_words(variant)
+        + f": {caption}, ranked by {RANKINGS[value][1]}. Friedman ranks over {'/'.join(map(str, n))} "
+        f"blocks ({' x '.join(block)}), the lowest ranked first; p: Holm vs the best-ranked, "
+        f"* significant at alpha = {alpha:g}"
+    )
     display = _ranking_groups([(h, t) for h, (_, t) in zip(headers, tests)], alpha)
     data = _long_statistics(tests, compared)
     data.insert(0, "ranked_by", value)
@@ -237,18 +270,33 @@ def _write_rankings(runs: pd.DataFrame, out: Path, name: str, variant: dict, val
     origin = describe_runs(runs, source)
     stem = out / "tables" / table_stem(name, variant, value)
     return write_table(display, stem, title=title, source=origin) + [
-        write_csv(data, stem.with_name(f"{stem.name}_data.csv"), origin)]
+        write_csv(data, stem.with_name(f"{stem.name}_data.csv"), origin)
+    ]
 
 
 def _each_variant(build: Callable[..., Outputs], runs: pd.DataFrame, out: Path, **options) -> Outputs:
     """``build`` on the runs of each variant (:func:`variants`), once for each ranking of
     :data:`RANKINGS`."""
-    return [path for variant, group in variants(runs) for value in RANKINGS
-            for path in build(group, out, variant=variant, value=value, **options)]
+    return [
+        path
+        for variant, group in variants(runs)
+        for value in RANKINGS
+        for path in build(group, out, variant=variant, value=value, **options)
+    ]
 
 
-def yeguas_rankings(runs: pd.DataFrame, out: Path, *, name: str, dof: int, value: str, variant: dict,
-                    block=DEFAULT_BLOCK, alpha: float = 0.05, source: str = "runs") -> Outputs:
+def yeguas_rankings(
+    runs: pd.DataFrame,
+    out: Path,
+    *,
+    name: str,
+    dof: int,
+    value: str,
+    variant: dict,
+    block=DEFAULT_BLOCK,
+    alpha: float = 0.05,
+    source: str = "runs",
+) -> Outputs:
     """Yeguas Table 4 (dof 39) or 5 (dof 28) of the runs of one variant (:func:`variants`):
     the algorithms ranked by the column ``value`` (one of :data:`RANKINGS`) at each budget."""
     runs = checked(runs, ["optimizer", "strategy", "dof", "evaluations", value, *block], source)
@@ -259,12 +307,26 @@ def yeguas_rankings(runs: pd.DataFrame, out: Path, *, name: str, dof: int, value
     tests = []
     for evaluations, group in runs.groupby("evaluations"):
         labels = [paper_label(o, s, dof, evaluations) for o, s in zip(group.optimizer, group.strategy)]
-        tests.append(({"dof": dof, "evaluations": evaluations},
-                      _test(group, labels, value, block, alpha, source,
-                            f"{stem} at {dof} DOF and {evaluations} evaluations")))
-    return _write_rankings(runs, out, name, variant, value, f"{dof}-DOF model, the algorithms per budget",
-                           tests, [f"{k['evaluations']} ev." for k, _ in tests], "algorithm",
-                           block, alpha, source)
+        tests.append(
+            (
+                {"dof": dof, "evaluations": evaluations},
+                _test(group, labels, value, block, alpha, source, f"{stem} at {dof} DOF and {evaluations} evaluations"),
+            )
+        )
+    return _write_rankings(
+        runs,
+        out,
+        name,
+        variant,
+        value,
+        f"{dof}-DOF model, the algorithms per budget",
+        tests,
+        [f"{k['evaluations']} ev." for k, _ in tests],
+        "algorithm",
+        block,
+        alpha,
+        source,
+    )
 
 
 def table4(runs, frames, out, **options) -> Outputs:
@@ -277,9 +339,18 @@ def table5(runs, frames, out, **options) -> Outputs:
     return _each_variant(yeguas_rankings, runs, out, name="table5", dof=28, **options)
 
 
-def strategy_variants(runs: pd.DataFrame, out: Path, *, name: str, hierarchical: bool, value: str,
-                      variant: dict, block=DEFAULT_BLOCK, alpha: float = 0.05,
-                      source: str = "runs") -> Outputs:
+def strategy_variants(
+    runs: pd.DataFrame,
+    out: Path,
+    *,
+    name: str,
+    hierarchical: bool,
+    value: str,
+    variant: dict,
+    block=DEFAULT_BLOCK,
+    alpha: float = 0.05,
+    source: str = "runs",
+) -> Outputs:
     """Yeguas Table 6 (hierarchical) or 7 (holistic) of the runs of one variant
     (:func:`variants`): each algorithm's DOF x budget variants ranked by the column ``value``
     (one of :data:`RANKINGS`)."""
@@ -293,12 +364,35 @@ def strategy_variants(runs: pd.DataFrame, out: Path, *, name: str, hierarchical:
     for optimizer, strategy in by_optimizer(zip(runs.optimizer, runs.strategy)):
         group = runs[(runs.optimizer == optimizer) & (runs.strategy == strategy)]
         labels = [paper_label(optimizer, strategy, d, e) for d, e in zip(group.dof, group.evaluations)]
-        tests.append(({"algorithm": short_name(optimizer, strategy)},
-                      _test(group, labels, value, block, alpha, source,
-                            f"{stem} for {short_name(optimizer, strategy)}", "variant")))
-    return _write_rankings(runs, out, name, variant, value,
-                           f"{kind} approaches, each algorithm's DOF x evaluations variants",
-                           tests, [k["algorithm"] for k, _ in tests], "variant", block, alpha, source)
+        tests.append(
+            (
+                {"algorithm": short_name(optimizer, strategy)},
+                _test(
+                    group,
+                    labels,
+                    value,
+                    block,
+                    alpha,
+                    source,
+                    f"{stem} for {short_name(optimizer, strategy)}",
+                    "variant",
+                ),
+            )
+        )
+    return _write_rankings(
+        runs,
+        out,
+        name,
+        variant,
+        value,
+        f"{kind} approaches, each algorithm's DOF x evaluations variants",
+        tests,
+        [k["algorithm"] for k, _ in tests],
+        "variant",
+        block,
+        alpha,
+        source,
+    )
 
 
 def table6(runs, frames, out, **options) -> Outputs:
@@ -325,29 +419,47 @@ def frame_errors(runs: pd.DataFrame, frames: pd.DataFrame | None, source: str) -
     frames = frames.assign(frame=whole_numbers(frames, "frame", frames_source), marker_error_mm=errors)
     unknown = sorted(set(frames["run_id"]) - set(runs["run_id"]))
     if unknown:
-        raise DataError(f"{frames_source}: frames of {len(unknown)} run(s) not in runs.csv, "
-                        f"e.g. {unknown[0]!r}")
+        raise DataError(f"{frames_source}: frames of {len(unknown)} run(s) not in runs.csv, e.g. {unknown[0]!r}")
     unscored = np.isnan(errors)
     if unscored.any():
-        warnings.warn(f"{frames_source}: {int(unscored.sum())} of {len(frames)} frame(s), of "
-                      f"{frames.loc[unscored, 'run_id'].nunique()} run(s), have no marker error (no ground "
-                      "truth) and are left out of the figure", MmocapWarning, stacklevel=2)
+        warnings.warn(
+            f"{frames_source}: {int(unscored.sum())} of {len(frames)} frame(s), of "
+            f"{frames.loc[unscored, 'run_id'].nunique()} run(s), have no marker error (no ground "
+            "truth) and are left out of the figure",
+            MmocapWarning,
+            stacklevel=2,
+        )
         frames = frames[~unscored]
     return frames.merge(runs, on="run_id", how="inner")
 
 
-def _variants_of_frames(build: Callable[..., Outputs], name: str, runs: pd.DataFrame,
-                        frames: pd.DataFrame | None, out: Path, source: str, **options) -> Outputs:
+def _variants_of_frames(
+    build: Callable[..., Outputs],
+    name: str,
+    runs: pd.DataFrame,
+    frames: pd.DataFrame | None,
+    out: Path,
+    source: str,
+    **options,
+) -> Outputs:
     """``build(runs, data, path, variant, ...)`` for each variant (:func:`variants`), with its
     runs, their frames joined with the runs (:func:`frame_errors`, which checks every frame
     once) and the figure's path ``out/figures/<name>_<variant>.png``."""
     runs = checked(runs, ["run_id", "optimizer", "strategy", "dof", "evaluations", "sequence"], source)
     data = frame_errors(runs, frames, source)
     (out / "figures").mkdir(parents=True, exist_ok=True)
-    return [path for variant, group in variants(runs)
-            for path in build(group, data[data.run_id.isin(group.run_id)],
-                              out / "figures" / f"{variant_stem(name, variant)}.png", variant,
-                              source=source, **options)]
+    return [
+        path
+        for variant, group in variants(runs)
+        for path in build(
+            group,
+            data[data.run_id.isin(group.run_id)],
+            out / "figures" / f"{variant_stem(name, variant)}.png",
+            variant,
+            source=source,
+            **options,
+        )
+    ]
 
 
 def fig7(runs, frames, out, *, source: str = "runs", **_) -> Outputs:
@@ -358,17 +470,28 @@ def fig7(runs, frames, out, *, source: str = "runs", **_) -> Outputs:
 
 def _fig7(runs: pd.DataFrame, data: pd.DataFrame, path: Path, variant: dict, *, source: str) -> Outputs:
     pair = [f"{short_name(o, s)}({d})" for o, s, d in zip(data.optimizer, data.strategy, data.dof)]
-    pairs = [f"{short_name(o, s)}({d})" for o, s in by_optimizer(zip(data.optimizer, data.strategy))
-             for d in sorted(data.dof.unique(), reverse=True)]
+    pairs = [
+        f"{short_name(o, s)}({d})"
+        for o, s in by_optimizer(zip(data.optimizer, data.strategy))
+        for d in sorted(data.dof.unique(), reverse=True)
+    ]
     budgets = [f"{e} evaluations" for e in sorted(data.evaluations.unique())]
-    data = data.assign(pair=pd.Categorical(pair, pairs),
-                       budget=pd.Categorical([f"{e} evaluations" for e in data.evaluations], budgets),
-                       kind=np.where(is_hierarchical(data), "hierarchical", "holistic"))
+    data = data.assign(
+        pair=pd.Categorical(pair, pairs),
+        budget=pd.Categorical([f"{e} evaluations" for e in data.evaluations], budgets),
+        kind=np.where(is_hierarchical(data), "hierarchical", "holistic"),
+    )
     figures.plot_grouped_boxplots(
-        data, path, value="marker_error_mm", x="sequence", hue="pair", panel=["budget", "kind"],
+        data,
+        path,
+        value="marker_error_mm",
+        x="sequence",
+        hue="pair",
+        panel=["budget", "kind"],
         ylabel="marker error (mm)",
         title=f"Marker error of every frame of every run (Yeguas Fig. 7){variant_words(variant)}",
-        note=provenance(describe_runs(runs, source)))
+        note=provenance(describe_runs(runs, source)),
+    )
     return [path]
 
 
@@ -377,8 +500,17 @@ def _prefer(values, wanted):
     return wanted if wanted in values else values[len(values) // 2]
 
 
-def fig10(runs, frames, out, *, source: str = "runs", sequence: str | None = None,
-          dof: int | None = None, evaluations: int | None = None, **_) -> Outputs:
+def fig10(
+    runs,
+    frames,
+    out,
+    *,
+    source: str = "runs",
+    sequence: str | None = None,
+    dof: int | None = None,
+    evaluations: int | None = None,
+    **_,
+) -> Outputs:
     """Yeguas Fig. 10: error per frame of the holistic algorithms on one sequence, one figure
     per variant (``fig10_<realism>_<settings>.png``).
 
@@ -386,12 +518,22 @@ def fig10(runs, frames, out, *, source: str = "runs", sequence: str | None = Non
     (else the first sequence, the middle DOF and budget). Several seeds: their mean, with
     a band from the lowest to the highest.
     """
-    return _variants_of_frames(_fig10, "fig10", runs, frames, out, source,
-                               sequence=sequence, dof=dof, evaluations=evaluations)
+    return _variants_of_frames(
+        _fig10, "fig10", runs, frames, out, source, sequence=sequence, dof=dof, evaluations=evaluations
+    )
 
 
-def _fig10(runs: pd.DataFrame, data: pd.DataFrame, path: Path, variant: dict, *, source: str,
-           sequence: str | None, dof: int | None, evaluations: int | None) -> Outputs:
+def _fig10(
+    runs: pd.DataFrame,
+    data: pd.DataFrame,
+    path: Path,
+    variant: dict,
+    *,
+    source: str,
+    sequence: str | None,
+    dof: int | None,
+    evaluations: int | None,
+) -> Outputs:
     holistic = data[~is_hierarchical(data)]
     data = holistic if not holistic.empty else data
     sequence = sequence or _prefer(data.sequence.unique(), "S1_walking")
@@ -403,16 +545,25 @@ def _fig10(runs: pd.DataFrame, data: pd.DataFrame, path: Path, variant: dict, *,
     data = data.assign(name=[short_name(o, s) for o, s in zip(data.optimizer, data.strategy)])
     order = [short_name(o, s) for o, s in by_optimizer(zip(data.optimizer, data.strategy))]
     per_frame = data.groupby(["frame", "name"])["marker_error_mm"]  # (frames, algorithms) each
-    table = pd.concat({"mean": per_frame.agg(overflow_free_mean).unstack(), "min": per_frame.min().unstack(),
-                       "max": per_frame.max().unstack()}, axis=1)
+    table = pd.concat(
+        {
+            "mean": per_frame.agg(overflow_free_mean).unstack(),
+            "min": per_frame.min().unstack(),
+            "max": per_frame.max().unstack(),
+        },
+        axis=1,
+    )
     seeds = data.groupby("name")["run_id"].nunique()
     origin = describe_runs(data.drop_duplicates("run_id"), source)
     figures.plot_error_curves(
-        table["mean"][order], path, note=provenance(origin),
+        table["mean"][order],
+        path,
+        note=provenance(origin),
         title=f"{sequence}, {dof} DOF, {evaluations} evaluations per frame"
-              + (f", mean of {seeds.max()} runs (band: min-max)" if seeds.max() > 1 else "")
-              + variant_words(variant),
-        spread=(table["min"][order], table["max"][order]) if seeds.max() > 1 else None)
+        + (f", mean of {seeds.max()} runs (band: min-max)" if seeds.max() > 1 else "")
+        + variant_words(variant),
+        spread=(table["min"][order], table["max"][order]) if seeds.max() > 1 else None,
+    )
     return [path]
 
 
@@ -424,8 +575,11 @@ def cano_table3(runs, frames, out, *, block=DEFAULT_BLOCK, source: str = "runs",
     """Cano Table 3: error (mm) per sequence of each mesh level x budget, its average over the
     sequences and the configurations' Friedman ranks, one table per variant
     (``cano_table3_<realism>``)."""
-    return [path for variant, group in variants(runs)
-            for path in _cano_table3(group, out, variant, block=block, source=source)]
+    return [
+        path
+        for variant, group in variants(runs)
+        for path in _cano_table3(group, out, variant, block=block, source=source)
+    ]
 
 
 def _cano_table3(runs: pd.DataFrame, out: Path, variant: dict, *, block, source: str) -> Outputs:
@@ -434,27 +588,37 @@ def _cano_table3(runs: pd.DataFrame, out: Path, variant: dict, *, block, source:
     setups = runs[["algorithm", "dof"]].drop_duplicates()
     if len(setups) > 1:
         held = ", ".join(f"{a}/{d}" for a, d in setups.itertuples(index=False))
-        raise DataError(f"{source}: {stem} compares the mesh levels and budgets of one "
-                        f"algorithm and DOF, the runs hold {held}")
-    configurations = runs[["vertices", "evaluations"]].drop_duplicates().sort_values(
-        ["vertices", "evaluations"], ascending=[False, True])
+        raise DataError(
+            f"{source}: {stem} compares the mesh levels and budgets of one algorithm and DOF, the runs hold {held}"
+        )
+    configurations = (
+        runs[["vertices", "evaluations"]]
+        .drop_duplicates()
+        .sort_values(["vertices", "evaluations"], ascending=[False, True])
+    )
     columns = [_configuration_label(v, e) for v, e in configurations.itertuples(index=False)]
-    runs = runs.assign(configuration=[_configuration_label(v, e) for v, e in
-                                      zip(runs.vertices, runs.evaluations)])
+    runs = runs.assign(configuration=[_configuration_label(v, e) for v, e in zip(runs.vertices, runs.evaluations)])
     test = _test(runs, runs.configuration, ERROR, block, 0.05, source, stem, "configuration")
-    per_sequence = runs.pivot_table(index="sequence", columns="configuration", values=ERROR,
-                                    aggfunc=overflow_free_mean)[columns]
+    per_sequence = runs.pivot_table(
+        index="sequence", columns="configuration", values=ERROR, aggfunc=overflow_free_mean
+    )[columns]
     ranks = test.comparisons.set_index("algorithm")["rank"]
-    table = pd.concat([per_sequence, per_sequence.agg(overflow_free_mean).to_frame("Avg. Error").T,
-                       ranks.reindex(columns).to_frame("Ranks").T])
+    table = pd.concat(
+        [
+            per_sequence,
+            per_sequence.agg(overflow_free_mean).to_frame("Avg. Error").T,
+            ranks.reindex(columns).to_frame("Ranks").T,
+        ]
+    )
     table = table.rename_axis("Sequence").reset_index()
     algorithm, dof = setups.iloc[0]
-    title = (f"Cano Table 3: mean marker error (mm) of {algorithm}, {dof} DOF, per mesh level "
-             f"(vertices) x evaluations per frame; Ranks: Friedman over {test.n_blocks} blocks "
-             f"({' x '.join(block)}), chi2_F = {test.statistic:.3f}, p = {format_p(test.p_value)}"
-             f"{variant_words(variant)}")
-    return write_table(table, out / "tables" / stem, title=title,
-                       source=describe_runs(runs, source), floatfmt=".2f")
+    title = (
+        f"Cano Table 3: mean marker error (mm) of {algorithm}, {dof} DOF, per mesh level "
+        f"(vertices) x evaluations per frame; Ranks: Friedman over {test.n_blocks} blocks "
+        f"({' x '.join(block)}), chi2_F = {test.statistic:.3f}, p = {format_p(test.p_value)}"
+        f"{variant_words(variant)}"
+    )
+    return write_table(table, out / "tables" / stem, title=title, source=describe_runs(runs, source), floatfmt=".2f")
 
 
 def fig4(runs, frames, out, *, source: str = "runs", **_) -> Outputs:
@@ -470,12 +634,17 @@ def _fig4(runs: pd.DataFrame, out: Path, variant: dict, *, source: str) -> Outpu
     path = out / "figures" / f"{stem}.png"
     path.parent.mkdir(parents=True, exist_ok=True)
     origin = describe_runs(runs, source)
-    figures.plot_pareto_front(table, path, note=provenance(origin),
-                              title=f"Time per frame against marker error (Cano Fig. 4){variant_words(variant)}")
-    title = ("Cano Fig. 4: mean time per frame (s) and marker error (mm) of each configuration; "
-             f"pareto = not dominated on both{variant_words(variant)}")
-    return [path] + write_table(table, out / "tables" / stem, title=title, source=origin,
-                                floatfmt=".4g")
+    figures.plot_pareto_front(
+        table,
+        path,
+        note=provenance(origin),
+        title=f"Time per frame against marker error (Cano Fig. 4){variant_words(variant)}",
+    )
+    title = (
+        "Cano Fig. 4: mean time per frame (s) and marker error (mm) of each configuration; "
+        f"pareto = not dominated on both{variant_words(variant)}"
+    )
+    return [path] + write_table(table, out / "tables" / stem, title=title, source=origin, floatfmt=".4g")
 
 
 #: the largest ratio of the error from the automatic start to the error from the true start
@@ -492,26 +661,43 @@ def autostart(runs, frames, out, *, source: str = "runs", **_) -> Outputs:
     searched = checked(runs[runs.start == "search"], ["start_seconds"], source)
     by_start = {"given": runs[runs.start == "given"].groupby("sequence"), "search": searched.groupby("sequence")}
     if any(len(group) == 0 for group in by_start.values()):
-        raise DataError(f"{source}: autostart compares runs with start given and start search; "
-                        f"the runs hold {', '.join(sorted(runs.start.unique()))}")
-    table = pd.DataFrame({"given (mm)": by_start["given"][ERROR].agg(overflow_free_mean),
-                          "automatic (mm)": by_start["search"][ERROR].agg(overflow_free_mean),
-                          "start (s)": by_start["search"]["start_seconds"].agg(overflow_free_mean)}).dropna()
+        raise DataError(
+            f"{source}: autostart compares runs with start given and start search; "
+            f"the runs hold {', '.join(sorted(runs.start.unique()))}"
+        )
+    table = pd.DataFrame(
+        {
+            "given (mm)": by_start["given"][ERROR].agg(overflow_free_mean),
+            "automatic (mm)": by_start["search"][ERROR].agg(overflow_free_mean),
+            "start (s)": by_start["search"]["start_seconds"].agg(overflow_free_mean),
+        }
+    ).dropna()
     if table.empty:
         raise DataError(f"{source}: no sequence has runs with both start given and start search")
     table.insert(2, "ratio", table["automatic (mm)"] / table["given (mm)"])
     table["goal met"] = np.where(table["ratio"] <= AUTOSTART_GOAL, "yes", "no")
     table = table.rename_axis("Sequence").reset_index()
-    title = (f"Automatic start: mean marker error (mm) from the true first pose and body, and from the silhouettes "
-             f"alone; goal: ratio <= {AUTOSTART_GOAL} (met on {int((table['goal met'] == 'yes').sum())} of "
-             f"{len(table)} sequences)")
-    return write_table(table, out / "tables" / "autostart", title=title, source=describe_runs(runs, source),
-                       floatfmt=".2f")
+    title = (
+        f"Automatic start: mean marker error (mm) from the true first pose and body, and from the silhouettes "
+        f"alone; goal: ratio <= {AUTOSTART_GOAL} (met on {int((table['goal met'] == 'yes').sum())} of "
+        f"{len(table)} sequences)"
+    )
+    return write_table(
+        table, out / "tables" / "autostart", title=title, source=describe_runs(runs, source), floatfmt=".2f"
+    )
 
 
 MAKERS: dict[str, Callable[..., Outputs]] = {
-    "table4": table4, "table5": table5, "table6": table6, "table7": table7, "fig7": fig7,
-    "fig10": fig10, "cano_table3": cano_table3, "fig4": fig4, "autostart": autostart}
+    "table4": table4,
+    "table5": table5,
+    "table6": table6,
+    "table7": table7,
+    "fig7": fig7,
+    "fig10": fig10,
+    "cano_table3": cano_table3,
+    "fig4": fig4,
+    "autostart": autostart,
+}
 
 
 def load_sweep(folder: Path) -> tuple[pd.DataFrame, pd.DataFrame | None]:
@@ -551,10 +737,12 @@ def main(argv: list[str], prog: str) -> None:
     parser = argparse.ArgumentParser(prog=prog, description=__doc__.split("\n\n")[0])
     parser.add_argument("name", choices=[*MAKERS, "all"])
     parser.add_argument("folder", type=Path, help="folder holding runs.csv (and frames.csv)")
-    parser.add_argument("--out", type=Path, default=Path("outputs"),
-                        help="writes OUT/tables/ and OUT/figures/ (default: %(default)s)")
-    parser.add_argument("--block", default=",".join(DEFAULT_BLOCK),
-                        help="columns naming a Friedman block (default: %(default)s)")
+    parser.add_argument(
+        "--out", type=Path, default=Path("outputs"), help="writes OUT/tables/ and OUT/figures/ (default: %(default)s)"
+    )
+    parser.add_argument(
+        "--block", default=",".join(DEFAULT_BLOCK), help="columns naming a Friedman block (default: %(default)s)"
+    )
     parser.add_argument("--alpha", type=float, default=0.05, help="Holm's significance level")
     args = parser.parse_args(argv)
     names = list(MAKERS) if args.name == "all" else [args.name]

@@ -8,6 +8,7 @@ input are described in :mod:`mmocap.analysis.statistics`. Errors print one line 
 ``--alpha`` outside (0, 1) and an ``--out`` that names a folder, or whose folder cannot be
 written (a file in its way, a read-only file system), fail before the test runs.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -22,8 +23,15 @@ from mmocap.errors import ConfigError
 from mmocap.io import check_writable_folder
 from mmocap.validate import check_number
 
-COLUMN_NAMES = {"algorithm": "Algorithm", "rank": "Rank", "z": "z", "p": "p-value",
-                "holm_alpha": "Holm alpha", "holm_p": "Holm p", "significant": "Significant"}
+COLUMN_NAMES = {
+    "algorithm": "Algorithm",
+    "rank": "Rank",
+    "z": "z",
+    "p": "p-value",
+    "holm_alpha": "Holm alpha",
+    "holm_p": "Holm p",
+    "significant": "Significant",
+}
 P_FORMATS: dict[str, Format] = {"p-value": format_p, "Holm p": format_p, "Holm alpha": ".4f"}
 
 
@@ -34,15 +42,20 @@ def comparisons_table(result: FriedmanHolm) -> pd.DataFrame:
 
 def parse_args(argv, prog: str = "mmocap stats"):
     """The command-line arguments of ``mmocap stats`` (see the module's docstring) as a namespace."""
-    parser = argparse.ArgumentParser(prog=prog,
-                                     description=__doc__.split("\n\n")[0])
+    parser = argparse.ArgumentParser(prog=prog, description=__doc__.split("\n\n")[0])
     parser.add_argument("table", type=Path, help="CSV or Parquet file, one row per measurement")
-    parser.add_argument("--block", default="sequence,seed",
-                        help="comma-separated columns that together name a block (default: %(default)s)")
+    parser.add_argument(
+        "--block",
+        default="sequence,seed",
+        help="comma-separated columns that together name a block (default: %(default)s)",
+    )
     parser.add_argument("--algorithm", default="algorithm", help="column naming the algorithm")
     parser.add_argument("--value", default="mean_marker_error_mm", help="numeric column compared")
-    parser.add_argument("--higher-is-better", action="store_true",
-                        help="rank the highest value first (default: the lowest, as for an error)")
+    parser.add_argument(
+        "--higher-is-better",
+        action="store_true",
+        help="rank the highest value first (default: the lowest, as for an error)",
+    )
     parser.add_argument("--control", help="control algorithm (default: the best-ranked)")
     parser.add_argument("--alpha", type=float, default=0.05, help="significance level")
     parser.add_argument("--out", help="write OUT.csv, OUT.md and OUT.tex (OUT: a path without suffix)")
@@ -54,8 +67,9 @@ def output_stem(out: str) -> Path:
     a ConfigError if it names a folder, a WriteError naming the folder that cannot be written."""
     stem = Path(out)
     if out.endswith(("/", os.sep)) or stem.is_dir():
-        raise ConfigError(f"--out {out} is a folder; give the stem of the files to write, "
-                          f"e.g. --out {stem / 'friedman'}")
+        raise ConfigError(
+            f"--out {out} is a folder; give the stem of the files to write, e.g. --out {stem / 'friedman'}"
+        )
     check_writable_folder(stem.parent)
     return stem
 
@@ -67,15 +81,21 @@ def run(args) -> FriedmanHolm:
     out = output_stem(args.out) if args.out else None
     table = read_table(args.table)
     blocks = [c.strip() for c in args.block.split(",") if c.strip()]
-    result = friedman_holm(table, blocks, args.algorithm, args.value,
-                           higher_is_better=args.higher_is_better, control=args.control,
-                           alpha=alpha, source=str(args.table))
+    result = friedman_holm(
+        table,
+        blocks,
+        args.algorithm,
+        args.value,
+        higher_is_better=args.higher_is_better,
+        control=args.control,
+        alpha=alpha,
+        source=str(args.table),
+    )
     title = f"Friedman ranks of {args.value} by {args.algorithm}, Holm vs {result.control}"
     shown = comparisons_table(result)
     print(to_markdown(shown, title, result.summary(), formats=P_FORMATS))
     if out:
-        paths = write_table(shown, out, title=f"{title}. {result.summary()}",
-                            source=args.table, formats=P_FORMATS)
+        paths = write_table(shown, out, title=f"{title}. {result.summary()}", source=args.table, formats=P_FORMATS)
         print("written: " + ", ".join(map(str, paths)))
     return result
 

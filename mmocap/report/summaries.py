@@ -5,6 +5,7 @@ first) of every summary.json below FOLDER. A run without ground truth (a null me
 error) is listed last, with a warning naming it; a summary that
 :func:`mmocap.run_folder.read_summary` refuses is an error naming the file.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -18,9 +19,20 @@ from mmocap.io import write_text_atomic
 from mmocap.run_folder import SUMMARY, read_summary, summary_paths
 
 ERRORS = ["mean_marker_error_mm", "median_marker_error_mm", "max_marker_error_mm"]
-COLUMNS = ["optimizer", "strategy", "dof", "evaluations_per_frame", "subject", "action", "frames",
-           "mean_marker_error_mm", "median_marker_error_mm", "max_marker_error_mm",
-           "seconds_per_frame", "backend"]
+COLUMNS = [
+    "optimizer",
+    "strategy",
+    "dof",
+    "evaluations_per_frame",
+    "subject",
+    "action",
+    "frames",
+    "mean_marker_error_mm",
+    "median_marker_error_mm",
+    "max_marker_error_mm",
+    "seconds_per_frame",
+    "backend",
+]
 
 
 def collect(folder: Path) -> pd.DataFrame:
@@ -34,9 +46,12 @@ def collect(folder: Path) -> pd.DataFrame:
     table = pd.DataFrame(rows).astype({key: float for key in ERRORS})
     unscored = table.loc[table["mean_marker_error_mm"].isna(), "run"].tolist()
     if unscored:
-        warnings.warn(f"{len(unscored)} run(s) without ground truth (mean_marker_error_mm null), listed "
-                      f"last: {', '.join(unscored[:3])}{', ...' if len(unscored) > 3 else ''}",
-                      MmocapWarning, stacklevel=2)
+        warnings.warn(
+            f"{len(unscored)} run(s) without ground truth (mean_marker_error_mm null), listed "
+            f"last: {', '.join(unscored[:3])}{', ...' if len(unscored) > 3 else ''}",
+            MmocapWarning,
+            stacklevel=2,
+        )
     return table.sort_values("mean_marker_error_mm", ignore_index=True, na_position="last")
 
 

@@ -4,6 +4,7 @@ The error of a frame is Eq. 20 of the Yeguas paper: the mean Euclidean distance 
 between the estimated and true marker positions, over the markers present (NaN = missing);
 a sequence's error is the mean over its frames.
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -26,8 +27,7 @@ def marker_error(estimated: np.ndarray, truth: np.ndarray) -> np.ndarray:
     dist = np.linalg.norm(estimated - truth, axis=-1)
     present = ~np.isnan(dist)
     with np.errstate(invalid="ignore"):
-        return np.where(present.any(axis=1),
-                        np.nansum(dist, axis=1) / np.maximum(present.sum(axis=1), 1), np.nan)
+        return np.where(present.any(axis=1), np.nansum(dist, axis=1) / np.maximum(present.sum(axis=1), 1), np.nan)
 
 
 class FrameLog:
@@ -49,12 +49,14 @@ class FrameLog:
         self.writer = csv.writer(self.file)
         self._write_row(["frame", "marker_error_mm", "fitness", "evaluations", "seconds", *parameter_names()])
 
-    def write(self, frame: int, error_mm: float, fitness: float, evaluations: int,
-              seconds: float, pose: np.ndarray) -> None:
+    def write(
+        self, frame: int, error_mm: float, fitness: float, evaluations: int, seconds: float, pose: np.ndarray
+    ) -> None:
         """Append and flush the row of ``frame``: its marker error (mm), fitness, evaluations,
         seconds and (51,) pose (mm, rad)."""
-        self._write_row([frame, f"{error_mm:.3f}", f"{fitness:.6f}", evaluations,
-                         f"{seconds:.4f}", *(f"{v:.6f}" for v in pose)])
+        self._write_row(
+            [frame, f"{error_mm:.3f}", f"{fitness:.6f}", evaluations, f"{seconds:.4f}", *(f"{v:.6f}" for v in pose)]
+        )
 
     def _write_row(self, row: list) -> None:
         with writing(self.partial):

@@ -15,6 +15,7 @@ A model has ``fit(frames, name=None)`` and ``apply(image, name=None) -> (H, W) b
 Every model ends with the same optional clean-up of the binary mask (:class:`Cleanup`):
 opening, closing, removal of small components, keeping only the largest one.
 """
+
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
@@ -56,8 +57,7 @@ class Cleanup:
         largest_only: keep only the largest component (one person in the scene).
     """
 
-    def __init__(self, open_px: int = 0, close_px: int = 3, min_area_px: int = 50,
-                 largest_only: bool = False):
+    def __init__(self, open_px: int = 0, close_px: int = 3, min_area_px: int = 50, largest_only: bool = False):
         self.open_px = check_number("background.open_px", open_px, 0, integer=True)
         self.close_px = check_number("background.close_px", close_px, 0, integer=True)
         self.min_area_px = check_number("background.min_area_px", min_area_px, 0, integer=True)
@@ -75,7 +75,7 @@ class Cleanup:
         count, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
         area = stats[:, cv2.CC_STAT_AREA]
         keep = area >= self.min_area_px
-        keep[0] = False                                     # label 0 is the background
+        keep[0] = False  # label 0 is the background
         if self.largest_only and count > 1:
             keep &= np.arange(count) == 1 + np.argmax(area[1:])
         return keep[labels]
@@ -90,8 +90,7 @@ class BackgroundModel(ABC):
 
     min_frames = 2
 
-    def __init__(self, open_px: int = 0, close_px: int = 3, min_area_px: int = 50,
-                 largest_only: bool = False):
+    def __init__(self, open_px: int = 0, close_px: int = 3, min_area_px: int = 50, largest_only: bool = False):
         self.cleanup = Cleanup(open_px, close_px, min_area_px, largest_only)
         self._shape: tuple | None = None
 
@@ -99,16 +98,16 @@ class BackgroundModel(ABC):
         """Estimate the model from background frames, all (H, W) or all (H, W, ch)."""
         frames = list(frames)
         if len(frames) < self.min_frames:
-            raise DataError(f"{_where(name)}the {type(self).__name__} model needs at least "
-                            f"{self.min_frames} background frames, got {len(frames)}")
+            raise DataError(
+                f"{_where(name)}the {type(self).__name__} model needs at least "
+                f"{self.min_frames} background frames, got {len(frames)}"
+            )
         shape = np.shape(frames[0])
         if len(shape) not in (2, 3):
-            raise DataError(f"{_where(name)}background frame 0 has shape {shape}, "
-                            "expected (H, W) or (H, W, channels)")
+            raise DataError(f"{_where(name)}background frame 0 has shape {shape}, expected (H, W) or (H, W, channels)")
         for k, frame in enumerate(frames):
             if np.shape(frame) != shape:
-                raise DataError(f"{_where(name)}background frame {k} has shape {np.shape(frame)}, "
-                                f"frame 0 has {shape}")
+                raise DataError(f"{_where(name)}background frame {k} has shape {np.shape(frame)}, frame 0 has {shape}")
         self._fit([np.asarray(f) for f in frames])
         self._shape = shape
         return self
@@ -122,8 +121,10 @@ class BackgroundModel(ABC):
         if self._shape is None:
             raise RuntimeError(f"{type(self).__name__}.apply called before fit")
         if np.shape(image) != self._shape:
-            raise DataError(f"{_where(name)}image has shape {np.shape(image)} but the background "
-                            f"model was fit on frames of shape {self._shape}")
+            raise DataError(
+                f"{_where(name)}image has shape {np.shape(image)} but the background "
+                f"model was fit on frames of shape {self._shape}"
+            )
 
     @abstractmethod
     def _fit(self, frames: list[np.ndarray]) -> None:
@@ -160,8 +161,15 @@ class GaussianBackground(BackgroundModel):
         open_px, close_px, min_area_px, largest_only: the :class:`Cleanup`.
     """
 
-    def __init__(self, threshold: float = 4.0, min_sigma: float = 3.0, open_px: int = 0,
-                 close_px: int = 3, min_area_px: int = 50, largest_only: bool = False):
+    def __init__(
+        self,
+        threshold: float = 4.0,
+        min_sigma: float = 3.0,
+        open_px: int = 0,
+        close_px: int = 3,
+        min_area_px: int = 50,
+        largest_only: bool = False,
+    ):
         self.threshold = check_number("background.threshold", threshold, 0, low_open=True)
         self.min_sigma = check_number("background.min_sigma", min_sigma, 0, low_open=True)
         super().__init__(open_px, close_px, min_area_px, largest_only)
@@ -234,19 +242,29 @@ class HorprasertBackground(BackgroundModel):
     """
 
     min_frames = 3
-    MIN_ALPHA_RMS = 1e-3   # floor of rms(alpha - 1): a fraction of the brightness
-    MIN_CD_RMS = 0.1       # floor of rms(CD): in units of the spread s
+    MIN_ALPHA_RMS = 1e-3  # floor of rms(alpha - 1): a fraction of the brightness
+    MIN_CD_RMS = 0.1  # floor of rms(CD): in units of the spread s
     RMS_SMOOTHING_PX = 2.0  # sigma of the averaging of s^2 and of the RMS, pixels
 
-    def __init__(self, detection_rate: float = 0.999, min_sigma: float = 2.0,
-                 shadow_min_alpha: float = 0.55, highlight_max_alpha: float = 1.5,
-                 grey_window_px: int = 5, open_px: int = 0, close_px: int = 3,
-                 min_area_px: int = 50, largest_only: bool = False):
-        self.detection_rate = check_number("background.detection_rate", detection_rate, 0, 1,
-                                           low_open=True, high_open=True)
+    def __init__(
+        self,
+        detection_rate: float = 0.999,
+        min_sigma: float = 2.0,
+        shadow_min_alpha: float = 0.55,
+        highlight_max_alpha: float = 1.5,
+        grey_window_px: int = 5,
+        open_px: int = 0,
+        close_px: int = 3,
+        min_area_px: int = 50,
+        largest_only: bool = False,
+    ):
+        self.detection_rate = check_number(
+            "background.detection_rate", detection_rate, 0, 1, low_open=True, high_open=True
+        )
         self.min_sigma = check_number("background.min_sigma", min_sigma, 0, low_open=True)
-        self.shadow_min_alpha = check_number("background.shadow_min_alpha", shadow_min_alpha, 0, 1,
-                                             low_open=True, high_open=True)
+        self.shadow_min_alpha = check_number(
+            "background.shadow_min_alpha", shadow_min_alpha, 0, 1, low_open=True, high_open=True
+        )
         self.highlight_max_alpha = check_number("background.highlight_max_alpha", highlight_max_alpha, 0, low_open=True)
         if self.highlight_max_alpha <= 1:
             raise ConfigError(f"background.highlight_max_alpha must be > 1, got {highlight_max_alpha!r}")
@@ -254,10 +272,10 @@ class HorprasertBackground(BackgroundModel):
         if self.grey_window_px % 2 == 0:
             raise ConfigError(f"background.grey_window_px must be odd, got {grey_window_px!r}")
         super().__init__(open_px, close_px, min_area_px, largest_only)
-        self.mean: np.ndarray | None = None          # (H, W, ch) E, grey levels
-        self.std: np.ndarray | None = None           # (H, W, ch) s, grey levels
-        self.alpha_rms: np.ndarray | None = None     # (H, W) rms(alpha - 1)
-        self.cd_rms: np.ndarray | None = None        # (H, W) rms(CD)
+        self.mean: np.ndarray | None = None  # (H, W, ch) E, grey levels
+        self.std: np.ndarray | None = None  # (H, W, ch) s, grey levels
+        self.alpha_rms: np.ndarray | None = None  # (H, W) rms(alpha - 1)
+        self.cd_rms: np.ndarray | None = None  # (H, W) rms(CD)
         self.tau_cd: float | None = None
         self.tau_alpha_low: float | None = None
         self.tau_alpha_high: float | None = None
@@ -273,8 +291,7 @@ class HorprasertBackground(BackgroundModel):
         """(H, W) -> (H, W, K): per pixel, the sum over its window of ``x`` times each of the
         K (w, w) ``kernels`` (functions of the offset from the pixel)."""
         x = x.astype(np.float64)
-        return np.stack([cv2.filter2D(x, -1, k, borderType=cv2.BORDER_REFLECT) for k in kernels],
-                        axis=-1)
+        return np.stack([cv2.filter2D(x, -1, k, borderType=cv2.BORDER_REFLECT) for k in kernels], axis=-1)
 
     def _prepare(self) -> None:
         """Per-pixel terms of alpha and CD that depend on the background only."""
@@ -286,7 +303,7 @@ class HorprasertBackground(BackgroundModel):
         if w > 1:
             # brightness plane 1, dx, dy over the window: its weighted normal matrix, inverted
             r = w // 2
-            dy, dx = np.mgrid[-r:r + 1, -r:r + 1].astype(np.float64)
+            dy, dx = np.mgrid[-r : r + 1, -r : r + 1].astype(np.float64)
             self._plane = (np.ones((w, w)), dx, dy)
             pairs = [(k, l) for k in range(3) for l in range(k, 3)]
             sums = self._window_sums(self._e2, [self._plane[k] * self._plane[l] for k, l in pairs])
@@ -304,7 +321,7 @@ class HorprasertBackground(BackgroundModel):
         i2 = (f * f * self._inv_var).sum(axis=2)
         alpha = ie / self._e2
         if self._window() == 1:
-            cd2 = i2 - alpha * ie                                   # sum((I - alpha E)^2 / s^2)
+            cd2 = i2 - alpha * ie  # sum((I - alpha E)^2 / s^2)
         else:
             # sum((I - (a + b dx + c dy) E)^2 / s^2) at the weighted least-squares a, b, c
             v = self._window_sums(ie, self._plane)
@@ -319,15 +336,16 @@ class HorprasertBackground(BackgroundModel):
         self._prepare()
         n = len(frames)
         # Each frame against the mean of the others: I_k - E_{-k} = n / (n - 1) (I_k - E).
-        alphas, cds = zip(*(self.distortions(self.mean + (_as_channels(f) - self.mean) * (n / (n - 1)))
-                            for f in frames))
+        alphas, cds = zip(
+            *(self.distortions(self.mean + (_as_channels(f) - self.mean) * (n / (n - 1))) for f in frames)
+        )
         alphas, cds = np.stack(alphas), np.stack(cds)
-        self.alpha_rms = np.maximum(np.sqrt(self._smooth(np.mean((alphas - 1) ** 2, axis=0))),
-                                    self.MIN_ALPHA_RMS)
+        self.alpha_rms = np.maximum(np.sqrt(self._smooth(np.mean((alphas - 1) ** 2, axis=0))), self.MIN_ALPHA_RMS)
         self.cd_rms = np.maximum(np.sqrt(self._smooth(np.mean(cds * cds, axis=0))), self.MIN_CD_RMS)
         r = self.detection_rate
-        self.tau_alpha_low, self.tau_alpha_high = (float(q) for q in np.quantile(
-            (alphas - 1) / self.alpha_rms, [(1 - r) / 2, (1 + r) / 2]))
+        self.tau_alpha_low, self.tau_alpha_high = (
+            float(q) for q in np.quantile((alphas - 1) / self.alpha_rms, [(1 - r) / 2, (1 + r) / 2])
+        )
         self.tau_cd = float(np.quantile(cds / self.cd_rms, r))
 
     def classify(self, image: np.ndarray, name: str | None = None) -> np.ndarray:
@@ -338,8 +356,9 @@ class HorprasertBackground(BackgroundModel):
         labels = np.full(alpha.shape, BACKGROUND, np.uint8)
         labels[alpha_n < self.tau_alpha_low] = SHADOW
         labels[alpha_n > self.tau_alpha_high] = HIGHLIGHT
-        foreground = ((cd / self.cd_rms > self.tau_cd) | (alpha < self.shadow_min_alpha)
-                      | (alpha > self.highlight_max_alpha))
+        foreground = (
+            (cd / self.cd_rms > self.tau_cd) | (alpha < self.shadow_min_alpha) | (alpha > self.highlight_max_alpha)
+        )
         if self._window() > 1:
             # CD describes the neighbourhood: a pixel as bright as its background stays background
             foreground &= labels != BACKGROUND
@@ -365,12 +384,18 @@ class OpenCVBackground(BackgroundModel):
 
     METHODS = ("mog2", "knn")
 
-    def __init__(self, method: str = "mog2", threshold: float = 16.0, detect_shadows: bool = True,
-                 open_px: int = 0, close_px: int = 3, min_area_px: int = 50,
-                 largest_only: bool = False):
+    def __init__(
+        self,
+        method: str = "mog2",
+        threshold: float = 16.0,
+        detect_shadows: bool = True,
+        open_px: int = 0,
+        close_px: int = 3,
+        min_area_px: int = 50,
+        largest_only: bool = False,
+    ):
         if method not in self.METHODS:
-            raise ConfigError(f"background.method must be one of {', '.join(self.METHODS)}, "
-                              f"got {method!r}")
+            raise ConfigError(f"background.method must be one of {', '.join(self.METHODS)}, got {method!r}")
         detect_shadows = check_flag("background.detect_shadows", detect_shadows)
         self.method = method
         self.threshold = check_number("background.threshold", threshold, 0, low_open=True)
@@ -385,7 +410,7 @@ class OpenCVBackground(BackgroundModel):
         else:
             self.subtractor = cv2.createBackgroundSubtractorKNN(n, self.threshold, self.detect_shadows)
         for frame in frames:
-            self.subtractor.apply(frame, learningRate=-1)   # automatic rate 1 / frames seen
+            self.subtractor.apply(frame, learningRate=-1)  # automatic rate 1 / frames seen
         self.subtractor.apply(frames[-1], learningRate=self._frozen_rate)
 
     @property

@@ -26,6 +26,7 @@ A level's evaluations are counted in the frame's ``evaluations``; its fitness va
 not comparable with the exact ones and stay out of the frame's convergence trace, which
 counts them (:meth:`mmocap.stages.tracking.Trace.skip`).
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
@@ -86,8 +87,10 @@ def check_levels(levels) -> list[FidelityLevel]:
             raise ConfigError(f"{where} must be a mapping with scale, vertices and evaluations, got {level!r}")
         unknown = sorted(set(level.keys()) - {"scale", "vertices", "evaluations", "optimizer"})
         if unknown:
-            raise ConfigError(f"{where} has unknown key(s) {', '.join(map(str, unknown))}: "
-                              "give scale, vertices, evaluations and optionally optimizer")
+            raise ConfigError(
+                f"{where} has unknown key(s) {', '.join(map(str, unknown))}: "
+                "give scale, vertices, evaluations and optionally optimizer"
+            )
         if "evaluations" not in level:
             raise ConfigError(f"{where} needs evaluations (the level's evaluations per frame)")
         scale = check_number(f"{where}.scale", level.get("scale", 1.0), 0, 1, low_open=True)
@@ -97,8 +100,9 @@ def check_levels(levels) -> list[FidelityLevel]:
         evaluations = check_number(f"{where}.evaluations", level["evaluations"], 2, 10**8, integer=True)
         settings = level.get("optimizer") or {}
         if not hasattr(settings, "keys"):
-            raise ConfigError(f"{where}.optimizer must be a mapping of optimiser settings, e.g. {{popsize: 28}}, "
-                              f"got {settings!r}")
+            raise ConfigError(
+                f"{where}.optimizer must be a mapping of optimiser settings, e.g. {{popsize: 28}}, got {settings!r}"
+            )
         checked.append(FidelityLevel(float(scale), vertices, int(evaluations), dict(settings)))
     return checked
 
@@ -151,8 +155,10 @@ class Fidelity:
         self.carry = check_flag("fidelity.carry", carry)
         own = [k for k, level in enumerate(self.levels) if level.optimizer]
         if own and self.carry:
-            raise ConfigError(f"fidelity.levels[{own[0]}].optimizer needs fidelity.carry=false: with carry, one "
-                              "optimiser carries on over every level")
+            raise ConfigError(
+                f"fidelity.levels[{own[0]}].optimizer needs fidelity.carry=false: with carry, one "
+                "optimiser carries on over every level"
+            )
         if own and optimizer is None:
             raise ConfigError("fidelity.levels with optimizer settings need an optimizer factory")
         self._new_evaluator = evaluator
@@ -166,8 +172,10 @@ class Fidelity:
         """A ConfigError unless ``strategy`` can search these levels: carrying on needs the
         holistic strategy, whose one search spans the frame."""
         if self.levels and self.carry and strategy.name != "holistic":
-            raise ConfigError(f"fidelity.carry=true needs strategy=holistic (the {strategy.name} strategy "
-                              "searches its steps one after another): set fidelity.carry=false")
+            raise ConfigError(
+                f"fidelity.carry=true needs strategy=holistic (the {strategy.name} strategy "
+                "searches its steps one after another): set fidelity.carry=false"
+            )
 
     @property
     def enabled(self) -> bool:
@@ -197,8 +205,11 @@ class Fidelity:
             self._evaluators = [self._new_evaluator() for _ in self.levels]
         for level, evaluator in zip(self.levels, self._evaluators):
             small = [shrunk_camera(cam, level.scale) for cam in cameras]
-            evaluator.setup(self.level_body(body, level.vertices), small,
-                            [shrunk_mask(m, cam.width, cam.height) for m, cam in zip(masks, small)])
+            evaluator.setup(
+                self.level_body(body, level.vertices),
+                small,
+                [shrunk_mask(m, cam.width, cam.height) for m, cam in zip(masks, small)],
+            )
 
     def warm_up(self, body, cameras, masks, x0: np.ndarray) -> None:
         """One untimed evaluation of the start pose x0 (51,) at every level on frame 0 (C
@@ -211,8 +222,9 @@ class Fidelity:
         for level, evaluator in zip(self.levels, self._evaluators):
             evaluator(self.level_body(body, level.vertices).clip(np.asarray(x0)[None]))
 
-    def estimate(self, strategy, body, x_prev: np.ndarray, exact, optimizer, budget: int,
-                 rng) -> tuple[np.ndarray, float, int]:
+    def estimate(
+        self, strategy, body, x_prev: np.ndarray, exact, optimizer, budget: int, rng
+    ) -> tuple[np.ndarray, float, int]:
         """One frame from ``x_prev`` (51,): the levels, then ``budget`` exact evaluations by
         ``exact`` (a :class:`~mmocap.stages.tracking.Trace`, told of the cheap ones);
         returns (pose (51,), its exact fitness, evaluations, the cheap ones included)."""
@@ -228,13 +240,15 @@ class Fidelity:
         returns the last level's pose (51,) and the evaluations they spent."""
         x, used = np.asarray(x_prev, np.float64), 0
         for level, evaluator, own in zip(self.levels, self._evaluators, self._optimizers):
-            x, _, n = strategy.estimate(self.level_body(body, level.vertices), x, evaluator, own or optimizer,
-                                        level.evaluations, rng)
+            x, _, n = strategy.estimate(
+                self.level_body(body, level.vertices), x, evaluator, own or optimizer, level.evaluations, rng
+            )
             used += n
         return x, used
 
-    def carried_search(self, strategy, body, x_prev: np.ndarray, exact, optimizer, budget: int,
-                       rng) -> tuple[np.ndarray, float, int]:
+    def carried_search(
+        self, strategy, body, x_prev: np.ndarray, exact, optimizer, budget: int, rng
+    ) -> tuple[np.ndarray, float, int]:
         """One search over the levels then the exact fitness: the optimiser's state (its
         mean, step size, covariance) carries on from level to level, a call going to the
         level its first candidate falls in. ``exact`` (a :class:`~mmocap.stages.tracking.Trace`)

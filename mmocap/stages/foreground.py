@@ -19,6 +19,7 @@ writes another folder; files are written to a temporary name and renamed, so an 
 run never leaves a partial one. The default ``cache_dir`` is ``outputs/cache/foreground``
 (relative to the working directory, like the runs), which keeps datasets read-only.
 """
+
 from __future__ import annotations
 
 import functools
@@ -38,15 +39,18 @@ from mmocap.io import atomic_writer
 from mmocap.validate import check_number
 
 log = logging.getLogger(__name__)
-CACHE_FORMAT = 1   # bump when the masks of a given configuration change meaning
+CACHE_FORMAT = 1  # bump when the masks of a given configuration change meaning
 DEFAULT_CACHE_DIR = Path("outputs/cache/foreground")
 
 
 def _describe(make_background) -> dict:
     """What determines a background factory's masks: its target and arguments."""
     if isinstance(make_background, functools.partial):
-        return {**_describe(make_background.func), "args": list(make_background.args),
-                "kwargs": dict(sorted(make_background.keywords.items()))}
+        return {
+            **_describe(make_background.func),
+            "args": list(make_background.args),
+            "kwargs": dict(sorted(make_background.keywords.items())),
+        }
     return {"target": f"{make_background.__module__}.{make_background.__qualname__}"}
 
 
@@ -110,8 +114,7 @@ class MaskCache:
             with atomic_writer(self.path(frame), "wb") as f:
                 np.savez(f, **{cam.name: m.packed for cam, m in zip(self.cameras, masks)})  # type: ignore[arg-type]  # packed: masks from a frame
         except OSError as exc:
-            log.warning("foreground cache %s not writable (%s); masks will not be cached",
-                        self.folder, exc)
+            log.warning("foreground cache %s not writable (%s); masks will not be cached", self.folder, exc)
             self._writable = False
 
 
@@ -129,8 +132,11 @@ class Foreground:
         self.sequence = sequence
         self.make_background = make_background
         self._models: list | None = None
-        self.cache = None if cache_dir is None else MaskCache(
-            Path(cache_dir) / cache_key(sequence, make_background), sequence.cameras)
+        self.cache = (
+            None
+            if cache_dir is None
+            else MaskCache(Path(cache_dir) / cache_key(sequence, make_background), sequence.cameras)
+        )
 
     @property
     def cameras(self):
@@ -141,15 +147,16 @@ class Foreground:
     def models(self) -> list:
         """One fitted background model per camera (fit on first use)."""
         if self._models is None:
-            self._models = [self.make_background().fit(self.sequence.background(cam), name=cam.name)
-                            for cam in self.sequence.cameras]
+            self._models = [
+                self.make_background().fit(self.sequence.background(cam), name=cam.name)
+                for cam in self.sequence.cameras
+            ]
         return self._models
 
     def detect(self, frame: int, images: list[np.ndarray] | None = None) -> list[np.ndarray]:
         """(H, W) bool foreground per camera in the images' own (distorted) geometry."""
         images = self.sequence.images(frame) if images is None else images
-        return [model.apply(img, name=cam.name)
-                for cam, model, img in zip(self.sequence.cameras, self.models, images)]
+        return [model.apply(img, name=cam.name) for cam, model, img in zip(self.sequence.cameras, self.models, images)]
 
     def masks(self, frame: int, images: list[np.ndarray] | None = None) -> list[ForegroundMask]:
         """Undistorted foreground per camera for ``frame``; from the cache unless ``images``
@@ -159,8 +166,10 @@ class Foreground:
             cached = self.cache.load(frame)  # type: ignore[union-attr]  # use_cache: a cache
             if cached is not None:
                 return cached
-        masks = [ForegroundMask(cam.undistort_mask(mask))
-                 for cam, mask in zip(self.sequence.cameras, self.detect(frame, images))]
+        masks = [
+            ForegroundMask(cam.undistort_mask(mask))
+            for cam, mask in zip(self.sequence.cameras, self.detect(frame, images))
+        ]
         if use_cache:
             self.cache.save(frame, masks)  # type: ignore[union-attr]  # use_cache: a cache
         return masks
@@ -185,20 +194,19 @@ class ForegroundCoverage:
 
     ACTIONS = ("stop", "drop")
 
-    def __init__(self, action: str = "stop", min_fraction: float = 0.001, max_fraction: float = 0.5,
-                 frames: int = 5):
+    def __init__(self, action: str = "stop", min_fraction: float = 0.001, max_fraction: float = 0.5, frames: int = 5):
         if action not in self.ACTIONS:
             raise ConfigError(f"coverage.action must be one of {', '.join(self.ACTIONS)}, got {action!r}")
         self.action = action
         self.min_fraction = check_number("coverage.min_fraction", min_fraction, 0.0, 1.0)
-        self.max_fraction = check_number("coverage.max_fraction", max_fraction, self.min_fraction, 1.0,
-                                         low_open=True)
+        self.max_fraction = check_number("coverage.max_fraction", max_fraction, self.min_fraction, 1.0, low_open=True)
         self.frames = check_number("coverage.frames", frames, 1, integer=True)
         self._streak: dict[str, int] = {}
         self.dropped: list[str] = []
 
-    def select(self, frame: int, cameras: list, masks: list[ForegroundMask], last_frame: int
-               ) -> tuple[list, list[ForegroundMask]]:
+    def select(
+        self, frame: int, cameras: list, masks: list[ForegroundMask], last_frame: int
+    ) -> tuple[list, list[ForegroundMask]]:
         """The cameras (and their masks) to track ``frame`` with: those not dropped.
 
         ``last_frame`` is the run's last frame: a camera faulty on every frame of a run
@@ -213,22 +221,33 @@ class ForegroundCoverage:
             self._streak[cam.name] = self._streak.get(cam.name, 0) + 1 if low or high else 0
             streak = self._streak[cam.name]
             if streak >= self.frames or (frame == last_frame and streak == frame + 1):
-                what = (f"below coverage.min_fraction={self.min_fraction:g}: the camera sees no person "
-                        "(black, covered or out-of-view images?)" if low else
-                        f"above coverage.max_fraction={self.max_fraction:g}: its background model does "
-                        "not fit the scene (camera moved, light changed, wrong background frames?)")
-                message = (f"camera {cam.name}: foreground covers {fraction:.2%} of the image, {what}, "
-                           f"in frames {frame - streak + 1}-{frame}")
+                what = (
+                    f"below coverage.min_fraction={self.min_fraction:g}: the camera sees no person "
+                    "(black, covered or out-of-view images?)"
+                    if low
+                    else f"above coverage.max_fraction={self.max_fraction:g}: its background model does "
+                    "not fit the scene (camera moved, light changed, wrong background frames?)"
+                )
+                message = (
+                    f"camera {cam.name}: foreground covers {fraction:.2%} of the image, {what}, "
+                    f"in frames {frame - streak + 1}-{frame}"
+                )
                 if self.action == "stop":
-                    raise DataError(f"{message}; check that camera's images, or set coverage.action=drop "
-                                    "to track without it")
-                warnings.warn(f"{message}; dropped from the tracking from frame {frame} on "
-                              "(coverage.action=drop)", MmocapWarning, stacklevel=2)
+                    raise DataError(
+                        f"{message}; check that camera's images, or set coverage.action=drop to track without it"
+                    )
+                warnings.warn(
+                    f"{message}; dropped from the tracking from frame {frame} on (coverage.action=drop)",
+                    MmocapWarning,
+                    stacklevel=2,
+                )
                 self.dropped.append(cam.name)
                 continue
             kept_cameras.append(cam)
             kept_masks.append(mask)
         if not kept_cameras:
-            raise DataError(f"frame {frame}: no camera left to track with (dropped: "
-                            f"{', '.join(self.dropped)}); check the cameras' images and background frames")
+            raise DataError(
+                f"frame {frame}: no camera left to track with (dropped: "
+                f"{', '.join(self.dropped)}); check the cameras' images and background frames"
+            )
         return kept_cameras, kept_masks

@@ -33,6 +33,7 @@ finds both from the foreground masks of the first frame:
 World axes are mmocap's (y up, mm). The cost (seconds, evaluations) is returned and
 recorded in the run's summary.
 """
+
 from __future__ import annotations
 
 import logging
@@ -75,10 +76,17 @@ class StartResult:
 
     def summary(self) -> dict:
         """The facts a run records about its start (JSON types)."""
-        return {"method": "search", "seconds": round(self.seconds, 3), "evaluations": int(self.evaluations),
-                "fitness": float(self.fitness), "heading_rad": float(self.pose[ROOT_YAW]),
-                "hull_height_mm": round(self.height_mm, 1), "floor_y_mm": round(self.floor_y_mm, 1),
-                "body_height_mm": float(self.body.subject.height_mm), "body_girth": float(self.body.subject.girth)}
+        return {
+            "method": "search",
+            "seconds": round(self.seconds, 3),
+            "evaluations": int(self.evaluations),
+            "fitness": float(self.fitness),
+            "heading_rad": float(self.pose[ROOT_YAW]),
+            "hull_height_mm": round(self.height_mm, 1),
+            "floor_y_mm": round(self.floor_y_mm, 1),
+            "body_height_mm": float(self.body.subject.height_mm),
+            "body_girth": float(self.body.subject.girth),
+        }
 
 
 def silhouette_rays(cameras, masks) -> tuple[np.ndarray, np.ndarray]:
@@ -102,18 +110,23 @@ def nearest_point_to_rays(centres: np.ndarray, directions: np.ndarray) -> np.nda
     s ``directions``, (C, 3) each, unit directions); a DataError with fewer than two rays
     or parallel ones."""
     if len(centres) < 2:
-        raise DataError("the automatic start needs a person in the foreground of at least two cameras "
-                        f"in the first frame, found {len(centres)}: check the foreground, or give the first pose")
+        raise DataError(
+            "the automatic start needs a person in the foreground of at least two cameras "
+            f"in the first frame, found {len(centres)}: check the foreground, or give the first pose"
+        )
     projectors = np.eye(3)[None] - directions[:, :, None] * directions[:, None, :]
     A = projectors.sum(axis=0)
     if np.linalg.cond(A) > 1e8:
-        raise DataError("the cameras' rays through the person's silhouettes are parallel: the cameras "
-                        "cannot place the person; give the first pose")
+        raise DataError(
+            "the cameras' rays through the person's silhouettes are parallel: the cameras "
+            "cannot place the person; give the first pose"
+        )
     return np.linalg.solve(A, np.einsum("cij,cj->i", projectors, centres))
 
 
-def visual_hull(cameras, masks, lower: np.ndarray, upper: np.ndarray, voxel_mm: float,
-                min_views: int = 2) -> np.ndarray:
+def visual_hull(
+    cameras, masks, lower: np.ndarray, upper: np.ndarray, voxel_mm: float, min_views: int = 2
+) -> np.ndarray:
     """(N, 3) mm centres of the voxels of side ``voxel_mm`` in the box ``lower``-``upper``
     ((3,) mm) that lie inside the foreground of every camera that sees them, and are seen
     by at least ``min_views`` cameras. ``masks``: (H, W) bool in the ideal geometry of
@@ -137,8 +150,9 @@ def visual_hull(cameras, masks, lower: np.ndarray, upper: np.ndarray, voxel_mm: 
     return points[inside & (seen >= min_views)]
 
 
-def search_each_limb(strategy, body, x, fitness: float, evaluator, optimizer, evaluations: int, rng,
-                     samples: int = 0, restarts: int = 0):
+def search_each_limb(
+    strategy, body, x, fitness: float, evaluator, optimizer, evaluations: int, rng, samples: int = 0, restarts: int = 0
+):
     """Each step of ``strategy`` but the root (torso and head, each arm, each leg) searched
     alone over its whole joint range, from the pose ``x`` (51,) of ``fitness``, keeping what
     improves; returns (pose, fitness, evaluations used). A limb far from where it was (arms
@@ -149,8 +163,9 @@ def search_each_limb(strategy, body, x, fitness: float, evaluator, optimizer, ev
     the body held) are scored in one batch; then ``optimizer`` searches the whole range from
     ``x`` and from each of the ``restarts`` best samples, ``evaluations`` split evenly
     between these searches."""
-    whole_range = type(strategy)(rotation_radius=np.pi, translation_radius_mm=strategy.translation_radius_mm,
-                                 steps=strategy.steps)
+    whole_range = type(strategy)(
+        rotation_radius=np.pi, translation_radius_mm=strategy.translation_radius_mm, steps=strategy.steps
+    )
     used = 0
     for parts in whole_range.step_groups(body, skip_empty=True)[1:]:
         starts = [x]
@@ -162,8 +177,9 @@ def search_each_limb(strategy, body, x, fitness: float, evaluator, optimizer, ev
             used += samples
             starts += list(drawn[np.argsort(scores, kind="stable")[:restarts]])
         for start in starts:
-            found, found_fitness, n = whole_range.search(body, start, parts, evaluator, optimizer,
-                                                         evaluations // len(starts), rng)
+            found, found_fitness, n = whole_range.search(
+                body, start, parts, evaluator, optimizer, evaluations // len(starts), rng
+            )
             used += n
             if found_fitness < fitness:
                 x, fitness = found, found_fitness
@@ -201,12 +217,27 @@ class AutoStart:
             height for steps 2-3 (unless ``body.height_mm`` is given).
     """
 
-    def __init__(self, mode: str = "auto", headings: int = 12, candidates: int = 4, evaluations: int = 2000,
-                 refined: int = 2, limb_evaluations: int = 2000, limb_samples: int = 2000, limb_restarts: int = 3,
-                 rounds: int = 3, passes: int = 2, rotation_radius: float = 0.6,
-                 translation_radius_mm: float = 200.0, voxel_mm: float = 15.0, girth_steps=(-0.1, 0.1),
-                 height_steps_mm=(-40.0, 40.0), shape_evaluations: int = 800, shape_passes: int = 2,
-                 hull_height_offsets_mm=(0.0, -40.0)):
+    def __init__(
+        self,
+        mode: str = "auto",
+        headings: int = 12,
+        candidates: int = 4,
+        evaluations: int = 2000,
+        refined: int = 2,
+        limb_evaluations: int = 2000,
+        limb_samples: int = 2000,
+        limb_restarts: int = 3,
+        rounds: int = 3,
+        passes: int = 2,
+        rotation_radius: float = 0.6,
+        translation_radius_mm: float = 200.0,
+        voxel_mm: float = 15.0,
+        girth_steps=(-0.1, 0.1),
+        height_steps_mm=(-40.0, 40.0),
+        shape_evaluations: int = 800,
+        shape_passes: int = 2,
+        hull_height_offsets_mm=(0.0, -40.0),
+    ):
         self.mode = check_choice("start.mode", mode, START_MODES)
         self.headings = check_number("start.headings", headings, 1, 360, integer=True)
         self.candidates = check_number("start.candidates", candidates, 1, self.headings, integer=True)
@@ -215,19 +246,23 @@ class AutoStart:
         self.rounds = check_number("start.rounds", rounds, 1, 100, integer=True)
         self.passes = check_number("start.passes", passes, 1, 100, integer=True)
         self.rotation_radius = check_number("start.rotation_radius", rotation_radius, 0, np.pi, low_open=True)
-        self.translation_radius_mm = check_number("start.translation_radius_mm", translation_radius_mm, 0, 5000,
-                                                  low_open=True)
+        self.translation_radius_mm = check_number(
+            "start.translation_radius_mm", translation_radius_mm, 0, 5000, low_open=True
+        )
         self.voxel_mm = check_number("start.voxel_mm", voxel_mm, 2, COARSE_VOXEL_MM)
         girth_span = GIRTH_RANGE[1] - GIRTH_RANGE[0]
         self.girth_steps = [check_number("start.girth_steps", g, -girth_span, girth_span) for g in girth_steps]
         self.height_steps_mm = [check_number("start.height_steps_mm", h, -500, 500) for h in height_steps_mm]
         self.limb_evaluations = check_number("start.limb_evaluations", limb_evaluations, 2, 10**7, integer=True)
         self.shape_evaluations = check_number("start.shape_evaluations", shape_evaluations, 2, 10**7, integer=True)
-        self.hull_height_offsets_mm = [check_number("start.hull_height_offsets_mm", h, -500, 500)
-                                       for h in hull_height_offsets_mm]
+        self.hull_height_offsets_mm = [
+            check_number("start.hull_height_offsets_mm", h, -500, 500) for h in hull_height_offsets_mm
+        ]
         if not self.hull_height_offsets_mm:
-            raise ConfigError("start.hull_height_offsets_mm is empty: give at least one height offset (mm) "
-                              "from the visual hull's height, e.g. [0]")
+            raise ConfigError(
+                "start.hull_height_offsets_mm is empty: give at least one height offset (mm) "
+                "from the visual hull's height, e.g. [0]"
+            )
         self.shape_passes = check_number("start.shape_passes", shape_passes, 1, 100, integer=True)
         self.limb_samples = check_number("start.limb_samples", limb_samples, 0, 10**6, integer=True)
         self.limb_restarts = check_number("start.limb_restarts", limb_restarts, 0, self.limb_samples, integer=True)
@@ -242,9 +277,11 @@ class AutoStart:
         meet = nearest_point_to_rays(*silhouette_rays(cameras, masks))
         coarse = visual_hull(cameras, masks, meet - HULL_REACH_MM, meet + HULL_REACH_MM, COARSE_VOXEL_MM)
         if len(coarse) == 0:
-            raise DataError("the automatic start found no volume inside every camera's foreground in the first "
-                            "frame: the cameras' calibrations may not match the images, or the person is out of "
-                            "view of some camera; check with `mmocap check-recording`, or give the first pose")
+            raise DataError(
+                "the automatic start found no volume inside every camera's foreground in the first "
+                "frame: the cameras' calibrations may not match the images, or the person is out of "
+                "view of some camera; check with `mmocap check-recording`, or give the first pose"
+            )
         pad = COARSE_VOXEL_MM
         hull = visual_hull(cameras, masks, coarse.min(axis=0) - pad, coarse.max(axis=0) + pad, self.voxel_mm)
         if len(hull) == 0:
@@ -253,8 +290,9 @@ class AutoStart:
         height = float(hull[:, 1].max() + self.voxel_mm / 2 - floor_y)
         return hull.mean(axis=0), height, floor_y
 
-    def find(self, body, cameras, masks, evaluator, optimizer, strategy, rng, fit_height: bool = True,
-             fit_girth: bool = True) -> StartResult:
+    def find(
+        self, body, cameras, masks, evaluator, optimizer, strategy, rng, fit_height: bool = True, fit_girth: bool = True
+    ) -> StartResult:
         """The first frame's pose for ``body`` (a BodyModel, resized to what is fitted),
         from its foreground ``masks`` ((H, W) bool per camera, ideal geometry of
         ``cameras``), scored by ``evaluator`` and searched by ``optimizer`` in ``strategy``'s
@@ -262,14 +300,21 @@ class AutoStart:
         unknown (not given in the config) and fitted."""
         started = time.perf_counter()
         centre, height, floor_y = self.measure(cameras, masks)
-        log.info("automatic start: visual hull %.0f mm tall, centre (%.0f, %.0f, %.0f) mm, floor at y = %.0f mm",
-                 height, *centre, floor_y)
-        search = type(strategy)(rotation_radius=self.rotation_radius,
-                                translation_radius_mm=self.translation_radius_mm, steps=strategy.steps)
+        log.info(
+            "automatic start: visual hull %.0f mm tall, centre (%.0f, %.0f, %.0f) mm, floor at y = %.0f mm",
+            height,
+            *centre,
+            floor_y,
+        )
+        search = type(strategy)(
+            rotation_radius=self.rotation_radius, translation_radius_mm=self.translation_radius_mm, steps=strategy.steps
+        )
         best_f, used = np.inf, 0
         for offset in self.hull_height_offsets_mm if fit_height else [0.0]:
-            tried = body.reshaped(height_mm=float(np.clip(height + offset, *HEIGHT_RANGE_MM)) if fit_height else None,
-                                  girth=1.0 if fit_girth else None)
+            tried = body.reshaped(
+                height_mm=float(np.clip(height + offset, *HEIGHT_RANGE_MM)) if fit_height else None,
+                girth=1.0 if fit_girth else None,
+            )
             x, f, n = self._pose(tried, centre, floor_y, cameras, masks, evaluator, optimizer, search, rng)
             used += n
             log.info("automatic start: height %.0f mm -> fitness %.4f", tried.subject.height_mm, f)
@@ -283,8 +328,9 @@ class AutoStart:
                 best_x, best_f, n = self._refine(body, best_x, best_f, evaluator, optimizer, search, rng)
                 used += n
             for change in self._shape_changes(body, fit_girth, fit_height):
-                best_x, best_f, body, n = self._try_shape(body, change, best_x, best_f, cameras, masks, evaluator,
-                                                          optimizer, search, rng)
+                best_x, best_f, body, n = self._try_shape(
+                    body, change, best_x, best_f, cameras, masks, evaluator, optimizer, search, rng
+                )
                 used += n
         evaluator.setup(body, cameras, masks)  # leave the evaluator on the body that won
         return StartResult(best_x, float(best_f), body, used, time.perf_counter() - started, height, floor_y)
@@ -301,13 +347,13 @@ class AutoStart:
         scores = evaluator(starts)
         used = len(starts)
         scouted = []
-        for k in np.argsort(scores, kind="stable")[:self.candidates]:
+        for k in np.argsort(scores, kind="stable")[: self.candidates]:
             x, f, n = search.estimate(body, starts[k], evaluator, optimizer, self.evaluations, rng)
             used += n
             log.info("automatic start: heading %+.0f deg -> fitness %.4f", np.degrees(starts[k, ROOT_YAW]), f)
             scouted.append((f, k, x))
         best_x, best_f = None, np.inf
-        for f, _, x in sorted(scouted, key=lambda s: s[:2])[:self.refined]:
+        for f, _, x in sorted(scouted, key=lambda s: s[:2])[: self.refined]:
             x, f, n = self._refine(body, x, f, evaluator, optimizer, search, rng)
             used += n
             if f < best_f:
@@ -317,7 +363,8 @@ class AutoStart:
     def _shape_changes(self, body, fit_girth: bool, fit_height: bool) -> list[dict]:
         """The girths, then the heights, of one pass of shape trials around ``body``'s."""
         return ([{"girth": body.subject.girth + g} for g in self.girth_steps] if fit_girth else []) + (
-            [{"height_mm": body.subject.height_mm + dh} for dh in self.height_steps_mm] if fit_height else [])
+            [{"height_mm": body.subject.height_mm + dh} for dh in self.height_steps_mm] if fit_height else []
+        )
 
     def _refine(self, body, x, fitness, evaluator, optimizer, search, rng):
         """``passes`` times from ``x``: each step but the root searched alone over its whole
@@ -326,8 +373,18 @@ class AutoStart:
         fitness, evaluations)."""
         used = 0
         for _ in range(self.passes):
-            x, fitness, n = search_each_limb(search, body, x, fitness, evaluator, optimizer, self.limb_evaluations, rng,
-                                             self.limb_samples, self.limb_restarts)
+            x, fitness, n = search_each_limb(
+                search,
+                body,
+                x,
+                fitness,
+                evaluator,
+                optimizer,
+                self.limb_evaluations,
+                rng,
+                self.limb_samples,
+                self.limb_restarts,
+            )
             used += n
             for _ in range(self.rounds):
                 x, fitness, n = search.estimate(body, x, evaluator, optimizer, self.evaluations, rng)
@@ -348,8 +405,9 @@ class AutoStart:
         start[1] += other.floor_offset_mm - body.floor_offset_mm
         evaluator.setup(other, cameras, masks)
         found, found_fitness, n = search.estimate(other, start, evaluator, optimizer, self.shape_evaluations, rng)
-        log.info("automatic start: %s %.3g -> fitness %.4f (%.4f before)", next(iter(change)), value,
-                 found_fitness, fitness)
+        log.info(
+            "automatic start: %s %.3g -> fitness %.4f (%.4f before)", next(iter(change)), value, found_fitness, fitness
+        )
         if found_fitness < fitness:
             return found, found_fitness, other, n
         return x, fitness, body, n

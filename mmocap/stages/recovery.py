@@ -18,6 +18,7 @@ evaluations come on top of the frame's budget (they count in its ``evaluations``
 recovery is logged and returned (frame, fitness before and after, evaluations) for the
 run's ``summary.json``.
 """
+
 from __future__ import annotations
 
 import logging
@@ -45,8 +46,12 @@ class RecoveryEvent:
     def summary(self) -> dict:
         """The event as JSON-ready values, fitness rounded to 6 decimals (the run summary's
         ``recoveries``)."""
-        return {"frame": int(self.frame), "fitness_before": round(float(self.fitness_before), 6),
-                "fitness_after": round(float(self.fitness_after), 6), "evaluations": int(self.evaluations)}
+        return {
+            "frame": int(self.frame),
+            "fitness_before": round(float(self.fitness_before), 6),
+            "fitness_after": round(float(self.fitness_after), 6),
+            "evaluations": int(self.evaluations),
+        }
 
 
 class Recovery:
@@ -63,8 +68,16 @@ class Recovery:
         widen: the wider search box as a multiple of the strategy's.
     """
 
-    def __init__(self, enabled: bool = True, window: int = 10, jump: float = 1.3, max_fitness: float = 0.3,
-                 limb_evaluations: int = 0, evaluations: int = 1500, widen: float = 2.0):
+    def __init__(
+        self,
+        enabled: bool = True,
+        window: int = 10,
+        jump: float = 1.3,
+        max_fitness: float = 0.3,
+        limb_evaluations: int = 0,
+        evaluations: int = 1500,
+        widen: float = 2.0,
+    ):
         self.enabled = check_flag("recovery.enabled", enabled)
         self.window = check_number("recovery.window", window, 1, 10_000, integer=True)
         self.jump = check_number("recovery.jump", jump, 1, low_open=True)
@@ -99,23 +112,33 @@ class Recovery:
             self.first.append(float(fitness))
         self.since_last += 1
 
-    def recover(self, frame: int, body, x, fitness: float, evaluator, optimizer, strategy, rng
-                ) -> tuple[np.ndarray, float, RecoveryEvent]:
+    def recover(
+        self, frame: int, body, x, fitness: float, evaluator, optimizer, strategy, rng
+    ) -> tuple[np.ndarray, float, RecoveryEvent]:
         """Search the lost ``frame`` again from its pose ``x`` (51,) of ``fitness``; returns
         (pose, fitness, the event, also appended to :attr:`events`)."""
         limbs_x, limbs_f, used = x, fitness, 0
         if self.limb_evaluations:
-            limbs_x, limbs_f, used = search_each_limb(strategy, body, x, fitness, evaluator, optimizer,
-                                                      self.limb_evaluations, rng)
-        wide = type(strategy)(rotation_radius=min(np.pi, strategy.rotation_radius * self.widen),
-                              translation_radius_mm=strategy.translation_radius_mm * self.widen, steps=strategy.steps)
+            limbs_x, limbs_f, used = search_each_limb(
+                strategy, body, x, fitness, evaluator, optimizer, self.limb_evaluations, rng
+            )
+        wide = type(strategy)(
+            rotation_radius=min(np.pi, strategy.rotation_radius * self.widen),
+            translation_radius_mm=strategy.translation_radius_mm * self.widen,
+            steps=strategy.steps,
+        )
         wide_x, wide_f, n = wide.estimate(body, limbs_x, evaluator, optimizer, self.evaluations, rng)
         used += n
         best_x, best_f = (wide_x, wide_f) if wide_f < limbs_f else (limbs_x, limbs_f)
         event = RecoveryEvent(frame, fitness, best_f, used)
         self.events.append(event)
         self.since_last = 0
-        log.info("frame %d: fitness %.4f, the track is lost (reference %.4f): searched again with %d "
-                 "evaluations -> %.4f", frame, fitness, self.reference(),
-                 used, best_f)
+        log.info(
+            "frame %d: fitness %.4f, the track is lost (reference %.4f): searched again with %d evaluations -> %.4f",
+            frame,
+            fitness,
+            self.reference(),
+            used,
+            best_f,
+        )
         return best_x, best_f, event

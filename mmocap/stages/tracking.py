@@ -11,6 +11,7 @@ root translation and rotation; torso and head; then each limb), each with the co
 of the other steps held at their current values.  ``steps`` is data in the config: lists of
 joint names that together name each of the 16 joints once ("Root" includes the translation).
 """
+
 from __future__ import annotations
 
 import math
@@ -111,8 +112,7 @@ class Strategy(ABC):
 
     name = "strategy"
 
-    def __init__(self, rotation_radius: float = 0.5, translation_radius_mm: float = 100.0,
-                 steps=DEFAULT_STEPS):
+    def __init__(self, rotation_radius: float = 0.5, translation_radius_mm: float = 100.0, steps=DEFAULT_STEPS):
         if not 0 < rotation_radius <= np.pi:
             raise ConfigError(f"strategy.rotation_radius must be in (0, pi], got {rotation_radius}")
         if translation_radius_mm <= 0:
@@ -123,13 +123,13 @@ class Strategy(ABC):
         named = [joint for step in self.steps for joint in step]
         unknown = sorted(set(named) - set(JOINTS))
         if unknown:
-            raise ConfigError(f"strategy.steps name unknown joint(s) {', '.join(unknown)}; "
-                              f"joints: {', '.join(JOINTS)}")
+            raise ConfigError(f"strategy.steps name unknown joint(s) {', '.join(unknown)}; joints: {', '.join(JOINTS)}")
         twice = sorted({j for j in named if named.count(j) > 1})
         missing = [j for j in JOINTS if j not in named]
         if twice or missing:
-            raise ConfigError(f"strategy.steps must name each joint once: "
-                              f"repeated {twice or 'none'}, missing {missing or 'none'}")
+            raise ConfigError(
+                f"strategy.steps must name each joint once: repeated {twice or 'none'}, missing {missing or 'none'}"
+            )
         if any(not step for step in self.steps):
             raise ConfigError("strategy.steps has an empty step")
 
@@ -145,9 +145,11 @@ class Strategy(ABC):
             if sum(len(g) for g in per_joint) == 0:
                 if skip_empty:
                     continue
-                raise ConfigError(f"strategy step {k + 1} ({', '.join(step)}) has no degree of "
-                                  f"freedom in the {body.dof}-DOF body model: join it to a step with "
-                                  "degrees of freedom, or use partition=six (or strategy=holistic)")
+                raise ConfigError(
+                    f"strategy step {k + 1} ({', '.join(step)}) has no degree of "
+                    f"freedom in the {body.dof}-DOF body model: join it to a step with "
+                    "degrees of freedom, or use partition=six (or strategy=holistic)"
+                )
             groups.append([g for g in per_joint if len(g)])
         return groups
 
@@ -166,9 +168,11 @@ class Strategy(ABC):
             needed = min_budget(dim, len(parts))
             if share < needed:
                 where = f"step {k + 1} ({', '.join(self.steps[k])})" if self.name == "hierarchical" else "the frame"
-                raise ConfigError(f"tracking.evaluations={budget} gives {where} {share} evaluations "
-                                  f"but optimizer '{getattr(optimizer, 'name', type(optimizer).__name__)}' "
-                                  f"needs at least {needed} for {dim} degrees of freedom")
+                raise ConfigError(
+                    f"tracking.evaluations={budget} gives {where} {share} evaluations "
+                    f"but optimizer '{getattr(optimizer, 'name', type(optimizer).__name__)}' "
+                    f"needs at least {needed} for {dim} degrees of freedom"
+                )
 
     def estimate(self, body, x_prev, evaluate, optimizer, budget, rng) -> tuple[np.ndarray, float, int]:
         """Run ``optimizer`` on one frame from ``x_prev`` (51,) following the plan; returns
@@ -199,9 +203,14 @@ class Strategy(ABC):
         upper = np.minimum(x_base + radius, body.upper)[indices]
         upper = np.maximum(upper, lower + 1e-9)
         bounds = np.cumsum([0] + [len(p) for p in parts])
-        space = SearchSpace(x0=np.clip(x_base[indices], lower, upper), lower=lower, upper=upper,
-                            radius=radius[indices], budget=int(budget),
-                            partitions=tuple(np.arange(a, b) for a, b in zip(bounds[:-1], bounds[1:])))
+        space = SearchSpace(
+            x0=np.clip(x_base[indices], lower, upper),
+            lower=lower,
+            upper=upper,
+            radius=radius[indices],
+            budget=int(budget),
+            partitions=tuple(np.arange(a, b) for a, b in zip(bounds[:-1], bounds[1:])),
+        )
 
         def full(active: np.ndarray) -> np.ndarray:
             X = np.repeat(x_base[None], len(active), axis=0)
@@ -264,9 +273,23 @@ def check_budget(evaluations) -> int:
     return check_number("tracking.evaluations", evaluations, START_EVALUATIONS + 1, MAX_EVALUATIONS, integer=True)
 
 
-def track(sequence, body, foreground, evaluator, optimizer, strategy, evaluations: int,
-          seed: int, frames: int | None = None, on_frame=None, coverage=None, x0=None,
-          rng: np.random.Generator | None = None, recovery=None, fidelity=None) -> list[FrameResult]:
+def track(
+    sequence,
+    body,
+    foreground,
+    evaluator,
+    optimizer,
+    strategy,
+    evaluations: int,
+    seed: int,
+    frames: int | None = None,
+    on_frame=None,
+    coverage=None,
+    x0=None,
+    rng: np.random.Generator | None = None,
+    recovery=None,
+    fidelity=None,
+) -> list[FrameResult]:
     """Track ``frames`` frames (default: all) of ``sequence`` from the first frame's pose
     ``x0`` ((51,) mm and rad; default: the sequence's).
 
@@ -289,8 +312,10 @@ def track(sequence, body, foreground, evaluator, optimizer, strategy, evaluation
     cameras = foreground.cameras
     x0 = sequence.x0 if x0 is None else x0
     if x0 is None:
-        raise ConfigError(f"sequence {sequence.root} gives no first pose: find one with the automatic start "
-                          "(start.mode=auto) or give it")
+        raise ConfigError(
+            f"sequence {sequence.root} gives no first pose: find one with the automatic start "
+            "(start.mode=auto) or give it"
+        )
     x_prev = body.clip(np.asarray(x0, dtype=np.float64)[None])[0]
     results = []
     for frame in range(n):

@@ -18,6 +18,7 @@ one, behind a camera and around a camera inside the body, very large patches (a 
 close to the body), several patch scales, an empty foreground, populations of 1 and 0,
 patches at the image border, NaN poses, and the config file.
 """
+
 from __future__ import annotations
 
 from functools import cache
@@ -36,9 +37,8 @@ W, H = 320, 240
 def ellipsoid(centre, radii, count: int) -> tuple[np.ndarray, np.ndarray]:
     """(count, 3) evenly spread points on an ellipsoid (mm) and their (count, 3) outward normals."""
     i = np.arange(count) + 0.5
-    polar, azimuth = np.arccos(1 - 2 * i / count), np.pi * (1 + 5 ** 0.5) * i
-    unit = np.stack([np.sin(polar) * np.cos(azimuth), np.cos(polar),
-                     np.sin(polar) * np.sin(azimuth)], axis=1)
+    polar, azimuth = np.arccos(1 - 2 * i / count), np.pi * (1 + 5**0.5) * i
+    unit = np.stack([np.sin(polar) * np.cos(azimuth), np.cos(polar), np.sin(polar) * np.sin(azimuth)], axis=1)
     radii = np.asarray(radii, float)
     normals = unit / radii
     normals /= np.linalg.norm(normals, axis=1, keepdims=True)
@@ -65,7 +65,7 @@ class BlobBody:
             points.append(p)
             normals.append(n)
             joints.append(np.full(count, j))
-            a, b, c = (r ** 1.6075 for r in radii)  # Thomsen's ellipsoid area, 1 % accurate
+            a, b, c = (r**1.6075 for r in radii)  # Thomsen's ellipsoid area, 1 % accurate
             area = 4 * np.pi * ((a * b + a * c + b * c) / 3) ** (1 / 1.6075)
             patch.append(np.sqrt(area / (2 * count)))
         self.rest_vertices = np.concatenate(points)
@@ -128,7 +128,7 @@ def camera(name: str, eye, target=(0, 400, 0), focal: float = 400.0) -> Camera:
 FRONT = camera("front", (300, 500, 3000))
 SIDE = camera("side", (2800, 900, 400))
 HIGH = camera("high", (-1500, 2500, -1800))
-NEAR = camera("near", (0, 0, 450), (0, 0, 0))          # patches of 13 px and more
+NEAR = camera("near", (0, 0, 450), (0, 0, 0))  # patches of 13 px and more
 INSIDE = camera("inside", (0, 400, 40), (0, 400, 1000))  # in the trunk: pivots behind it
 SMALL = Camera.look_at("small", (-2500, 800, 1500), (0, 400, 0), 250.0, 200, 150)
 TRUE_POSE = np.array([30.0, -20.0, 50.0, 0.1, 0.3, -0.05, 0.4, -0.3])
@@ -233,8 +233,7 @@ class EvaluatorConformance:
             got = ev.counts(test_poses())
             np.testing.assert_array_equal(got[0], model_px)
             np.testing.assert_array_equal(got[1], overlap_px)
-            np.testing.assert_array_equal(ev(test_poses()),
-                                          fitness_from_counts(model_px, overlap_px, ev.fg_px))
+            np.testing.assert_array_equal(ev(test_poses()), fitness_from_counts(model_px, overlap_px, ev.fg_px))
         # the cases the test is meant to cover occur: views with no model pixel at all
         assert model_px.min() == 0
         assert model_px.max() > 0

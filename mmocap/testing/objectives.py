@@ -4,6 +4,7 @@ the conformance suite (:mod:`mmocap.testing.optimizers`).
 Functions map candidates X (n, D) to values (n,), with minimum 0. Coordinates are unitless,
 like a tracking frame's search space measured in search radii.
 """
+
 from __future__ import annotations
 
 from typing import NamedTuple
@@ -48,19 +49,26 @@ TRACKING_LIKE = {
 }
 
 
-def box(dim: int = D, x0: float = 0.0, bound: float = 1.0, radius: float = 1.0, budget: int = 1500,
-        partitions=None) -> SearchSpace:
+def box(
+    dim: int = D, x0: float = 0.0, bound: float = 1.0, radius: float = 1.0, budget: int = 1500, partitions=None
+) -> SearchSpace:
     """Start ``x0``, bounds +-``bound`` and radius ``radius`` in every one of ``dim`` coordinates."""
     ones = np.ones(dim)
-    return SearchSpace(x0=x0 * ones, lower=-bound * ones, upper=bound * ones, radius=radius * ones,
-                       budget=budget, partitions=partitions)
+    return SearchSpace(
+        x0=x0 * ones,
+        lower=-bound * ones,
+        upper=bound * ones,
+        radius=radius * ones,
+        budget=budget,
+        partitions=partitions,
+    )
 
 
 class Run(NamedTuple):
     """One optimiser run to its end."""
 
-    asked: list[np.ndarray]    # the candidate batches, (n_i, D) each
-    values: list[np.ndarray]   # their function values, (n_i,) each
+    asked: list[np.ndarray]  # the candidate batches, (n_i, D) each
+    values: list[np.ndarray]  # their function values, (n_i,) each
     result: Result
 
 

@@ -14,6 +14,7 @@ candidates inside the bounds, ask/tell pairing, reproducibility from the seed, p
 a clear error for a budget below the optimiser's ``min_budget``, real progress on a
 sphere, and both tracking strategies on the 39-DOF body model.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -33,8 +34,14 @@ def min_budget(optimizer, dim: int, partitions: int = 1) -> int:
 def asymmetric_box(dim: int, budget: int, partitions=None) -> SearchSpace:
     """An asymmetric box around a start point near its upper bounds, radius 0.5."""
     x0 = np.linspace(-0.3, 0.3, dim)
-    return SearchSpace(x0=x0, lower=x0 - 0.5, upper=np.minimum(x0 + 0.5, 0.35),
-                       radius=np.full(dim, 0.5), budget=budget, partitions=partitions)
+    return SearchSpace(
+        x0=x0,
+        lower=x0 - 0.5,
+        upper=np.minimum(x0 + 0.5, 0.35),
+        radius=np.full(dim, 0.5),
+        budget=budget,
+        partitions=partitions,
+    )
 
 
 class OptimizerConformance:

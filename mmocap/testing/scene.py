@@ -3,6 +3,7 @@ ring (no lens distortion), the foreground being the model's own silhouettes of a
 pose; candidates are that pose with normal noise on the joint angles. The evaluator
 benchmark (:mod:`mmocap.bench`) times the backends on it, and the golden tests count its
 pixels."""
+
 from __future__ import annotations
 
 import numpy as np

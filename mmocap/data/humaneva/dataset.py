@@ -15,6 +15,7 @@ first frame's markers by :func:`mmocap.body.inverse_kinematics.fit_pose` (rigid 
 the torso markers, then bounded least squares over the joint angles with a small pull towards
 the rest pose).
 """
+
 from __future__ import annotations
 
 import re
@@ -122,11 +123,23 @@ class HumanEvaDataset:
         x0_dof: degrees of freedom of the model fitted for x0 (28, 39 or 51).
     """
 
-    def __init__(self, root=None, subject: str = "S1", action: str = "Walking", trial: int = 1,
-                 cameras=("C1", "C2", "C3", "BW1"), marker_map: dict | None = None,
-                 split: str | None = None, start_frame: int | None = None, frames: int | None = None,
-                 fps: float = 60.0, background_frames: int = 50, min_background_frames: int = 2, x0=None,
-                 x0_dof: int = 39):
+    def __init__(
+        self,
+        root=None,
+        subject: str = "S1",
+        action: str = "Walking",
+        trial: int = 1,
+        cameras=("C1", "C2", "C3", "BW1"),
+        marker_map: dict | None = None,
+        split: str | None = None,
+        start_frame: int | None = None,
+        frames: int | None = None,
+        fps: float = 60.0,
+        background_frames: int = 50,
+        min_background_frames: int = 2,
+        x0=None,
+        x0_dof: int = 39,
+    ):
         if root is None:
             raise ConfigError("dataset.root must be set to the HumanEva-I folder (the one holding S1..S4)")
         checks = (("subject", subject, SUBJECTS), ("action", action, ACTIONS), ("trial", trial, TRIALS))
@@ -136,22 +149,25 @@ class HumanEvaDataset:
         cameras = list(cameras)
         unknown = [c for c in cameras if c not in CAMERAS]
         if unknown or not cameras:
-            raise ConfigError(f"dataset.cameras must name HumanEva-I cameras ({', '.join(CAMERAS)}), "
-                              f"got {cameras}")
+            raise ConfigError(f"dataset.cameras must name HumanEva-I cameras ({', '.join(CAMERAS)}), got {cameras}")
         if split is not None and split not in SPLITS:
             raise ConfigError(f"dataset.split must be null or one of {', '.join(SPLITS)}, got {split!r}")
         partitions = PARTITIONS.get((subject, action, int(trial)), {})
         if split is not None and split not in partitions:
-            raise ConfigError(f"dataset.split {split!r} has no frames of {subject} {action}_{trial}: the HumanEva-I "
-                              f"toolbox's partitions of its video are {', '.join(partitions) or 'none'}; set "
-                              "dataset.split to one of them or to null")
+            raise ConfigError(
+                f"dataset.split {split!r} has no frames of {subject} {action}_{trial}: the HumanEva-I "
+                f"toolbox's partitions of its video are {', '.join(partitions) or 'none'}; set "
+                "dataset.split to one of them or to null"
+            )
         if start_frame is not None and start_frame < 1:
             raise ConfigError(f"dataset.start_frame must be >= 1 (1-based), got {start_frame}")
         if frames is not None and frames < 1:
             raise ConfigError(f"dataset.frames must be >= 1, got {frames}")
         if min_background_frames < 2 or background_frames < min_background_frames:
-            raise ConfigError("dataset.background_frames must be >= dataset.min_background_frames >= 2, "
-                              f"got {background_frames} and {min_background_frames}")
+            raise ConfigError(
+                "dataset.background_frames must be >= dataset.min_background_frames >= 2, "
+                f"got {background_frames} and {min_background_frames}"
+            )
         self.root, self.subject, self.action, self.trial = Path(root), subject, action, int(trial)
         self.cameras = cameras
         self.marker_map = check_marker_map(default_marker_map() if marker_map is None else marker_map)
@@ -171,32 +187,54 @@ class HumanEvaDataset:
         if not folder.is_dir():
             raise DataError(f"HumanEva-I subject folder not found: {folder}")
         sources, syncs, cams = [], [], []
-        for name in tqdm(self.cameras, desc=f"open {self.subject} {self.stem}", unit="camera",
-                         disable=not progress):
+        for name in tqdm(self.cameras, desc=f"open {self.subject} {self.stem}", unit="camera", disable=not progress):
             source = open_frames(folder / "Image_Data", f"{self.stem}_({name})", name)
             sources.append(source)
             syncs.append(SyncOffsets.load(folder / "Sync_Data" / f"{self.stem}_({name}).ofs"))
-            cams.append(Camera.load_cal(folder / "Calibration_Data" / f"{name}.cal", source.width,  # type: ignore[arg-type]
-                                        source.height, source.colour))  # type: ignore[arg-type]
+            cams.append(
+                Camera.load_cal(
+                    folder / "Calibration_Data" / f"{name}.cal",
+                    source.width,  # type: ignore[arg-type]
+                    source.height,  # type: ignore[arg-type]
+                    source.colour,
+                )
+            )
         for name, source, sync in zip(self.cameras, sources, syncs):
             if sync.image_start > source.count:
-                raise DataError(f"sync file {folder / 'Sync_Data' / f'{self.stem}_({name}).ofs'} starts at "
-                                f"image {sync.image_start:g}, past the end of {source.path} "
-                                f"({source.count} images)")
+                raise DataError(
+                    f"sync file {folder / 'Sync_Data' / f'{self.stem}_({name}).ofs'} starts at "
+                    f"image {sync.image_start:g}, past the end of {source.path} "
+                    f"({source.count} images)"
+                )
         mocap = self._mocap(folder)
         index, truth = self._timing(folder, sources, syncs, mocap)
         x0 = self._initial_pose(truth[0], folder, mocap)
         backgrounds = {c.name: self._background_sources(c.name) for c in cams}
         meta = {
-            "format": "humaneva-i", "subject": self.subject, "action": self.action, "trial": self.trial,
+            "format": "humaneva-i",
+            "subject": self.subject,
+            "action": self.action,
+            "trial": self.trial,
             "split": self.split,
-            "fps": self.fps, "frames": len(index), "cameras": self.cameras,
-            "marker_names": list(MARKER_NAMES), "x0": None if x0 is None else x0.tolist(),
-            "first_image": int(index[0, 0]), "marker_map": self.marker_map,
+            "fps": self.fps,
+            "frames": len(index),
+            "cameras": self.cameras,
+            "marker_names": list(MARKER_NAMES),
+            "x0": None if x0 is None else x0.tolist(),
+            "first_image": int(index[0, 0]),
+            "marker_map": self.marker_map,
             "units": {"length": "mm", "angle": "rad"},
         }
-        return HumanEvaSequence(folder, meta, cams, sources=sources, image_index=index, truth=truth,
-                                background_sources=backgrounds, background_frames=self.background_frames)
+        return HumanEvaSequence(
+            folder,
+            meta,
+            cams,
+            sources=sources,
+            image_index=index,
+            truth=truth,
+            background_sources=backgrounds,
+            background_frames=self.background_frames,
+        )
 
     def _mocap(self, folder: Path) -> np.ndarray | None:
         """(mocap frames, 15, 3) mm model markers, or None when the trial has no mocap file."""
@@ -216,26 +254,34 @@ class HumanEvaDataset:
         in_videos = np.all((per_camera >= 1) & (per_camera <= counts), axis=1)
         for c, name in enumerate(self.cameras):
             if not np.any((per_camera[:, c] >= 1) & (per_camera[:, c] <= counts[c])):
-                raise DataError(f"sync file {folder / 'Sync_Data' / f'{self.stem}_({name}).ofs'}: no image "
-                                f"of {sources[c].path} falls within the reference camera's video")
+                raise DataError(
+                    f"sync file {folder / 'Sync_Data' / f'{self.stem}_({name}).ofs'}: no image "
+                    f"of {sources[c].path} falls within the reference camera's video"
+                )
         offset = self._toolbox_offset(folder) - 1  # toolbox frame F is image F + offset of the reference
         if self.split is None:
             first, last = TOOLBOX_FIRST_FRAME + offset, ref.count
         else:
             span = PARTITIONS[(self.subject, self.action, self.trial)][self.split]
             first, last = (f + offset for f in span)
-            if last > ref.count or not in_videos[first - 1:last].all():
-                raise DataError(f"dataset.split {self.split!r} is images {first}..{last} of {ref.path} (toolbox "
-                                f"frames {span[0]}..{span[1]}), not all of them in every camera's video")
+            if last > ref.count or not in_videos[first - 1 : last].all():
+                raise DataError(
+                    f"dataset.split {self.split!r} is images {first}..{last} of {ref.path} (toolbox "
+                    f"frames {span[0]}..{span[1]}), not all of them in every camera's video"
+                )
         if self.start_frame is not None:
             start = self.start_frame
             if self.split is not None and not first <= start <= last:
-                raise ConfigError(f"dataset.start_frame {start} is outside dataset.split {self.split!r} of "
-                                  f"{self.subject} {self.stem}, images {first}..{last} of {self.cameras[0]}; "
-                                  "give a start_frame in that range, or null")
+                raise ConfigError(
+                    f"dataset.start_frame {start} is outside dataset.split {self.split!r} of "
+                    f"{self.subject} {self.stem}, images {first}..{last} of {self.cameras[0]}; "
+                    "give a start_frame in that range, or null"
+                )
             if start > ref.count or not in_videos[start - 1]:
-                raise DataError(f"dataset.start_frame {start} is not an image of every camera "
-                                f"(the {self.cameras[0]} video {ref.path} has {ref.count})")
+                raise DataError(
+                    f"dataset.start_frame {start} is not an image of every camera "
+                    f"(the {self.cameras[0]} video {ref.path} has {ref.count})"
+                )
         elif self.split is not None:
             start = first
         else:
@@ -243,18 +289,22 @@ class HumanEvaDataset:
             if mocap is not None:  # else (trial 2) the first image of every camera
                 usable &= ~np.isnan(sample_mocap(mocap, mocap_index)).any(axis=(1, 2))
             if not usable.any():
-                markers = ("" if mocap is None else " with every mapped marker present in "
-                           f"{folder / 'Mocap_Data' / f'{self.stem}.mat'}")
-                raise DataError(f"no image of {ref.path} from image {first} (toolbox frame {TOOLBOX_FIRST_FRAME}) "
-                                f"on is in every camera's video{markers}")
+                markers = (
+                    ""
+                    if mocap is None
+                    else f" with every mapped marker present in {folder / 'Mocap_Data' / f'{self.stem}.mat'}"
+                )
+                raise DataError(
+                    f"no image of {ref.path} from image {first} (toolbox frame {TOOLBOX_FIRST_FRAME}) "
+                    f"on is in every camera's video{markers}"
+                )
             start = int(candidates[np.argmax(usable)])
-        run = in_videos[start - 1:last]
+        run = in_videos[start - 1 : last]
         n = int(np.argmin(run)) if not run.all() else len(run)
         if self.frames is not None:
             n = min(n, self.frames)
         rows = slice(start - 1, start - 1 + n)
-        truth = (np.full((n, len(MARKER_NAMES), 3), np.nan) if mocap is None
-                 else sample_mocap(mocap, mocap_index[rows]))
+        truth = np.full((n, len(MARKER_NAMES), 3), np.nan) if mocap is None else sample_mocap(mocap, mocap_index[rows])
         return per_camera[rows], truth
 
     def _toolbox_offset(self, folder: Path) -> int:
@@ -274,8 +324,10 @@ class HumanEvaDataset:
             return None
         if np.isnan(first_markers).any():
             missing = [n for n, row in zip(MARKER_NAMES, first_markers) if np.isnan(row).any()]
-            raise DataError(f"{folder / 'Mocap_Data' / f'{self.stem}.mat'}: markers {', '.join(missing)} are "
-                            "missing at the first frame; choose another dataset.start_frame or give dataset.x0")
+            raise DataError(
+                f"{folder / 'Mocap_Data' / f'{self.stem}.mat'}: markers {', '.join(missing)} are "
+                "missing at the first frame; choose another dataset.start_frame or give dataset.x0"
+            )
         body = BodyModel(self.subject, dof=int(self.x0_mask.sum()), vertices=None)
         return fit_pose(body, first_markers, self.x0_mask)
 
@@ -283,13 +335,17 @@ class HumanEvaDataset:
         folder = self.root / "Background"
         pattern = re.compile(rf"Background_(\d+)_\({camera}\)(\.avi)?$", re.IGNORECASE)
         found = {p: pattern.match(p.name) for p in folder.glob("Background_*")} if folder.is_dir() else {}
-        paths = sorted((p for p, m in found.items() if m and (m.group(2) or p.is_dir())),
-                       key=lambda p: int(found[p].group(1)))  # type: ignore[union-attr]  # matched
+        paths = sorted(
+            (p for p, m in found.items() if m and (m.group(2) or p.is_dir())),
+            key=lambda p: int(found[p].group(1)),  # type: ignore[union-attr]  # matched
+        )
         if not paths:
             raise DataError(f"camera {camera}: no background video {folder / f'Background_<k>_({camera}).avi'}")
         sources = [FrameSource(p, camera, is_colour(camera)) for p in paths]
         total = sum(s.count for s in sources)
         if total < self.min_background_frames:
-            raise DataError(f"camera {camera}: background {', '.join(str(p) for p in paths)} holds {total} "
-                            f"frames, the background model needs at least {self.min_background_frames}")
+            raise DataError(
+                f"camera {camera}: background {', '.join(str(p) for p in paths)} holds {total} "
+                f"frames, the background model needs at least {self.min_background_frames}"
+            )
         return sources

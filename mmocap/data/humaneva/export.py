@@ -1,5 +1,6 @@
 """A synthetic sequence folder (:mod:`mmocap.data.sequence`) written in the HumanEva-I layout
 (:mod:`mmocap.data.humaneva.layout`): ``mmocap export-humaneva``."""
+
 from __future__ import annotations
 
 import contextlib
@@ -30,8 +31,15 @@ def upsample(markers: np.ndarray, factor: int) -> np.ndarray:
     return sample_mocap(markers, 1 + np.arange((len(markers) - 1) * factor + 1) / factor)
 
 
-def export(sequence_root, out, marker_map: dict | None = None, trial: int = 1, images: str = "avi",
-           mocap_lead: int = 4, progress: bool = True) -> Path:
+def export(
+    sequence_root,
+    out,
+    marker_map: dict | None = None,
+    trial: int = 1,
+    images: str = "avi",
+    mocap_lead: int = 4,
+    progress: bool = True,
+) -> Path:
     """Write a synthetic sequence folder (:mod:`mmocap.data.sequence`) in the HumanEva-I layout.
 
     Under ``out``: ``<subject>/Calibration_Data``, ``Image_Data`` (lossless FFV1 .avi, or PNG
@@ -55,8 +63,10 @@ def export(sequence_root, out, marker_map: dict | None = None, trial: int = 1, i
     seq = Sequence.open(sequence_root)
     action = SYNTHETIC_ACTIONS.get(seq.meta["action"])
     if action is None:
-        raise ConfigError(f"action '{seq.meta['action']}' of {seq.root} has no HumanEva-I name "
-                          f"(known: {', '.join(SYNTHETIC_ACTIONS)})")
+        raise ConfigError(
+            f"action '{seq.meta['action']}' of {seq.root} has no HumanEva-I name "
+            f"(known: {', '.join(SYNTHETIC_ACTIONS)})"
+        )
     unknown = [c.name for c in seq.cameras if c.name not in CAMERAS]
     if unknown:
         raise ConfigError(f"cameras {', '.join(unknown)} of {seq.root} are not HumanEva-I cameras")
@@ -70,8 +80,10 @@ def export(sequence_root, out, marker_map: dict | None = None, trial: int = 1, i
         for cam in tqdm(seq.cameras, desc=f"export {seq.subject} {stem}", unit="camera", disable=not progress):
             cam.save_cal(staging.place(subject / "Calibration_Data" / f"{cam.name}.cal"))
             sync.save(staging.place(subject / "Sync_Data" / f"{stem}_({cam.name}).ofs"))
-            frames = (read_image(seq.root / "images" / cam.name / f"{f:06d}.png", cam)
-                      for f in [0] * lead_in + list(range(seq.n_frames)))
+            frames = (
+                read_image(seq.root / "images" / cam.name / f"{f:06d}.png", cam)
+                for f in [0] * lead_in + list(range(seq.n_frames))
+            )
             video = subject / "Image_Data" / f"{stem}_({cam.name}).avi"
             folder = video.with_suffix("")  # the same images as PNG files; a reader takes the video first
             if images == "avi":
@@ -80,11 +92,20 @@ def export(sequence_root, out, marker_map: dict | None = None, trial: int = 1, i
                 target = staging.place(folder, replaces=video)
                 for f, image in enumerate(frames):
                     write_image(target / f"{f + 1:06d}.png", image)
-            write_video(staging.place(Path("Background") / f"Background_1_({cam.name}).avi"),
-                        seq.background(cam), seq.fps, crf=0)
+            write_video(
+                staging.place(Path("Background") / f"Background_1_({cam.name}).avi"),
+                seq.background(cam),
+                seq.fps,
+                crf=0,
+            )
         truth = upsample(seq.markers(), int(sync.mocap_scale))
-        truth = np.concatenate([np.full((mocap_lead,) + truth.shape[1:], np.nan),
-                                np.repeat(truth[:1], lead_in * int(sync.mocap_scale), axis=0), truth])
+        truth = np.concatenate(
+            [
+                np.full((mocap_lead,) + truth.shape[1:], np.nan),
+                np.repeat(truth[:1], lead_in * int(sync.mocap_scale), axis=0),
+                truth,
+            ]
+        )
         labels = [label for name in MARKER_NAMES for label in marker_map[name]]
         columns = [m for m, name in enumerate(MARKER_NAMES) for _ in marker_map[name]]
         write_mocap(staging.place(subject / "Mocap_Data" / f"{stem}.mat"), labels, truth[:, columns])

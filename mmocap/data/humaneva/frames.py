@@ -1,5 +1,6 @@
 """HumanEva-I's images: one camera's video, or a folder of numbered image files, read by
 1-based image index (:class:`FrameSource`)."""
+
 from __future__ import annotations
 
 import re
@@ -55,8 +56,7 @@ class FrameSource:
     def read(self, index: int) -> np.ndarray:
         """Image ``index`` (1-based)."""
         if not 1 <= index <= self.count:
-            raise DataError(f"camera {self.camera}: image {index} outside {self.path} "
-                            f"({self.count} images)")
+            raise DataError(f"camera {self.camera}: image {index} outside {self.path} ({self.count} images)")
         if self.files is not None:
             where = self.files[index - 1]
             image = cv2.imread(str(where), cv2.IMREAD_UNCHANGED)
@@ -70,14 +70,20 @@ class FrameSource:
             raise DataError(f"camera {self.camera}: cannot read {where} (damaged, or not an image)")
         channels = 1 if image.ndim == 2 else image.shape[2]
         if image.dtype != np.uint8 or channels not in (1, 3):
-            raise DataError(f"camera {self.camera}: {where} has {channels} channels of {image.dtype}; "
-                            "mmocap reads 8-bit greyscale or BGR images")
+            raise DataError(
+                f"camera {self.camera}: {where} has {channels} channels of {image.dtype}; "
+                "mmocap reads 8-bit greyscale or BGR images"
+            )
         if self.colour and channels == 1:
-            raise DataError(f"camera {self.camera}: {where} is greyscale, but {self.camera} is a colour "
-                            "camera: its images must have 3 channels")
+            raise DataError(
+                f"camera {self.camera}: {where} is greyscale, but {self.camera} is a colour "
+                "camera: its images must have 3 channels"
+            )
         if self.width is not None and image.shape[:2] != (self.height, self.width):
-            raise DataError(f"camera {self.camera}: {where} is {image.shape[1]}x{image.shape[0]}, its first "
-                            f"image {self.width}x{self.height}")
+            raise DataError(
+                f"camera {self.camera}: {where} is {image.shape[1]}x{image.shape[0]}, its first "
+                f"image {self.width}x{self.height}"
+            )
         return image if self.colour or channels == 1 else cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
 
 
@@ -87,15 +93,18 @@ def _check_numbering(files: list[Path], camera: str) -> None:
     numbers = [_frame_number(p)[0] for p in files]
     unnumbered = [p.name for p, n in zip(files, numbers) if n < 0]
     if unnumbered:
-        raise DataError(f"camera {camera}: {files[0].parent} holds image files without a frame number: "
-                        f"{listed(unnumbered)}")
+        raise DataError(
+            f"camera {camera}: {files[0].parent} holds image files without a frame number: {listed(unnumbered)}"
+        )
     expected = range(numbers[0], numbers[0] + len(numbers))
     if numbers != list(expected):
         gaps = sorted(set(range(numbers[0], numbers[-1] + 1)) - set(numbers))
         repeats = sorted({n for n in numbers if numbers.count(n) > 1})
-        raise DataError(f"camera {camera}: the images in {files[0].parent} are not numbered consecutively "
-                        f"(missing: {listed(gaps) or 'none'}, repeated: {listed(repeats) or 'none'}); each image "
-                        "must be there once, as the k-th file is taken for image k")
+        raise DataError(
+            f"camera {camera}: the images in {files[0].parent} are not numbered consecutively "
+            f"(missing: {listed(gaps) or 'none'}, repeated: {listed(repeats) or 'none'}); each image "
+            "must be there once, as the k-th file is taken for image k"
+        )
 
 
 def _frame_number(path: Path) -> tuple[int, str]:

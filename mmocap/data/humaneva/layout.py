@@ -14,6 +14,7 @@ Toolbox frames: the dataset's MATLAB toolbox numbers a trial's synchronised 60 H
 sequence with video at frame :data:`TOOLBOX_FIRST_FRAME` (6).  Its Train, Validation and Test
 partitions (:data:`PARTITIONS`) are ranges of these frames.
 """
+
 from __future__ import annotations
 
 SUBJECTS = ("S1", "S2", "S3", "S4")

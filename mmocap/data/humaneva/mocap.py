@@ -13,6 +13,7 @@ not equal to those of methods scored on HumanEva's virtual joint centres.
 Markers at a fractional mocap index are interpolated linearly between the two nearest mocap
 frames (NaN if either is missing, :func:`sample_mocap`).
 """
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -58,8 +59,7 @@ def read_mocap(path: Path) -> tuple[list[str], np.ndarray]:
     if markers.ndim == 2 and markers.shape[1] == 3:  # a single label comes squeezed
         markers = markers[:, None, :]
     if markers.ndim != 3 or markers.shape[2] != 3 or markers.shape[0] < 1:
-        raise DataError(f"mocap file {path}: 'Markers' must be (frames, markers, 3), "
-                        f"got shape {markers.shape}")
+        raise DataError(f"mocap file {path}: 'Markers' must be (frames, markers, 3), got shape {markers.shape}")
     labels = None
     for group in _as_list(mat.get("ParameterGroup", [])):
         if isinstance(group, dict) and group.get("name") == "POINT":
@@ -93,23 +93,26 @@ def write_mocap(path: Path, labels, markers: np.ndarray, rate_hz: float = MOCAP_
     """(mocap frames, L, 3) mm -> a ``.mat`` file in the structure of HumanEva's: ``Markers``
     with missing (NaN) markers as zeros, and ``ParameterGroup`` POINT with LABELS, RATE,
     UNITS and USED."""
-    point = [{"name": _cell(["LABELS"]), "data": _cell(list(labels))},
-             {"name": _cell(["RATE"]), "data": float(rate_hz)},
-             {"name": _cell(["UNITS"]), "data": _cell(["mm"])},
-             {"name": _cell(["USED"]), "data": float(len(labels))}]
+    point = [
+        {"name": _cell(["LABELS"]), "data": _cell(list(labels))},
+        {"name": _cell(["RATE"]), "data": float(rate_hz)},
+        {"name": _cell(["UNITS"]), "data": _cell(["mm"])},
+        {"name": _cell(["USED"]), "data": float(len(labels))},
+    ]
     groups = _struct_array([{"name": _cell(["POINT"]), "Parameter": _struct_array(point)}])  # type: ignore[arg-type]
     scipy.io.savemat(str(path), {"Markers": np.nan_to_num(markers, nan=0.0), "ParameterGroup": groups})
 
 
 def check_marker_map(marker_map: dict) -> dict[str, list[str]]:
     """Every model marker mapped to a non-empty list of labels, no label used twice."""
-    marker_map = {str(k): [str(v)] if isinstance(v, str) else [str(x) for x in v]
-                  for k, v in dict(marker_map).items()}
+    marker_map = {str(k): [str(v)] if isinstance(v, str) else [str(x) for x in v] for k, v in dict(marker_map).items()}
     unknown = sorted(set(marker_map) - set(MARKER_NAMES))
     missing = [m for m in MARKER_NAMES if not marker_map.get(m)]
     if unknown or missing:
-        raise ConfigError(f"dataset.marker_map must give labels for exactly the markers "
-                          f"{', '.join(MARKER_NAMES)}; unknown: {unknown}, without labels: {missing}")
+        raise ConfigError(
+            f"dataset.marker_map must give labels for exactly the markers "
+            f"{', '.join(MARKER_NAMES)}; unknown: {unknown}, without labels: {missing}"
+        )
     labels = [label for names in marker_map.values() for label in names]
     if len(labels) != len(set(labels)):
         raise ConfigError("dataset.marker_map uses a mocap label for two markers")
@@ -124,8 +127,10 @@ def model_markers(labels: list[str], markers: np.ndarray, marker_map: dict, path
     for m, name in enumerate(MARKER_NAMES):
         absent = [label for label in marker_map[name] if label not in column]
         if absent:
-            raise DataError(f"mocap file {path} has no marker labelled {', '.join(absent)} "
-                            f"(mapped to '{name}' by dataset.marker_map)")
+            raise DataError(
+                f"mocap file {path} has no marker labelled {', '.join(absent)} "
+                f"(mapped to '{name}' by dataset.marker_map)"
+            )
         out[:, m] = markers[:, [column[label] for label in marker_map[name]]].mean(axis=1)
     return out
 

@@ -7,6 +7,7 @@ Toolbox frames: the toolbox numbers a trial's synchronised 60 Hz frames from 1, 
 the later of the earliest camera's first image and the first mocap frame
 (:func:`toolbox_frame_offsets`).
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -46,8 +47,7 @@ class SyncOffsets:
         except ValueError as exc:
             raise DataError(f"sync file {path}: non-numeric value ({exc})") from None
         if len(values) != 3 or not np.all(np.isfinite(values)):
-            raise DataError(f"sync file {path} must hold 3 finite numbers (IM_ST MC_ST MC_SC), "
-                            f"got {len(values)}")
+            raise DataError(f"sync file {path} must hold 3 finite numbers (IM_ST MC_ST MC_SC), got {len(values)}")
         if values[2] <= 0:
             raise DataError(f"sync file {path}: MC_SC must be > 0, got {values[2]}")
         return SyncOffsets(*values)

@@ -23,6 +23,7 @@ all is one error line (exit 2).
 writes a sequence folder (a synthetic one: ``outputs/data/S1_walking``) in the recording
 layout, ground truth included, to test the path from a user's files to a result.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -62,22 +63,33 @@ def check_recording(root: str, overrides: list[str], out=print) -> dict:
     for camera, source, offset in zip(sequence.cameras, sequence.sources, sequence.offsets):
         centre_m = camera.centre / 1000
         rate = f"{source.fps:g} fps" if source.fps else "no frame rate"
-        out(f"    {camera.name}: {source.kind} {source.path} ({source.count} frames, {rate}, offset {offset}); "
+        out(
+            f"    {camera.name}: {source.kind} {source.path} ({source.count} frames, {rate}, offset {offset}); "
             f"{camera.width}x{camera.height} {'colour' if camera.colour else 'greyscale'}, "
             f"focal {camera.focal:.0f} px, "
             f"at ({centre_m[0]:.2f}, {centre_m[1]:.2f}, {centre_m[2]:.2f}) m, "
-            f"{np.linalg.norm(centre_m):.2f} m from the origin")
+            f"{np.linalg.norm(centre_m):.2f} m from the origin"
+        )
     seconds = sequence.n_frames / sequence.fps
-    out(f"  frames tracked: {sequence.n_frames} from frame {meta['start']} ({seconds:.1f} s at {sequence.fps:g} fps; "
-        f"{meta['recorded_frames']} frames recorded after the offsets)")
+    out(
+        f"  frames tracked: {sequence.n_frames} from frame {meta['start']} ({seconds:.1f} s at {sequence.fps:g} fps; "
+        f"{meta['recorded_frames']} frames recorded after the offsets)"
+    )
     for camera, source, frames in zip(sequence.cameras, sequence.background_sources, sequence.background_frames):
         out(f"  background {camera.name}: {len(frames)} frames of {source.path}")
     truth = sequence.markers()
     scored = int((~np.isnan(truth).any(axis=2)).any(axis=1).sum())
-    out(f"  ground truth: {sequence.markers_source}: {scored} of {sequence.n_frames} frames have markers"
-        if sequence.markers_path else "  ground truth: none (no markers_mm.csv): runs report no marker error")
-    facts = {"cameras": [c.name for c in sequence.cameras], "frames": sequence.n_frames, "fps": sequence.fps,
-             "frames_with_markers": scored}
+    out(
+        f"  ground truth: {sequence.markers_source}: {scored} of {sequence.n_frames} frames have markers"
+        if sequence.markers_path
+        else "  ground truth: none (no markers_mm.csv): runs report no marker error"
+    )
+    facts = {
+        "cameras": [c.name for c in sequence.cameras],
+        "frames": sequence.n_frames,
+        "fps": sequence.fps,
+        "frames_with_markers": scored,
+    }
     facts.update(_first_frame_checks(sequence, instantiate(cfg.background), out))
     return facts
 
@@ -93,9 +105,12 @@ def _first_frame_checks(sequence, background, out) -> dict:
         note = ""
         if not FOREGROUND_RANGE[0] <= fraction <= FOREGROUND_RANGE[1]:
             note = " <- suspect"
-            warnings.warn(f"camera {camera.name}: the foreground of the first frame is {100 * fraction:.2f} % of the "
-                          "image: nobody in view, or a background that does not fit (check background, offsets)",
-                          MmocapWarning, stacklevel=2)
+            warnings.warn(
+                f"camera {camera.name}: the foreground of the first frame is {100 * fraction:.2f} % of the "
+                "image: nobody in view, or a background that does not fit (check background, offsets)",
+                MmocapWarning,
+                stacklevel=2,
+            )
         out(f"  first frame, camera {camera.name}: foreground {100 * fraction:.2f} % of the image{note}")
     centres, directions = silhouette_rays(cameras, masks)
     meet = nearest_point_to_rays(centres, directions)
@@ -105,26 +120,39 @@ def _first_frame_checks(sequence, background, out) -> dict:
         if rows.size == 0:
             continue
         errors[camera.name] = float(np.hypot(*(camera.project(meet[None])[0] - (cols.mean(), rows.mean()))))
-    out(f"  the silhouettes' rays meet at ({meet[0] / 1000:.2f}, {meet[1] / 1000:.2f}, {meet[2] / 1000:.2f}) m; "
+    out(
+        f"  the silhouettes' rays meet at ({meet[0] / 1000:.2f}, {meet[1] / 1000:.2f}, {meet[2] / 1000:.2f}) m; "
         "distance of each silhouette's centre from that point's image: "
-        + ", ".join(f"{name} {px:.1f} px" for name, px in errors.items()))
+        + ", ".join(f"{name} {px:.1f} px" for name, px in errors.items())
+    )
     for name, px in errors.items():
         if px > REPROJECTION_WARN_PX:
-            warnings.warn(f"camera {name}: its silhouette lies {px:.0f} px from where the other cameras place the "
-                          "person: its calibration may not fit its images (another camera's? wrong units?), or it is "
-                          "out of sync (dataset.offsets)", MmocapWarning, stacklevel=2)
+            warnings.warn(
+                f"camera {name}: its silhouette lies {px:.0f} px from where the other cameras place the "
+                "person: its calibration may not fit its images (another camera's? wrong units?), or it is "
+                "out of sync (dataset.offsets)",
+                MmocapWarning,
+                stacklevel=2,
+            )
     camera_heights = np.array([c.centre[1] for c in cameras])
     if meet[1] < 0 or np.median(camera_heights) < 0:
-        warnings.warn(f"the person's centre is {meet[1] / 1000:.2f} m and the cameras' median height "
-                      f"{np.median(camera_heights) / 1000:.2f} m above the floor along +y: is the world's up axis "
-                      "another one? set dataset.up (e.g. +z)", MmocapWarning, stacklevel=2)
+        warnings.warn(
+            f"the person's centre is {meet[1] / 1000:.2f} m and the cameras' median height "
+            f"{np.median(camera_heights) / 1000:.2f} m above the floor along +y: is the world's up axis "
+            "another one? set dataset.up (e.g. +z)",
+            MmocapWarning,
+            stacklevel=2,
+        )
     return {"foreground_fraction": fractions, "reprojection_px": errors, "meeting_point_mm": meet.tolist()}
 
 
 def check_main(argv: list[str], prog: str) -> None:
     """``mmocap check-recording ROOT [OVERRIDES]``: check a recording folder before tracking it."""
-    parser = argparse.ArgumentParser(prog=prog, description="Check a recording folder before tracking it: "
-                                     "what it holds, and the first frame's foreground, calibration and up axis.")
+    parser = argparse.ArgumentParser(
+        prog=prog,
+        description="Check a recording folder before tracking it: "
+        "what it holds, and the first frame's foreground, calibration and up axis.",
+    )
     parser.add_argument("root", help="the recording folder")
     parser.add_argument("overrides", nargs="*", help="Hydra overrides, e.g. dataset.offsets={C2:3} dataset.up=+z")
     args = parser.parse_args(argv)
@@ -145,23 +173,42 @@ def _offsets(text: str) -> dict:
 def convert_main(argv: list[str], prog: str) -> None:
     """``mmocap to-recording SEQUENCE OUT``: write a sequence folder as a user's recording
     (OpenCV YAML calibration, MP4 videos)."""
-    parser = argparse.ArgumentParser(prog=prog, description="Write a sequence folder (with ground truth) in the "
-                                     "layout of a user's recording: OpenCV YAML calibration, MP4 videos.")
+    parser = argparse.ArgumentParser(
+        prog=prog,
+        description="Write a sequence folder (with ground truth) in the "
+        "layout of a user's recording: OpenCV YAML calibration, MP4 videos.",
+    )
     parser.add_argument("sequence", type=Path, help="a sequence folder (the one holding sequence.json)")
     parser.add_argument("out", type=Path, help="the recording folder to write")
     parser.add_argument("--cameras", default=None, help="cameras to write, e.g. C1,C2,C3,BW1 (default: all)")
     parser.add_argument("--offsets", default="", help="frames of empty scene before a camera's video, e.g. C2=3")
     parser.add_argument("--yaw", type=float, default=0.0, help="turn the world about the vertical by DEG degrees")
     parser.add_argument("--units", choices=("mm", "m"), default="mm", help="units of the calibration's translations")
-    parser.add_argument("--crf", type=int, default=0,
-                        help="H.264 quality of the videos: 0 (default) lossless, 16 good, 23 ffmpeg's default; "
-                             "compressed videos are harder for the background models")
+    parser.add_argument(
+        "--crf",
+        type=int,
+        default=0,
+        help="H.264 quality of the videos: 0 (default) lossless, 16 good, 23 ffmpeg's default; "
+        "compressed videos are harder for the background models",
+    )
     parser.add_argument("--no-progress", action="store_true", help="no progress bars")
     args = parser.parse_args(argv)
     cameras = None if args.cameras is None else [c.strip() for c in args.cameras.split(",") if c.strip()]
     sequence = Sequence.open(args.sequence, cameras)
-    out = write_recording(sequence, args.out, offsets=_offsets(args.offsets), yaw_deg=args.yaw, units=args.units,
-                          crf=args.crf, progress=not args.no_progress)
-    print(f"recording written to {out}; track it with: mmocap track dataset=recording dataset.root={out}"
-          + (f" dataset.offsets={{{','.join(f'{k}:{v}' for k, v in _offsets(args.offsets).items())}}}"
-             if args.offsets else ""))
+    out = write_recording(
+        sequence,
+        args.out,
+        offsets=_offsets(args.offsets),
+        yaw_deg=args.yaw,
+        units=args.units,
+        crf=args.crf,
+        progress=not args.no_progress,
+    )
+    print(
+        f"recording written to {out}; track it with: mmocap track dataset=recording dataset.root={out}"
+        + (
+            f" dataset.offsets={{{','.join(f'{k}:{v}' for k, v in _offsets(args.offsets).items())}}}"
+            if args.offsets
+            else ""
+        )
+    )

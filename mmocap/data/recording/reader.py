@@ -28,6 +28,7 @@ A recording gives no first pose and names no subject: the automatic start
 H.264 MP4 videos, ground truth), optionally with offsets and a turned world, so that the
 path from a user's files to a tracked result is tested end to end on data with known truth.
 """
+
 from __future__ import annotations
 
 import itertools
@@ -112,8 +113,10 @@ class FrameSource:
                 image = cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
             where = f"frame {index} of video {self.path}"
         if image.shape[:2] != (cam.height, cam.width):
-            raise DataError(f"camera {cam.name}: {where} is {image.shape[1]}x{image.shape[0]}, its calibration "
-                            f"says {cam.width}x{cam.height}: the calibration of another resolution?")
+            raise DataError(
+                f"camera {cam.name}: {where} is {image.shape[1]}x{image.shape[0]}, its calibration "
+                f"says {cam.width}x{cam.height}: the calibration of another resolution?"
+            )
         return image
 
 
@@ -175,7 +178,7 @@ class RecordingSequence(SequenceBase):
             return np.full((self.n_frames, len(names), 3), np.nan)
         start = int(self.meta["start"])
         markers = read_markers(self.markers_path, int(self.meta["recorded_frames"]), names)
-        return markers[start:start + self.n_frames] @ self.world.T
+        return markers[start : start + self.n_frames] @ self.world.T
 
     def ground_truth(self, frames: int, missing_markers: str = "warn") -> np.ndarray:
         if self.markers_path is None:
@@ -206,26 +209,39 @@ class RecordingDataset:
         greyscale: cameras whose frames are used as greyscale.
     """
 
-    def __init__(self, root: str, subject: str = "S1", cameras: list[str] | None = None,
-                 calibration: str | None = None, units: str = "auto", up: str = "+y",
-                 offsets: dict | None = None, start: int = 0, frames: int | None = None,
-                 fps: float | None = None, background: list[int] | None = None, background_frames: int = 20,
-                 greyscale: list[str] | None = None):
+    def __init__(
+        self,
+        root: str,
+        subject: str = "S1",
+        cameras: list[str] | None = None,
+        calibration: str | None = None,
+        units: str = "auto",
+        up: str = "+y",
+        offsets: dict | None = None,
+        start: int = 0,
+        frames: int | None = None,
+        fps: float | None = None,
+        background: list[int] | None = None,
+        background_frames: int = 20,
+        greyscale: list[str] | None = None,
+    ):
         self.path = Path(root)
         self.subject = subject
         self.cameras = None if cameras is None else list(cameras)
         self.calibration = calibration
         self.units = check_choice("dataset.units", units, ("mm", "m", "auto"))
         self.up = check_choice("dataset.up", up, tuple(UP_AXES))
-        self.offsets = {str(k): check_number(f"dataset.offsets.{k}", v, 0, integer=True)
-                        for k, v in dict(offsets or {}).items()}
+        self.offsets = {
+            str(k): check_number(f"dataset.offsets.{k}", v, 0, integer=True) for k, v in dict(offsets or {}).items()
+        }
         self.start = check_number("dataset.start", start, 0, integer=True)
         self.frames = None if frames is None else check_number("dataset.frames", frames, 1, integer=True)
         self.fps = None if fps is None else check_number("dataset.fps", fps, 0, 10_000, low_open=True)
         if background is not None:
             if len(background) != 2:
-                raise ConfigError(f"dataset.background must be [first, last] frames of the empty scene, got "
-                                  f"{list(background)}")
+                raise ConfigError(
+                    f"dataset.background must be [first, last] frames of the empty scene, got {list(background)}"
+                )
             first, last = (check_number("dataset.background", v, 0, integer=True) for v in background)
             if last < first:
                 raise ConfigError(f"dataset.background: last frame {last} comes before first {first}")
@@ -242,15 +258,23 @@ class RecordingDataset:
                 raise DataError(f"calibration {path} not found (dataset.calibration={self.calibration})")
             return path
         suffixes = tuple(CALIBRATION_FORMATS)
-        found = [p for name in CALIBRATION_NAMES for p in self.path.glob(f"{name}*")
-                 if p.is_dir() or p.suffix.lower() in suffixes]
+        found = [
+            p
+            for name in CALIBRATION_NAMES
+            for p in self.path.glob(f"{name}*")
+            if p.is_dir() or p.suffix.lower() in suffixes
+        ]
         if not found:
-            raise DataError(f"no calibration in recording {self.path}: add calibration.yml (OpenCV), "
-                            "calibration.toml (anipose / Pose2Sim) or a calibration/ folder, or name the file "
-                            "with dataset.calibration")
+            raise DataError(
+                f"no calibration in recording {self.path}: add calibration.yml (OpenCV), "
+                "calibration.toml (anipose / Pose2Sim) or a calibration/ folder, or name the file "
+                "with dataset.calibration"
+            )
         if len(found) > 1:
-            raise DataError(f"recording {self.path} holds {len(found)} calibrations ({listed(found)}): "
-                            "name one with dataset.calibration")
+            raise DataError(
+                f"recording {self.path} holds {len(found)} calibrations ({listed(found)}): "
+                "name one with dataset.calibration"
+            )
         return found[0]
 
     def open(self, progress: bool = True) -> RecordingSequence:
@@ -264,48 +288,76 @@ class RecordingDataset:
         by_name = {c.name: turned(c, world) for c in calibration.cameras}
         for name in self.greyscale:
             if name not in by_name:
-                raise ConfigError(f"dataset.greyscale names camera {name}, which {calibration.source} lacks "
-                                  f"(it has {', '.join(by_name)})")
+                raise ConfigError(
+                    f"dataset.greyscale names camera {name}, which {calibration.source} lacks "
+                    f"(it has {', '.join(by_name)})"
+                )
             by_name[name] = replace(by_name[name], colour=False, _maps={})
         unknown = [name for name in self.offsets if name not in by_name]
         if unknown:
-            raise ConfigError(f"dataset.offsets names camera {unknown[0]}, which {calibration.source} lacks "
-                              f"(it has {', '.join(by_name)})")
+            raise ConfigError(
+                f"dataset.offsets names camera {unknown[0]}, which {calibration.source} lacks "
+                f"(it has {', '.join(by_name)})"
+            )
         names = self.cameras or [n for n in by_name if self._main_source(n) is not None]
         missing = [n for n in names if n not in by_name]
         if missing:
-            raise DataError(f"camera {missing[0]} not in calibration {calibration.source} "
-                            f"(it has {', '.join(by_name)})")
+            raise DataError(
+                f"camera {missing[0]} not in calibration {calibration.source} (it has {', '.join(by_name)})"
+            )
         if not names:
-            raise DataError(f"recording {root}: no camera of {calibration.source} has a video in {root / 'videos'} "
-                            f"or an image folder in {root / 'images'}")
+            raise DataError(
+                f"recording {root}: no camera of {calibration.source} has a video in {root / 'videos'} "
+                f"or an image folder in {root / 'images'}"
+            )
         cameras, sources = [], []
         for name in names:
             path = self._main_source(name)
             if path is None:
-                raise DataError(f"camera {name}: no video {root / 'videos' / name}.mp4 (or another video suffix) "
-                                f"and no image folder {root / 'images' / name}")
+                raise DataError(
+                    f"camera {name}: no video {root / 'videos' / name}.mp4 (or another video suffix) "
+                    f"and no image folder {root / 'images' / name}"
+                )
             cameras.append(by_name[name])
             sources.append(FrameSource(path, by_name[name]))
         offsets = [self.offsets.get(c.name, 0) for c in cameras]
         usable = [s.count - o for s, o in zip(sources, offsets)]
         if min(usable) <= self.start:
             k = int(np.argmin(usable))
-            raise DataError(f"camera {cameras[k].name}: {sources[k].path} has {sources[k].count} frames; with offset "
-                            f"{offsets[k]} and dataset.start={self.start} none is left to track")
+            raise DataError(
+                f"camera {cameras[k].name}: {sources[k].path} has {sources[k].count} frames; with offset "
+                f"{offsets[k]} and dataset.start={self.start} none is left to track"
+            )
         recorded = min(usable)
         n_frames = recorded - self.start if self.frames is None else min(self.frames, recorded - self.start)
         background_sources, background_frames = self._background(cameras, sources, offsets)
         markers = root / "markers_mm.csv"
-        meta = {"format": "mmocap-recording/1", "subject": None, "action": root.resolve().name,
-                "fps": self._fps(cameras, sources),
-                "frames": n_frames, "recorded_frames": recorded, "start": self.start,
-                "cameras": [c.name for c in cameras], "marker_names": list(MARKER_NAMES), "x0": None,
-                "calibration": str(calibration.source), "units": calibration.units, "up": self.up}
-        return RecordingSequence(root, meta, cameras, sources=sources,
-                                 offsets=offsets, background_sources=background_sources,
-                                 background_frames=background_frames,
-                                 markers_path=markers if markers.is_file() else None, world=world)
+        meta = {
+            "format": "mmocap-recording/1",
+            "subject": None,
+            "action": root.resolve().name,
+            "fps": self._fps(cameras, sources),
+            "frames": n_frames,
+            "recorded_frames": recorded,
+            "start": self.start,
+            "cameras": [c.name for c in cameras],
+            "marker_names": list(MARKER_NAMES),
+            "x0": None,
+            "calibration": str(calibration.source),
+            "units": calibration.units,
+            "up": self.up,
+        }
+        return RecordingSequence(
+            root,
+            meta,
+            cameras,
+            sources=sources,
+            offsets=offsets,
+            background_sources=background_sources,
+            background_frames=background_frames,
+            markers_path=markers if markers.is_file() else None,
+            world=world,
+        )
 
     def _main_source(self, name: str) -> Path | None:
         videos = find_source(self.path / "videos", name, "a video")
@@ -323,9 +375,11 @@ class RecordingDataset:
         low, high = min(stated.values()), max(stated.values())
         if high - low > FPS_TOLERANCE * high:
             rates = ", ".join(f"{name}: {fps:g}" for name, fps in stated.items())
-            raise DataError(f"the cameras' videos disagree on the frame rate ({rates}): cameras at different rates "
-                            "cannot be synchronised frame by frame; resample them, or set dataset.fps if the "
-                            "containers are wrong")
+            raise DataError(
+                f"the cameras' videos disagree on the frame rate ({rates}): cameras at different rates "
+                "cannot be synchronised frame by frame; resample them, or set dataset.fps if the "
+                "containers are wrong"
+            )
         return float(np.median(list(stated.values())))
 
     def _background(self, cameras, sources, offsets):
@@ -335,16 +389,20 @@ class RecordingDataset:
             if self.background is not None:
                 first, last = self.background
                 if last + offset >= source.count:
-                    raise DataError(f"camera {camera.name}: dataset.background ends at frame {last}, after the end "
-                                    f"of {source.path} ({source.count} frames, offset {offset})")
+                    raise DataError(
+                        f"camera {camera.name}: dataset.background ends at frame {last}, after the end "
+                        f"of {source.path} ({source.count} frames, offset {offset})"
+                    )
                 frames = np.unique(np.linspace(first, last, self.background_frames).round().astype(int)) + offset
                 out_sources.append(source)
             else:
                 path = find_source(self.path / "background", camera.name, "a background")
                 if path is None:
-                    raise DataError(f"camera {camera.name}: no background video or image folder "
-                                    f"{self.path / 'background' / camera.name}[.mp4]; record the empty scene, or "
-                                    "set dataset.background=[first,last] to frames in which nobody is in view")
+                    raise DataError(
+                        f"camera {camera.name}: no background video or image folder "
+                        f"{self.path / 'background' / camera.name}[.mp4]; record the empty scene, or "
+                        "set dataset.background=[first,last] to frames in which nobody is in view"
+                    )
                 background = FrameSource(path, camera)
                 frames = np.unique(np.linspace(0, background.count - 1, self.background_frames).round().astype(int))
                 out_sources.append(background)
@@ -352,8 +410,15 @@ class RecordingDataset:
         return out_sources, out_frames
 
 
-def write_recording(sequence: Sequence, out: Path, offsets: dict | None = None, yaw_deg: float = 0.0,
-                    units: str = "mm", crf: int = 0, progress: bool = True) -> Path:
+def write_recording(
+    sequence: Sequence,
+    out: Path,
+    offsets: dict | None = None,
+    yaw_deg: float = 0.0,
+    units: str = "mm",
+    crf: int = 0,
+    progress: bool = True,
+) -> Path:
     """Write ``sequence`` (a sequence folder, opened) as a recording folder ``out``:
     ``calibration.yml`` (OpenCV YAML, translations in ``units``), ``videos/<camera>.mp4``,
     ``background/<camera>.mp4`` and ``markers_mm.csv``; no first pose and no subject.
@@ -369,8 +434,9 @@ def write_recording(sequence: Sequence, out: Path, offsets: dict | None = None, 
     names = [c.name for c in sequence.cameras]
     unknown = [name for name in offsets if name not in names]
     if unknown:
-        raise ConfigError(f"offsets name camera {unknown[0]}, which sequence {sequence.root} lacks "
-                          f"(it has {', '.join(names)})")
+        raise ConfigError(
+            f"offsets name camera {unknown[0]}, which sequence {sequence.root} lacks (it has {', '.join(names)})"
+        )
     units = check_choice("units", units, ("mm", "m"))
     yaw = math.radians(check_number("yaw", yaw_deg, -360, 360))
     world = np.array([[math.cos(yaw), 0, math.sin(yaw)], [0, 1, 0], [-math.sin(yaw), 0, math.cos(yaw)]])
@@ -381,8 +447,14 @@ def write_recording(sequence: Sequence, out: Path, offsets: dict | None = None, 
         empty = one.background(camera)
         early = [empty[k % len(empty)] for k in range(offsets.get(camera.name, 0))]
         frames = (one.images(k)[0] for k in range(sequence.n_frames))
-        write_video(out / "videos" / f"{camera.name}.mp4", itertools.chain(early, frames), sequence.fps,
-                    count=len(early) + sequence.n_frames, progress=progress, crf=crf)
+        write_video(
+            out / "videos" / f"{camera.name}.mp4",
+            itertools.chain(early, frames),
+            sequence.fps,
+            count=len(early) + sequence.n_frames,
+            progress=progress,
+            crf=crf,
+        )
         write_video(out / "background" / f"{camera.name}.mp4", iter(empty), sequence.fps, count=len(empty), crf=crf)
     write_markers(out / "markers_mm.csv", sequence.markers() @ world.T, sequence.meta["marker_names"])
     return out

@@ -11,6 +11,7 @@ adapter only maps the search onto pycma:
 - pycma cannot handle bounds in one dimension, so a 1-D search gets a second, ignored axis;
 - a last generation cut short by the budget is evaluated but not told to pycma.
 """
+
 from __future__ import annotations
 
 import math
@@ -45,8 +46,7 @@ class PycmaOptimizer(PopulationOptimizer):
         pad = [1.0] if self.dim == 1 else []  # the ignored second axis of a 1-D search
         options = {
             "popsize": self.population_size(self.dim),
-            "bounds": [list(self.to_unit(self.lower)) + [-p for p in pad],
-                       list(self.to_unit(self.upper)) + pad],
+            "bounds": [list(self.to_unit(self.lower)) + [-p for p in pad], list(self.to_unit(self.upper)) + pad],
             "randn": lambda *shape: rng.standard_normal(shape),
             "seed": float("nan"),
             "maxfevals": self.budget,

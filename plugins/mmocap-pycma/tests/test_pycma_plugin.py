@@ -1,4 +1,5 @@
 """The plugin passes mmocap's optimiser conformance suite and runs from the command line."""
+
 import json
 import subprocess
 import sys
@@ -25,23 +26,42 @@ def test_solves_a_rotated_ellipsoid():
     def ellipsoid(X):
         return np.sum(scales * ((X - 0.2) @ rotation) ** 2, axis=1)
 
-    space = SearchSpace(x0=np.zeros(dim), lower=-np.ones(dim), upper=np.ones(dim),
-                        radius=np.ones(dim), budget=8000)
+    space = SearchSpace(x0=np.zeros(dim), lower=-np.ones(dim), upper=np.ones(dim), radius=np.ones(dim), budget=8000)
     result = minimise(PycmaOptimizer(sigma0=0.3), ellipsoid, space, seed=0).result
     assert result.fbest < 1e-8
 
 
 def test_tracks_from_the_command_line(tmp_path):
     root = tmp_path / "data"
-    generate(root / "S1_walking", subject="S1", action="walking", frames=2, cameras=("C1", "BW1"),
-             width=160, height=120, background_frames=3, seed=1, progress=False)
+    generate(
+        root / "S1_walking",
+        subject="S1",
+        action="walking",
+        frames=2,
+        cameras=("C1", "BW1"),
+        width=160,
+        height=120,
+        background_frames=3,
+        seed=1,
+        progress=False,
+    )
     out = tmp_path / "run"
-    args = [f"dataset.root={root}", "dataset.frames=2", "dataset.cameras=[C1,BW1]",
-            "dataset.all_cameras=[C1,BW1]", "dataset.width=160", "dataset.height=120",
-            "dataset.background_frames=3", "dataset.seed=1", "progress=false", "overlays=0",
-            "tracking.evaluations=200", "optimizer=pycma", f"hydra.run.dir={out}"]
-    proc = subprocess.run([sys.executable, "-m", "mmocap", *args], capture_output=True, text=True,
-                          timeout=600)
+    args = [
+        f"dataset.root={root}",
+        "dataset.frames=2",
+        "dataset.cameras=[C1,BW1]",
+        "dataset.all_cameras=[C1,BW1]",
+        "dataset.width=160",
+        "dataset.height=120",
+        "dataset.background_frames=3",
+        "dataset.seed=1",
+        "progress=false",
+        "overlays=0",
+        "tracking.evaluations=200",
+        "optimizer=pycma",
+        f"hydra.run.dir={out}",
+    ]
+    proc = subprocess.run([sys.executable, "-m", "mmocap", *args], capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0, proc.stderr
     summary = json.loads((out / "summary.json").read_text())
     assert summary["optimizer"] == "pycma"

@@ -21,6 +21,7 @@ This example splits the population into chunks of at most ``chunk`` candidates a
 each with the numpy backend: the place where a backend of your own (a device, a pool of
 workers) would count a batch.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -40,8 +41,8 @@ class ChangemeChunkedEvaluator(NumpyEvaluator):
 
     name = "changeme-chunked"  # the entry-point name
     # Set these for a backend of your own (see mmocap.api.Evaluator):
-    owns_cores = False         # its threads or workers keep every core busy during a call
-    starts_processes = False   # it starts worker processes (a sweep then runs it in-process)
+    owns_cores = False  # its threads or workers keep every core busy during a call
+    starts_processes = False  # it starts worker processes (a sweep then runs it in-process)
 
     @classmethod
     def unavailable(cls) -> str | None:
@@ -59,7 +60,7 @@ class ChangemeChunkedEvaluator(NumpyEvaluator):
 
     def _counts(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         count = super()._counts  # your own: count a batch of candidates here
-        parts = [count(X[i:i + self.chunk]) for i in range(0, len(X), self.chunk)]
+        parts = [count(X[i : i + self.chunk]) for i in range(0, len(X), self.chunk)]
         return np.concatenate([m for m, _ in parts]), np.concatenate([o for _, o in parts])
 
     # _render(x, camera_index) is the numpy backend's; write your own with _counts.

@@ -2,6 +2,7 @@
 # name changeme-chunked and this file (test file names must be unique across plugins).
 """The evaluator counts exactly as mmocap's naive reference (the conformance suite), and its
 config repeats its defaults."""
+
 import inspect
 
 from changeme_evaluator.evaluator import ChangemeChunkedEvaluator

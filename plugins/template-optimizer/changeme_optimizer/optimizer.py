@@ -10,6 +10,7 @@ gets what ``ask`` returned and tracks the best point. After ``setup`` it holds `
 ``to_unit`` / ``from_unit`` convert to and from normalised coordinates, in which ``x0`` is
 0 and one unit is the search radius in every coordinate (rad or mm alike).
 """
+
 from __future__ import annotations
 
 import numpy as np

@@ -1,6 +1,7 @@
 # TEMPLATE: rename the module changeme_optimizer, the class ChangemeRandomLocalSearch, the
 # name changeme-rls and this file (test file names must be unique across plugins).
 """The optimiser passes mmocap's conformance suite, and its config repeats its defaults."""
+
 import inspect
 
 from changeme_optimizer.optimizer import ChangemeRandomLocalSearch

@@ -1,5 +1,6 @@
 """Hydra search-path plugin: puts this package's ``conf/`` (``optimizer/pycma.yaml``) on
 mmocap's config search path, so that ``optimizer=pycma`` works once the package is installed."""
+
 from hydra.core.config_search_path import ConfigSearchPath
 from hydra.plugins.search_path_plugin import SearchPathPlugin
 

@@ -2,6 +2,7 @@
 # mmocap-changeme-optimizer (the distribution) and the package changeme_optimizer.
 """Hydra search-path plugin: puts this package's ``conf/`` on mmocap's config search path,
 so that ``optimizer=changeme-rls`` works once the package is installed (not editable)."""
+
 from hydra.core.config_search_path import ConfigSearchPath
 from hydra.plugins.search_path_plugin import SearchPathPlugin
 
