@@ -34,6 +34,7 @@ demo: $(STAMP) ## Generate synthetic S1 walking, track it with CMA-ES, write out
 FOREGROUND_ARGS ?=
 foreground: $(STAMP) ## Precision, recall and IoU of each background method per camera on the demo sequence; outputs/tables/foreground.*
 	$(MMOCAP) foreground-quality progress=false 'dataset.cameras=$${dataset.all_cameras}' $(FOREGROUND_ARGS)
+	$(MMOCAP) results-page docs/results/foreground.md --target foreground outputs/tables/foreground.md
 
 # The OpenCL evaluator counts exactly as numpy does (the conformance suite) and is faster.
 optimizers: $(STAMP) ## Demo sequence with every built-in optimiser, holistic and hierarchical (about 3 min); table in outputs/tables/
@@ -43,6 +44,7 @@ optimizers: $(STAMP) ## Demo sequence with every built-in optimiser, holistic an
 	@mkdir -p outputs/tables
 	$(MMOCAP) summaries outputs/optimizers --csv outputs/tables/optimizers.csv \
 		| tee outputs/tables/optimizers.md
+	$(MMOCAP) results-page docs/results/optimizers.md --target optimizers outputs/tables/optimizers.md
 
 # BLAS on one thread: its idle threads spinning beside OpenCL's or the workers' would
 # inflate CMA-ES's share of a frame many times over on a small machine.
@@ -65,11 +67,14 @@ table2: $(STAMP) ## Cano Table 2 for this machine: time per model-view per backe
 # which ends by writing runs.csv and frames.csv there, then makes the table or figure.
 # SCALE=smoke|default|paper; SWEEP_ARGS adds overrides (e.g. hydra/launcher=slurm). The Cano
 # targets time their runs, so they run one job at a time.
+# The targets with a page in docs/results/ write their tables there too, at any SCALE but smoke.
 SCALE      ?= smoke
 SWEEP_ARGS ?=
+RESULTS_PAGES := table4 cano_table3 autostart
+results_page = $(if $(and $(filter $(1),$(RESULTS_PAGES)),$(filter-out smoke,$(SCALE))),--page docs/results/$(1).md --target '$(1) SCALE=$(SCALE)')
 define paper_sweep
 	$(MMOCAP) -m +experiment=$(1) scale=$(SCALE) $(2) $(SWEEP_ARGS)
-	$(MMOCAP) paper $(1) outputs/sweeps/$(1)/$(SCALE)
+	$(MMOCAP) paper $(1) outputs/sweeps/$(1)/$(SCALE) $(call results_page,$(1))
 endef
 
 tables: table4 table5 table6 table7 fig7 fig10 cano_table3 fig4 fig5 ## Every paper table and figure at SCALE (smoke: minutes)

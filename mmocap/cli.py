@@ -202,6 +202,7 @@ SUBCOMMANDS = {
     "summaries": (_main_of("mmocap.report.summaries"), "table of the run summaries below a folder"),
     "stats": (_main_of("mmocap.report.stats"), "Friedman test and Holm's comparisons on a table of results"),
     "paper": (_main_of("mmocap.report.paper"), "make a paper table or figure from a sweep's runs.csv"),
+    "results-page": (_main_of("mmocap.report.results_page"), "put Markdown tables on a stamped docs/results page"),
     "bench": (_main_of("mmocap.bench.cli"), "evaluator benchmark: Cano Tables 1 and 2 and Fig. 3 here"),
     "foreground-quality": (
         _main_of("mmocap.report.foreground_quality"),

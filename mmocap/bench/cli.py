@@ -37,12 +37,13 @@ from mmocap import registry
 from mmocap.analysis.figures import plot_frames_per_second, plot_pareto_front
 from mmocap.bench import fidelity, roofline
 from mmocap.bench.backends import backends
-from mmocap.bench.output import TableWriter, machine, update_page
+from mmocap.bench.output import TableWriter, update_bench_page
 from mmocap.bench.tables import MAX_FRAMES, table1, table2
 from mmocap.body.model import VERTICES_RANGE
 from mmocap.config import load
 from mmocap.data.synthetic import CAMERA_RING
 from mmocap.errors import ConfigError
+from mmocap.report.results_page import machine
 from mmocap.stages.tracking import MAX_EVALUATIONS, START_EVALUATIONS
 from mmocap.testing.scene import Scene
 from mmocap.validate import check_number
@@ -129,7 +130,7 @@ def main(argv: list[str], prog: str) -> None:
     else:
         timings_command(args, tables, parser)
     if args.page is not None:
-        update_page(args.page, tables.sections, TABLES[args.table])
+        update_bench_page(args.page, tables.sections, TABLES[args.table])
 
 
 def fidelity_command(args: argparse.Namespace, tables: TableWriter) -> None:

@@ -63,6 +63,7 @@ from mmocap.analysis.statistics import (
 )
 from mmocap.analysis.tables import format_p, provenance, write_csv, write_table
 from mmocap.errors import DataError, MmocapWarning
+from mmocap.report.results_page import update_page
 from mmocap.validate import check_number
 
 ERROR = "mean_marker_error_mm"
@@ -744,6 +745,10 @@ def main(argv: list[str], prog: str) -> None:
         "--block", default=",".join(DEFAULT_BLOCK), help="columns naming a Friedman block (default: %(default)s)"
     )
     parser.add_argument("--alpha", type=float, default=0.05, help="Holm's significance level")
+    parser.add_argument(
+        "--page", type=Path, help="also put the tables made on this results page (e.g. docs/results/table4.md)"
+    )
+    parser.add_argument("--target", help="the make target the page's stamp names (default: NAME)")
     args = parser.parse_args(argv)
     names = list(MAKERS) if args.name == "all" else [args.name]
     block = tuple(c.strip() for c in args.block.split(",") if c.strip())
@@ -752,3 +757,8 @@ def main(argv: list[str], prog: str) -> None:
     for name, reason in skipped.items():
         print(f"skipped {name}: {reason}")
     print("written: " + ", ".join(map(str, written)))
+    if args.page is not None:
+        tables = [Path(path) for path in written if Path(path).suffix == ".md"]
+        sections = {path.stem: Path(path).read_text().strip("\n") for path in tables}
+        update_page(args.page, args.target or args.name, None, sections, order=[path.stem for path in tables])
+        print(f"written: {args.page}")
