@@ -36,7 +36,8 @@ def test_the_preamble_and_title_stay_and_every_old_table_goes(tmp_path):
     update_page(page, "table4 SCALE=paper", None, {"table4_realistic": "new"})
     text = page.read_text()
     assert STAMP.fullmatch(text.splitlines()[0])["target"] == "table4 SCALE=paper"
-    assert title_of(text) == "Results: Yeguas Table 4" and preamble(text) == "What the ranks say."
+    assert title_of(text) == "Results: Yeguas Table 4"
+    assert preamble(text) == "What the ranks say."
     assert sections(text) == {"table4_realistic": "new"}
 
 
@@ -46,7 +47,8 @@ def test_the_command_puts_markdown_files_on_a_page_in_the_order_given(tmp_path, 
         path.write_text(f"| {path.stem} |\n")
     page = tmp_path / "page.md"
     main([str(page), *map(str, tables), "--target", "foreground", "--title", "Foreground"], "mmocap results-page")
-    assert list(sections(page.read_text())) == ["b", "a"] and title_of(page.read_text()) == "Foreground"
+    assert list(sections(page.read_text())) == ["b", "a"]
+    assert title_of(page.read_text()) == "Foreground"
     assert f"written: {page}" in capsys.readouterr().out
 
 
