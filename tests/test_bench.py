@@ -6,7 +6,7 @@ import pandas as pd
 import pytest
 
 from mmocap import bench
-from tests.conftest import run_cli
+from tests.helpers import run_cli
 
 
 def test_bench_writes_both_tables_with_speedups_against_naive(tmp_path, capsys):

@@ -13,7 +13,7 @@ import pandas as pd
 import pytest
 
 from mmocap import config as mmocap_config
-from tests.test_cli import mmocap, overrides
+from tests.helpers import mmocap, overrides
 
 
 def sweep_args(data_root, sweep_dir, **extra):

@@ -20,7 +20,7 @@ from mmocap.analysis.results import (
 )
 from mmocap.errors import ConfigError, DataError, MmocapWarning
 from mmocap.sweep import check_sweep, format_seconds, progress_line, sweep_overrides
-from tests.conftest import run_cli
+from tests.helpers import run_cli
 
 SINGLE_RUNS = ("demo", "fig5")   # experiments that are one run, not a sweep
 EXPERIMENTS = [name for name in mmocap_config.options("experiment") if name not in SINGLE_RUNS]

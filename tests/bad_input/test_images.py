@@ -9,7 +9,7 @@ import cv2
 import numpy as np
 import pytest
 
-from tests.bad_input.conftest import assert_clean_error, mmocap, track_args
+from tests.helpers import assert_clean_error, mmocap, track_args
 
 
 def rewrite(path, convert) -> None:

@@ -5,7 +5,7 @@ import json
 
 import pytest
 
-from tests.bad_input.conftest import assert_clean_error, mmocap, track_args
+from tests.helpers import assert_clean_error, mmocap, track_args
 
 
 def change_x0(path, change) -> None:

@@ -7,8 +7,7 @@ import pytest
 
 from mmocap.data.recording import write_recording
 from mmocap.data.sequence import Sequence
-
-from .conftest import assert_clean_error, mmocap
+from tests.helpers import assert_clean_error, mmocap
 
 
 @pytest.fixture(scope="module")

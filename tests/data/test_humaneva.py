@@ -2,8 +2,6 @@
 the pipeline run on the exported folder."""
 import os
 import shutil
-import subprocess
-import sys
 from pathlib import Path
 
 import cv2
@@ -321,8 +319,9 @@ def test_pipeline_runs_on_the_exported_folder(exported, tmp_path):
 
 def test_export_command(synthetic, tmp_path):
     def mmocap(*args):
-        return subprocess.run([sys.executable, "-m", "mmocap", "export-humaneva", *map(str, args)],
-                              cwd=tmp_path, capture_output=True, text=True, timeout=120)
+        from tests.helpers import mmocap as run
+
+        return run("export-humaneva", *args, cwd=tmp_path, timeout=120)
 
     out = mmocap(synthetic, tmp_path / "he", "--images", "png", "--trial", "3")
     assert out.returncode == 0, out.stderr

@@ -125,7 +125,7 @@ def test_cmaes_candidates_of_twelve_searches_are_bit_for_bit_the_same():
     the tracking-like sphere, ellipsoid and Rosenbrock at 39 DOF x seeds 1 and 2."""
     digest, candidates = hashlib.sha256(), 0
     for bounds in ("transform", "clip"):
-        for name, f in TRACKING_LIKE.items():
+        for f in TRACKING_LIKE.values():
             for seed in (1, 2):
                 optimizer = registry.make_optimizer("cmaes", bounds=bounds)
                 optimizer.setup(box(budget=1500), np.random.default_rng(seed))

@@ -8,7 +8,7 @@ from PIL import Image
 
 from mmocap.errors import DataError, MmocapWarning
 from mmocap.report import paper
-from tests.conftest import run_cli
+from tests.helpers import run_cli
 
 SEQUENCES = ["S1_walking", "S1_boxing"]
 SEEDS = [0, 1]

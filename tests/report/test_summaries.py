@@ -5,7 +5,7 @@ import pytest
 
 from mmocap.errors import DataError, MmocapWarning
 from mmocap.report.summaries import collect
-from tests.conftest import run_cli
+from tests.helpers import run_cli
 
 
 def test_collect_sorts_runs_by_error(tmp_path, capsys):
