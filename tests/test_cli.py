@@ -6,7 +6,8 @@ import cv2
 import numpy as np
 import pytest
 
-from tests.helpers import mmocap, overrides
+from tests.helpers import mmocap_in_process as mmocap
+from tests.helpers import overrides
 
 
 @pytest.fixture
