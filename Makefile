@@ -112,7 +112,7 @@ PYTEST := OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 $(PY) -m pytest -q -n auto --
 test: $(STAMP) ## Run the fast test suite
 	$(PYTEST)
 
-test-slow: $(STAMP) ## Run the slow tests but the wheel's (make test-wheel runs those): long tracking runs and sweeps
+test-slow: $(STAMP) ## Run the slow tests (long tracking runs, sweeps) but the wheel's, which make test-wheel runs
 	$(PYTEST) -m slow --ignore=tests/packaging
 
 test-all: $(STAMP) ## Run every test, the slow ones included
