@@ -10,7 +10,7 @@ PLUGINS       := plugins/mmocap-pycma plugins/template-optimizer plugins/templat
 PLUGIN_FILES  := $(shell find $(PLUGINS) -name '*.py' -o -name '*.toml' -o -name '*.yaml')
 
 .DEFAULT_GOAL := help
-.PHONY: help install demo foreground optimizers test test-all test-wheel lint typecheck docs golden clean bench table1 table2 autostart
+.PHONY: help install demo foreground optimizers test test-slow test-all test-wheel lint typecheck docs golden clean bench table1 table2 autostart
 .PHONY: tables table4 table5 table6 table7 fig7 fig10 cano_table3 fig4 fig5
 
 help: ## Show this help
@@ -112,11 +112,19 @@ fig5: $(STAMP) ## Cano Fig. 5: the tracked model over S1 walking, first and last
 	@mkdir -p outputs/figures
 	for f in outputs/fig5/overlays/*.png; do cp $$f outputs/figures/fig5_$$(basename $$f); done
 
+# One worker per core (pytest-xdist), each test file on one worker so that its module
+# fixtures are built once; BLAS on one thread, as in a run (mmocap.cli): its threads would
+# only fight the other worker for the cores.
+PYTEST := OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 $(PY) -m pytest -q -n auto --dist loadfile
+
 test: $(STAMP) ## Run the fast test suite
-	$(PY) -m pytest -q
+	$(PYTEST)
+
+test-slow: $(STAMP) ## Run the slow tests (long tracking runs, sweeps) but the wheel's, which make test-wheel runs
+	$(PYTEST) -m slow --ignore=tests/packaging
 
 test-all: $(STAMP) ## Run every test, the slow ones included
-	$(PY) -m pytest -q -m ''
+	$(PYTEST) -m ''
 
 test-wheel: $(STAMP) ## Build the wheels of mmocap and plugins/*, install them in a fresh venv, use them from outside the repo (2 min)
 	$(PY) -m pytest -q -m slow tests/packaging

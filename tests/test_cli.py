@@ -1,34 +1,14 @@
 """The command line end to end: tracking a tiny sequence, and clear errors for bad input."""
 import json
 import shutil
-import subprocess
-import sys
 from importlib.metadata import version
 
 import cv2
 import numpy as np
 import pytest
 
-from tests.conftest import TINY
-
-
-def overrides(root, **extra):
-    """Command-line overrides that select the session's tiny sequence under ``root``."""
-    args = {
-        "dataset.root": str(root), "dataset.frames": TINY["frames"],
-        "dataset.cameras": "[" + ",".join(TINY["cameras"]) + "]",
-        "dataset.all_cameras": "[" + ",".join(TINY["cameras"]) + "]",
-        "dataset.width": TINY["width"], "dataset.height": TINY["height"],
-        "dataset.background_frames": TINY["background_frames"], "dataset.seed": TINY["seed"],
-        "progress": "false", "overlays": 1, "tracking.frames": 2, "tracking.evaluations": 300,
-    }
-    args.update(extra)
-    return [f"{k}={v}" for k, v in args.items()]
-
-
-def mmocap(*args, cwd):
-    return subprocess.run([sys.executable, "-m", "mmocap", *args], cwd=cwd,
-                          capture_output=True, text=True, timeout=600)
+from tests.helpers import mmocap_in_process as mmocap
+from tests.helpers import overrides
 
 
 @pytest.fixture

@@ -11,7 +11,7 @@ import pandas as pd
 import pytest
 
 from mmocap.data.synthetic import generate
-from tests.bad_input.conftest import TINY
+from tests.helpers import TINY_BAD_INPUT as TINY
 
 JOBS = 6
 

@@ -13,7 +13,7 @@ import pandas as pd
 import pytest
 
 from mmocap import config as mmocap_config
-from tests.test_cli import mmocap, overrides
+from tests.helpers import mmocap, overrides
 
 
 def sweep_args(data_root, sweep_dir, **extra):
@@ -99,13 +99,16 @@ def test_submitit_local_launcher(tiny_sequence, tmp_path):
 
 @pytest.mark.slow
 def test_an_experiment_runs_on_the_tiny_sequence(tiny_sequence, tmp_path):
-    """Fig. 10 at the smoke scale: four holistic algorithms, one run each."""
+    """Fig. 10 at the smoke scale: four holistic algorithms, one run each with the paper's
+    settings and one with the tuned ones."""
     sweep = tmp_path / "fig10"
     out = mmocap("-m", "+experiment=fig10", "scale=smoke", *overrides(tiny_sequence.parent),
                  "overlays=0", f"hydra.sweep.dir={sweep}", cwd=tmp_path)
     assert out.returncode == 0, out.stderr
     runs = pd.read_csv(sweep / "runs.csv")
-    assert sorted(runs["algorithm"]) == ["apf-holistic", "cmaes-holistic", "de-holistic", "pso-holistic"]
+    algorithms = ["apf-holistic", "cmaes-holistic", "de-holistic", "pso-holistic"]
+    assert sorted(runs["algorithm"]) == sorted(2 * algorithms)
+    assert sorted(runs["settings"]) == 4 * ["paper"] + 4 * ["tuned"]
     # the command line (tracking.evaluations=300, tracking.frames=2) wins over the experiment
     assert set(runs["evaluations"]) == {300} and set(runs["frames"]) == {2}
 

@@ -2,7 +2,7 @@
 other cases comes from what that case broke."""
 import json
 
-from tests.bad_input.conftest import mmocap, track_args
+from tests.helpers import mmocap, track_args
 
 
 def test_the_unbroken_copy_tracks_with_exit_0_and_no_warning(sequence_copy, tmp_path):

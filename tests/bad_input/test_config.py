@@ -2,7 +2,8 @@
 in a sweep, before the first job starts."""
 import pytest
 
-from tests.bad_input.conftest import assert_clean_error, mmocap
+from tests.helpers import assert_clean_error
+from tests.helpers import mmocap_in_process as mmocap
 
 CASES = [
     ("seed=abc", "seed"),

@@ -20,7 +20,8 @@ import pytest
 
 from mmocap.io import locked
 from mmocap.run_folder import RUN_LOCK
-from tests.bad_input.conftest import assert_clean_error, mmocap, track_args
+from tests.helpers import assert_clean_error, track_args
+from tests.helpers import mmocap_in_process as mmocap
 
 #: what a read-only folder is called: root writes through permission bits, so
 #: ``make_read_only`` mounts a read-only file system for root and removes permissions otherwise

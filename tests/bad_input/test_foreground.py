@@ -7,7 +7,8 @@ import cv2
 import numpy as np
 import pytest
 
-from tests.bad_input.conftest import assert_clean_error, assert_warned, mmocap, track_args
+from tests.helpers import assert_clean_error, assert_warned, track_args
+from tests.helpers import mmocap_in_process as mmocap
 
 
 def paint(sequence, camera: str, value: int) -> None:

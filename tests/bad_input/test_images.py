@@ -9,7 +9,8 @@ import cv2
 import numpy as np
 import pytest
 
-from tests.bad_input.conftest import assert_clean_error, mmocap, track_args
+from tests.helpers import assert_clean_error, track_args
+from tests.helpers import mmocap_in_process as mmocap
 
 
 def rewrite(path, convert) -> None:

@@ -11,7 +11,8 @@ import json
 import pandas as pd
 import pytest
 
-from tests.bad_input.conftest import assert_clean_error, assert_warned, mmocap, track_args
+from tests.helpers import assert_clean_error, assert_warned, track_args
+from tests.helpers import mmocap_in_process as mmocap
 
 HEADER = "frame,marker,x_mm,y_mm,z_mm"
 

@@ -5,7 +5,8 @@ import json
 
 import pytest
 
-from tests.bad_input.conftest import assert_clean_error, mmocap, track_args
+from tests.helpers import assert_clean_error, track_args
+from tests.helpers import mmocap_in_process as mmocap
 
 
 def change_x0(path, change) -> None:

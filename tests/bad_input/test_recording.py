@@ -7,8 +7,8 @@ import pytest
 
 from mmocap.data.recording.reader import write_recording
 from mmocap.data.sequence import Sequence
-
-from .conftest import assert_clean_error, mmocap
+from tests.helpers import assert_clean_error
+from tests.helpers import mmocap_in_process as mmocap
 
 
 @pytest.fixture(scope="module")

@@ -8,7 +8,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from tests.bad_input.conftest import assert_clean_error, mmocap
+from tests.helpers import assert_clean_error
+from tests.helpers import mmocap_in_process as mmocap
 
 HEADER = "sequence,seed,algorithm,mean_marker_error_mm"
 

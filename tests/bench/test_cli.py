@@ -5,7 +5,7 @@ import pytest
 from mmocap.bench.cli import build_parser
 from mmocap.config import compose
 from mmocap.report.results_page import sections
-from tests.conftest import run_cli
+from tests.helpers import run_cli
 
 
 def test_bench_writes_both_tables_with_speedups_against_naive(tmp_path, capsys):

@@ -4,7 +4,7 @@ import pandas as pd
 import pytest
 
 from mmocap.bench import fidelity
-from tests.conftest import run_cli
+from tests.helpers import run_cli
 
 
 def test_fidelity_puts_both_modes_side_by_side_with_ratios_to_exact_1500(tiny_sequence, tmp_path, monkeypatch):

@@ -14,7 +14,7 @@ from mmocap.data.realism import Realism
 from mmocap.data.sequence import Sequence
 from mmocap.data.synthetic import SyntheticDataset, generate
 from mmocap.errors import ConfigError
-from tests.conftest import TINY
+from tests.helpers import TINY
 
 REALISTIC = dict(name="realistic", height_sd_mm=20.0, girth_sd=0.05, marker_standoff_mm=9.0,
                  marker_placement_sd_mm=10.0, rotation_sd_deg=0.05, translation_sd_mm=2.0,

@@ -2,8 +2,6 @@
 summary names the backend that ran."""
 import json
 import logging
-import subprocess
-import sys
 
 import numpy as np
 import pytest
@@ -13,7 +11,7 @@ from mmocap.evaluators import auto
 from mmocap.evaluators.numpy_backend import NumpyEvaluator
 from mmocap.evaluators.opencl import OpenCLEvaluator, check_scene
 from mmocap.testing.evaluators import RIGS, BlobBody, masks, naive_counts, test_poses
-from tests.test_cli import overrides
+from tests.helpers import mmocap, overrides
 
 OPENCL_HERE = OpenCLEvaluator.unavailable() is None
 needs_opencl = pytest.mark.skipif(not OPENCL_HERE, reason="no usable OpenCL device here")
@@ -115,9 +113,8 @@ def test_auto_is_the_default_and_the_summary_names_the_backend_that_ran(tiny_seq
     root.mkdir()
     (root / "S1_walking").symlink_to(tiny_sequence)
     run_dir = tmp_path / "run"
-    out = subprocess.run([sys.executable, "-m", "mmocap", *overrides(root, **{"tracking.frames": 1}),
-                          "overlays=0", f"hydra.run.dir={run_dir}"],
-                         cwd=tmp_path, capture_output=True, text=True, timeout=600)
+    out = mmocap(*overrides(root, **{"tracking.frames": 1}), "overlays=0", f"hydra.run.dir={run_dir}",
+                 cwd=tmp_path)
     assert out.returncode == 0, out.stderr
     summary = json.loads((run_dir / "summary.json").read_text())
     expected, _ = auto.choose()

@@ -11,7 +11,7 @@ import pytest
 
 from mmocap import registry
 from mmocap.errors import ConfigError
-from tests.test_cli import overrides
+from tests.helpers import overrides
 
 MISSING = {
     # a pyopencl package that cannot be imported, first on the path

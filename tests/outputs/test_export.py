@@ -6,7 +6,6 @@ from __future__ import annotations
 import errno
 import json
 import math
-import subprocess
 import sys
 from pathlib import Path
 
@@ -27,8 +26,7 @@ from mmocap.outputs import export
 from mmocap.outputs.export import FORMATS, export_motion, export_run, read_poses, write_c3d, write_trc
 from mmocap.preflight import check_config
 from mmocap.stages.accuracy import FrameLog
-from tests.bad_input.conftest import Outcome, assert_clean_error
-from tests.conftest import run_cli
+from tests.helpers import Outcome, assert_clean_error, mmocap, run_cli
 
 FPS = 50.0
 #: a complete summary.json, of a run of the demo config on a tiny sequence
@@ -242,8 +240,7 @@ def test_read_poses_names_a_cell_that_is_not_a_number(tmp_path, poses):
 def test_cli_export_writes_the_files(exported, tmp_path):
     run, _ = exported
     out = tmp_path / "motion"
-    done = subprocess.run([sys.executable, "-m", "mmocap", "export", str(run), "--format", "trc,bvh",
-                           "--out", str(out)], capture_output=True, text=True, timeout=120)
+    done = mmocap("export", run, "--format", "trc,bvh", "--out", out, timeout=120)
     assert done.returncode == 0, done.stderr
     assert done.stdout.split() == [str(out / "motion.trc"), str(out / "motion.bvh")]
     assert (out / "motion.trc").read_text() == (run / "export" / "motion.trc").read_text()

@@ -15,7 +15,7 @@ from mmocap.stages.background import GaussianBackground
 from mmocap.stages.foreground import Foreground
 from mmocap.stages.tracking import FrameResult
 from mmocap.video import VideoReader, count_frames
-from tests.conftest import run_cli
+from tests.helpers import run_cli
 
 #: how far (mm, along x) the pose drawn for frame 1 is moved off the true one, so that the
 #: foreground and the model each have pixels the other lacks

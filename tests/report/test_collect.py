@@ -6,7 +6,7 @@ from mmocap.analysis.results import ResultsStore, load_runs
 from mmocap.errors import DataError
 from mmocap.report.collect import collect
 from tests.analysis.test_results import config, record_of
-from tests.conftest import run_cli
+from tests.helpers import run_cli
 
 
 def test_collect_writes_csv_and_an_empty_store_is_an_error(tmp_path, capsys):

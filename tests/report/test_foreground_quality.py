@@ -8,7 +8,7 @@ import pytest
 
 from mmocap.errors import DataError
 from mmocap.report.foreground_quality import evaluate
-from tests.conftest import run_cli
+from tests.helpers import run_cli
 
 
 class AllForeground:

@@ -14,8 +14,7 @@ import pytest
 from mmocap.config import compose
 from mmocap.report.ioh import find_runs, write_ioh
 from mmocap.run_folder import TRACES
-from tests.bad_input.conftest import Outcome, assert_clean_error
-from tests.conftest import run_cli
+from tests.helpers import Outcome, assert_clean_error, run_cli
 
 FRAMES, BUDGET = 2, 30
 #: run folder -> (overrides, algorithm, dimension)

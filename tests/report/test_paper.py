@@ -9,7 +9,7 @@ from PIL import Image
 from mmocap.errors import DataError, MmocapWarning
 from mmocap.report import paper
 from mmocap.report.results_page import sections
-from tests.conftest import run_cli
+from tests.helpers import run_cli
 
 SEQUENCES = ["S1_walking", "S1_boxing"]
 SEEDS = [0, 1]

@@ -6,7 +6,7 @@ import pytest
 from mmocap.errors import ConfigError
 from mmocap.io import WriteError
 from mmocap.report.stats import output_stem
-from tests.conftest import run_cli
+from tests.helpers import run_cli
 
 
 @pytest.fixture

@@ -6,7 +6,7 @@ import pytest
 
 from mmocap.errors import DataError, MmocapWarning
 from mmocap.report.summaries import collect
-from tests.conftest import run_cli
+from tests.helpers import run_cli
 
 #: a complete summary.json, of a run of the demo config on a tiny sequence
 SUMMARY_EXAMPLE = Path(__file__).parents[1] / "golden" / "data" / "summary.json"

@@ -266,7 +266,7 @@ def test_quality_table_scores_each_method_per_camera(sequence):
 
 
 def test_quality_command_writes_the_tables(tiny_sequence, tmp_path, capsys):
-    from tests.conftest import TINY, run_cli
+    from tests.helpers import TINY, run_cli
 
     shutil.copytree(tiny_sequence, tmp_path / "data" / "S1_walking")
     cameras = "[" + ",".join(TINY["cameras"]) + "]"

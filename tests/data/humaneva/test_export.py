@@ -1,6 +1,4 @@
 """A synthetic sequence exported in the HumanEva-I layout: its names, and what reads back."""
-import subprocess
-import sys
 
 import cv2
 import numpy as np
@@ -48,8 +46,9 @@ def test_images_background_and_markers_round_trip(synthetic, tmp_path, images):
 
 def test_export_command(synthetic, tmp_path):
     def mmocap(*args):
-        return subprocess.run([sys.executable, "-m", "mmocap", "export-humaneva", *map(str, args)],
-                              cwd=tmp_path, capture_output=True, text=True, timeout=120)
+        from tests.helpers import mmocap as run
+
+        return run("export-humaneva", *args, cwd=tmp_path, timeout=120)
 
     out = mmocap(synthetic, tmp_path / "he", "--images", "png", "--trial", "3")
     assert out.returncode == 0, out.stderr

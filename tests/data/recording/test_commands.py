@@ -5,7 +5,7 @@ import json
 
 import pytest
 
-from tests.conftest import run_cli
+from tests.helpers import run_cli
 
 QUICK_START = ["start.headings=4", "start.candidates=1", "start.refined=1", "start.evaluations=80",
                "start.limb_evaluations=40", "start.limb_samples=20", "start.limb_restarts=1", "start.rounds=1",
