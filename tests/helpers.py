@@ -24,6 +24,18 @@ import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.collections import PathCollection
+from matplotlib.text import Text
+from PIL import Image
+
+from mmocap import config as mmocap_config
+from mmocap import provenance
+from mmocap.analysis.results import make_record
+from mmocap.data.humaneva.dataset import HumanEvaDataset
+from mmocap.data.humaneva.layout import TOOLBOX_FIRST_FRAME
+
 #: the tiny synthetic sequence of the session fixture ``tiny_sequence`` (tests/conftest.py):
 #: 4 frames, 3 cameras (two colour, one greyscale), 320x240
 TINY = dict(subject="S1", action="walking", frames=4, cameras=("C1", "C2", "BW1"),
@@ -159,3 +171,131 @@ def assert_warned(outcome: Outcome, summary: dict, *words: str) -> str:
     recorded = [w for w in summary.get("warnings", []) if all(x.lower() in w.lower() for x in words)]
     assert recorded, f"summary.json does not record the warning {words}: {summary.get('warnings')}"
     return lines[0]
+
+
+# -- figures: what a user sees of a saved plot ---------------------------------------------------
+
+#: tolerance (pixels) of the containment checks, for anti-aliased edges
+SLACK_PX = 1.0
+
+
+def inside(box, outer) -> bool:
+    """``box`` lies inside ``outer`` (display boxes), to :data:`SLACK_PX`."""
+    return (box.x0 >= outer.x0 - SLACK_PX and box.y0 >= outer.y0 - SLACK_PX
+            and box.x1 <= outer.x1 + SLACK_PX and box.y1 <= outer.y1 + SLACK_PX)
+
+
+def texts_of(fig) -> list[Text]:
+    """The texts that a figure draws: its own (suptitle), its axes' titles, labels and
+    annotations, and its legends' entries."""
+    texts = list(fig.texts)
+    for ax in fig.axes:
+        texts += [ax.title, ax._left_title, ax._right_title, ax.xaxis.label, ax.yaxis.label, *ax.texts]
+        if hasattr(ax, "zaxis"):
+            texts.append(ax.zaxis.label)
+    for legend in legends_of(fig):
+        texts += legend.get_texts()
+    return [t for t in texts if t.get_visible() and t.get_text()]
+
+
+def legends_of(fig) -> list:
+    """The legends a figure draws: its own and its axes'."""
+    return list(fig.legends) + [ax.get_legend() for ax in fig.axes if ax.get_legend() is not None]
+
+
+def data_points_px(ax) -> np.ndarray:
+    """(N, 2) display coordinates of an axes' data: its lines (densely along each segment),
+    scatter points, bands and boxes; those outside the axes (not drawn) left out."""
+    points = []
+    for line in ax.lines:
+        xy = line.get_transform().transform(line.get_xydata())
+        steps = np.linspace(0, 1, 16)[:, None, None]
+        points.append((xy[:-1] + steps * (xy[1:] - xy[:-1])).reshape(-1, 2) if len(xy) > 1 else xy)
+    for collection in ax.collections:
+        if isinstance(collection, PathCollection):
+            points.append(collection.get_offset_transform().transform(collection.get_offsets()))
+        else:
+            points += [collection.get_transform().transform(p.vertices) for p in collection.get_paths()]
+    for patch in ax.patches:
+        points.append(patch.get_transform().transform(patch.get_path().vertices))
+    points = np.concatenate([p for p in points if len(p)]) if points else np.empty((0, 2))
+    points = points[np.isfinite(points).all(axis=1)]
+    box = ax.bbox
+    return points[(points[:, 0] >= box.x0) & (points[:, 0] <= box.x1)
+                  & (points[:, 1] >= box.y0) & (points[:, 1] <= box.y1)]
+
+
+def assert_fits(fig, path):
+    """The saved image is the figure's canvas; every text, legend and axes (with its tick
+    labels) lies inside it; no legend covers a data point of a 2-D axes."""
+    canvas = FigureCanvasAgg(fig)  # a closed figure keeps no canvas that draws
+    canvas.draw()
+    renderer = canvas.get_renderer()
+    canvas = fig.bbox
+    with Image.open(path) as image:
+        assert np.abs(np.subtract(image.size, canvas.size)).max() < 1, "the image is not the canvas"
+    for text in texts_of(fig):
+        assert inside(text.get_window_extent(renderer), canvas), f"text {text.get_text()!r} is cut off"
+    for legend in legends_of(fig):
+        assert inside(legend.get_window_extent(renderer), canvas), "a legend is cut off"
+    for ax in fig.axes:
+        assert inside(ax.get_tightbbox(renderer), canvas), f"axes {ax.get_title()!r} is cut off"
+    for legend in legends_of(fig):
+        box = legend.get_window_extent(renderer)
+        for ax in fig.axes:
+            if hasattr(ax, "zaxis"):
+                continue
+            points = data_points_px(ax)
+            covered = ((points[:, 0] > box.x0) & (points[:, 0] < box.x1)
+                       & (points[:, 1] > box.y0) & (points[:, 1] < box.y1))
+            assert not covered.any(), f"the legend covers {covered.sum()} data points of {ax.get_title()!r}"
+
+
+def assert_whole_frame_ticks(ax):
+    """The x ticks an axes shows are whole frame numbers."""
+    low, high = sorted(ax.get_xlim())
+    ticks = [t for t in ax.get_xticks() if low <= t <= high]
+    assert ticks and all(float(t).is_integer() for t in ticks), ticks
+
+
+# -- results store: records as the pipeline makes them ----------------------------------------------
+
+def compose_config(*overrides, hydra=False):
+    """mmocap's config composed with ``overrides`` (and Hydra's own, with ``hydra``)."""
+    return mmocap_config.compose(list(overrides), return_hydra_config=hydra)
+
+
+def summary_of(cfg, errors):
+    """A summary as the pipeline writes it, for a run of ``cfg`` with these frame errors."""
+    return {"mean_marker_error_mm": float(np.mean(errors)), "frames": len(errors),
+            "evaluations_per_frame": int(cfg.tracking.evaluations), "optimizer": cfg.optimizer.name,
+            "strategy": "hierarchical" if "Hierarchical" in cfg.strategy._target_ else "holistic",
+            "dof": cfg.body.dof, "backend": cfg.evaluator.name, "vertices": cfg.body.vertices,
+            "subject": cfg.dataset.subject, "action": cfg.dataset.action, "seed": cfg.seed,
+            "provenance": {**provenance.facts(), "components": provenance.components(
+                {"optimizer": cfg.optimizer.name, "evaluator": cfg.evaluator.name})}}
+
+
+def record_of(cfg, errors, search=2.0, evaluation=1.5, foreground=0.3, fitness=None):
+    """``fitness``: each frame's best fitness (0.1 each unless given)."""
+    fitness = [0.1] * len(errors) if fitness is None else fitness
+    frames = [{"frame": k, "marker_error_mm": e, "fitness": f, "evaluations": 10, "seconds": 0.5,
+               "foreground_seconds": 0.1} for k, (e, f) in enumerate(zip(errors, fitness))]
+    return make_record(cfg, summary_of(cfg, errors), frames, search, evaluation, foreground, provenance.now(),
+                       Path("run"))
+
+
+# -- HumanEva-I: a tiny synthetic sequence exported to its layout and read back ----------------------
+
+#: the exported tiny sequence of tests/data/humaneva/conftest.py: its cameras, frames, the
+#: exporter's default mocap lead and the images before the sequence in an exported video
+HE_CAMERAS = ["C1", "BW1"]
+HE_FRAMES = 3
+HE_LEAD = 4  # the exporter's default mocap lead
+HE_LEAD_IN = TOOLBOX_FIRST_FRAME - 1  # images before the sequence in an exported video
+HE_FIRST = HE_LEAD + 2 * HE_LEAD_IN  # 0-based mocap frame of the sequence's first frame
+
+
+def open_he(root, **kwargs):
+    """The HumanEva-I folder ``root`` opened as a sequence (the test cameras unless given)."""
+    return HumanEvaDataset(root, cameras=kwargs.pop("cameras", HE_CAMERAS), **kwargs).open(progress=False)

@@ -2,7 +2,6 @@
 import json
 import math
 import time
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -10,74 +9,49 @@ import pytest
 from omegaconf import open_dict
 
 from mmocap import config as mmocap_config
-from mmocap import provenance
 from mmocap.analysis.results import (
     ResultsStore,
     load_runs,
-    make_record,
     run_key,
 )
 from mmocap.errors import ConfigError, DataError, MmocapWarning
 from mmocap.sweep import check_sweep, format_seconds, progress_line, sweep_overrides
+from tests.helpers import compose_config, record_of
 
 SINGLE_RUNS = ("demo", "fig5")   # experiments that are one run, not a sweep
 EXPERIMENTS = [name for name in mmocap_config.options("experiment") if name not in SINGLE_RUNS]
 
 
-def config(*overrides, hydra=False):
-    return mmocap_config.compose(list(overrides), return_hydra_config=hydra)
-
-
-def summary_of(cfg, errors):
-    """A summary as the pipeline writes it, for a run of ``cfg`` with these frame errors."""
-    return {"mean_marker_error_mm": float(np.mean(errors)), "frames": len(errors),
-            "evaluations_per_frame": int(cfg.tracking.evaluations), "optimizer": cfg.optimizer.name,
-            "strategy": "hierarchical" if "Hierarchical" in cfg.strategy._target_ else "holistic",
-            "dof": cfg.body.dof, "backend": cfg.evaluator.name, "vertices": cfg.body.vertices,
-            "subject": cfg.dataset.subject, "action": cfg.dataset.action, "seed": cfg.seed,
-            "provenance": {**provenance.facts(), "components": provenance.components(
-                {"optimizer": cfg.optimizer.name, "evaluator": cfg.evaluator.name})}}
-
-
-def record_of(cfg, errors, search=2.0, evaluation=1.5, foreground=0.3, fitness=None):
-    """``fitness``: each frame's best fitness (0.1 each unless given)."""
-    fitness = [0.1] * len(errors) if fitness is None else fitness
-    frames = [{"frame": k, "marker_error_mm": e, "fitness": f, "evaluations": 10, "seconds": 0.5,
-               "foreground_seconds": 0.1} for k, (e, f) in enumerate(zip(errors, fitness))]
-    return make_record(cfg, summary_of(cfg, errors), frames, search, evaluation, foreground, provenance.now(),
-                       Path("run"))
-
-
 def test_run_key_ignores_outputs_and_presentation_only():
-    base = run_key(config())
-    assert base == run_key(config())
+    base = run_key(compose_config())
+    assert base == run_key(compose_config())
     assert len(base) == 16 and int(base, 16) >= 0
     for same in (["progress=false"], ["overlays=0"], ["results.store=/x"], ["results.reuse=[/y]"],
                  ["hydra.run.dir=/elsewhere"]):
-        assert run_key(config(*same)) == base, same
-    changed = {run_key(config(o)) for o in ("seed=1", "tracking.evaluations=500", "body.dof=28",
+        assert run_key(compose_config(*same)) == base, same
+    changed = {run_key(compose_config(o)) for o in ("seed=1", "tracking.evaluations=500", "body.dof=28",
                                              "optimizer=pso", "dataset.action=boxing", "body.vertices=20544")}
     assert base not in changed and len(changed) == 6
 
 
 def test_the_settings_presets_name_does_not_enter_the_key_but_its_values_do():
     # the default config names no preset and runs the optimisers' own values: the tuned runs
-    tuned = run_key(config("+experiment=table4", "settings=tuned"))
-    assert tuned == run_key(config("+experiment=table4", "settings=tuned", "settings.name=renamed"))
-    assert tuned == run_key(config("+experiment=fig7", "settings=tuned"))  # Fig. 7 finds Table 4's runs
-    assert run_key(config("+experiment=table4", "settings=paper")) == run_key(config("+experiment=fig7"))
-    assert run_key(config("+experiment=table4", "settings=paper")) != tuned
+    tuned = run_key(compose_config("+experiment=table4", "settings=tuned"))
+    assert tuned == run_key(compose_config("+experiment=table4", "settings=tuned", "settings.name=renamed"))
+    assert tuned == run_key(compose_config("+experiment=fig7", "settings=tuned"))  # Fig. 7 finds Table 4's runs
+    assert run_key(compose_config("+experiment=table4", "settings=paper")) == run_key(compose_config("+experiment=fig7"))
+    assert run_key(compose_config("+experiment=table4", "settings=paper")) != tuned
 
 
 def test_scale_presets_do_not_enter_the_key_but_their_values_do():
-    smoke = config("+experiment=fig10", "scale=smoke")
-    same_values = config("+experiment=fig10", "scale=smoke", "scale.seeds=7")
+    smoke = compose_config("+experiment=fig10", "scale=smoke")
+    same_values = compose_config("+experiment=fig10", "scale=smoke", "scale.seeds=7")
     assert run_key(smoke) == run_key(same_values)
-    assert run_key(smoke) != run_key(config("+experiment=fig10", "scale=default"))
+    assert run_key(smoke) != run_key(compose_config("+experiment=fig10", "scale=default"))
 
 
 def test_store_put_get_and_records(tmp_path):
-    cfg = config("seed=3")
+    cfg = compose_config("seed=3")
     store = ResultsStore(tmp_path)
     assert store.get(run_key(cfg)) is None
     path = store.put(record_of(cfg, [10.0, 20.0]))
@@ -89,15 +63,15 @@ def test_store_put_get_and_records(tmp_path):
     assert record["provenance"]["components"]["optimizer"]["distribution"] == "mmocap"
     assert record["timings"]["evaluation_seconds_per_frame"] == pytest.approx(0.75)
     assert record["config"]["seed"] == 3 and "hydra" not in record["key_config"]
-    store.put(record_of(config("seed=4"), [1.0]))
+    store.put(record_of(compose_config("seed=4"), [1.0]))
     assert sorted(r["seed"] for r in store.records()) == [3, 4]
 
 
 def test_adopt_copies_a_finished_run_from_another_store(tmp_path):
-    cfg = config("seed=5")
+    cfg = compose_config("seed=5")
     ResultsStore(tmp_path / "a").put(record_of(cfg, [12.0]))
     mine = ResultsStore(tmp_path / "b")
-    assert mine.adopt(run_key(config("seed=6")), [tmp_path / "a"]) is None
+    assert mine.adopt(run_key(compose_config("seed=6")), [tmp_path / "a"]) is None
     assert mine.adopt(run_key(cfg), [tmp_path / "missing", tmp_path / "a"])["seed"] == 5
     assert mine.get(run_key(cfg))["summary"]["mean_marker_error_mm"] == 12.0
 
@@ -144,7 +118,7 @@ def broken(record: dict, part: str, key: str, value) -> dict:
 ])
 def test_a_record_missing_an_entry_or_with_one_of_the_wrong_kind_is_named(tmp_path, part, key, value, message):
     store = ResultsStore(tmp_path)
-    path = store.put(broken(record_of(config(), [4.0]), part, key, value))
+    path = store.put(broken(record_of(compose_config(), [4.0]), part, key, value))
     with pytest.raises(DataError) as err:
         load_runs(tmp_path)
     assert str(err.value).startswith(f"run record {path}") and message in str(err.value)
@@ -152,7 +126,7 @@ def test_a_record_missing_an_entry_or_with_one_of_the_wrong_kind_is_named(tmp_pa
 
 
 def test_a_frame_entry_is_checked_too(tmp_path):
-    record = record_of(config(), [4.0, 6.0])
+    record = record_of(compose_config(), [4.0, 6.0])
     record["frames"][1]["frame"] = "one"
     path = ResultsStore(tmp_path).put(record)
     with pytest.raises(DataError, match=rf"{path}: frames\[1\].frame is 'one', not an integer"):
@@ -161,11 +135,11 @@ def test_a_frame_entry_is_checked_too(tmp_path):
 
 def test_a_run_without_ground_truth_is_kept_empty_with_a_warning(tmp_path):
     store = ResultsStore(tmp_path)
-    unscored = record_of(config("seed=1"), [4.0])
+    unscored = record_of(compose_config("seed=1"), [4.0])
     unscored["summary"]["mean_marker_error_mm"] = None
     unscored["frames"][0]["marker_error_mm"] = None
     store.put(unscored)
-    store.put(record_of(config("seed=2"), [6.0]))
+    store.put(record_of(compose_config("seed=2"), [6.0]))
     with pytest.warns(MmocapWarning, match=rf"1 of 2 run\(s\) .* no ground truth .*{unscored['run_id']}.json"):
         runs, frames = load_runs(tmp_path)
     by_seed = runs.set_index("seed")["mean_marker_error_mm"]
@@ -176,9 +150,9 @@ def test_a_run_without_ground_truth_is_kept_empty_with_a_warning(tmp_path):
 
 def test_load_runs_gives_the_contract_tables(tmp_path):
     store = ResultsStore(tmp_path)
-    store.put(record_of(config("seed=0", "algorithm=cmaes-hierarchical", "+experiment=cano_table3"), [10.0, 30.0],
+    store.put(record_of(compose_config("seed=0", "algorithm=cmaes-hierarchical", "+experiment=cano_table3"), [10.0, 30.0],
                         fitness=[0.2, 0.4]))
-    store.put(record_of(config("seed=1", "body.dof=28", "evaluator=opencl", "+experiment=table4", "settings=paper",
+    store.put(record_of(compose_config("seed=1", "body.dof=28", "evaluator=opencl", "+experiment=table4", "settings=paper",
                                "realism=realistic"), [5.0, 7.0, 9.0], fitness=[0.1, 0.1, 0.4]))
     runs, frames = load_runs(tmp_path)
     assert list(runs.columns[:19]) == [
@@ -205,9 +179,9 @@ def test_load_runs_gives_the_contract_tables(tmp_path):
 @pytest.mark.parametrize("bad", [None, float("nan"), float("inf")])
 def test_a_frame_without_a_finite_fitness_empties_its_runs_mean_with_a_warning(tmp_path, bad):
     store = ResultsStore(tmp_path)
-    gap = record_of(config("seed=1"), [4.0, 6.0], fitness=[0.1, bad])
+    gap = record_of(compose_config("seed=1"), [4.0, 6.0], fitness=[0.1, bad])
     store.put(gap)
-    store.put(record_of(config("seed=2"), [6.0], fitness=[0.3]))
+    store.put(record_of(compose_config("seed=2"), [6.0], fitness=[0.3]))
     with pytest.warns(MmocapWarning, match=rf"1 of 2 run\(s\) .* without a finite fitness .*{gap['run_id']}.json"):
         runs, frames = load_runs(tmp_path)
     by_seed = runs.set_index("seed")
@@ -218,7 +192,7 @@ def test_a_frame_without_a_finite_fitness_empties_its_runs_mean_with_a_warning(t
 
 
 def test_a_frame_without_its_fitness_entry_is_named(tmp_path):
-    record = record_of(config(), [4.0, 6.0])
+    record = record_of(compose_config(), [4.0, 6.0])
     del record["frames"][1]["fitness"]
     path = ResultsStore(tmp_path).put(record)
     with pytest.raises(DataError, match=rf"{path} lacks frames\[1\].fitness; delete it"):
@@ -238,7 +212,7 @@ JOBS = {
 @pytest.mark.parametrize("experiment", EXPERIMENTS)
 @pytest.mark.parametrize("scale", ["smoke", "default", "paper"])
 def test_every_experiment_composes_at_every_scale(experiment, scale):
-    cfg = config(f"+experiment={experiment}", f"scale={scale}", hydra=True)
+    cfg = compose_config(f"+experiment={experiment}", f"scale={scale}", hydra=True)
     values = sweep_overrides(cfg)
     assert cfg.hydra.sweep.dir == f"outputs/sweeps/{experiment}/{scale}"
     assert cfg.dataset.root == f"outputs/data/{scale}"
@@ -251,16 +225,16 @@ def test_every_experiment_composes_at_every_scale(experiment, scale):
 
 
 def test_the_yeguas_algorithms_are_the_papers_eight():
-    values = sweep_overrides(config("+experiment=table4", hydra=True))
+    values = sweep_overrides(compose_config("+experiment=table4", hydra=True))
     assert len(values["algorithm"]) == 8
     for name in values["algorithm"]:
-        cfg = config(f"algorithm={name}", "+experiment=table4")
+        cfg = compose_config(f"algorithm={name}", "+experiment=table4")
         optimizer, strategy = name.split("-")
         assert cfg.optimizer.name == optimizer and strategy.capitalize() in cfg.strategy._target_
 
 
 def test_command_line_values_replace_the_sweepers():
-    cfg = config("+experiment=table4", "scale=smoke", hydra=True)
+    cfg = compose_config("+experiment=table4", "scale=smoke", hydra=True)
     with open_dict(cfg):
         cfg.hydra.overrides.task = ["+experiment=table4", "seed=0,1,2", "body.dof=28"]
     values = sweep_overrides(cfg)
@@ -268,7 +242,7 @@ def test_command_line_values_replace_the_sweepers():
 
 
 def test_a_sweep_that_cannot_run_is_caught():
-    cfg = config("+experiment=table4", hydra=True)
+    cfg = compose_config("+experiment=table4", hydra=True)
     check_sweep(cfg, {"optimizer.name": ["cmaes", "pso"]})
     with pytest.raises(ConfigError, match="unknown optimizer 'nope'; installed optimizers: .*cmaes"):
         check_sweep(cfg, {"optimizer.name": ["cmaes", "nope"]})
@@ -277,9 +251,9 @@ def test_a_sweep_that_cannot_run_is_caught():
     with pytest.raises(ConfigError, match="evaluator=multiprocessing cannot start .* hydra.launcher.n_jobs=1"):
         check_sweep(cfg, {"evaluator": ["numpy", "multiprocessing"]})
     with pytest.raises(ConfigError, match="evaluator=multiprocessing"):
-        check_sweep(config("+experiment=table4", "evaluator=multiprocessing", hydra=True), {})
-    check_sweep(config("+experiment=table4", "hydra.launcher.n_jobs=1", hydra=True), {"evaluator": ["multiprocessing"]})
-    check_sweep(config("+experiment=table4", "hydra/launcher=basic", hydra=True), {"evaluator": ["multiprocessing"]})
+        check_sweep(compose_config("+experiment=table4", "evaluator=multiprocessing", hydra=True), {})
+    check_sweep(compose_config("+experiment=table4", "hydra.launcher.n_jobs=1", hydra=True), {"evaluator": ["multiprocessing"]})
+    check_sweep(compose_config("+experiment=table4", "hydra/launcher=basic", hydra=True), {"evaluator": ["multiprocessing"]})
 
 
 def test_progress_line_counts_this_session_and_estimates_time_left(tmp_path):

@@ -2,7 +2,7 @@
 import numpy as np
 
 from mmocap.outputs import plots
-from tests.analysis.test_figures import assert_fits, assert_whole_frame_ticks
+from tests.helpers import assert_fits, assert_whole_frame_ticks
 
 
 def test_error_per_frame_fits_with_whole_frame_ticks(tmp_path):

@@ -6,7 +6,7 @@ from PIL import Image, ImageSequence
 from mmocap.body.skeleton import PARENT_INDEX
 from mmocap.errors import ConfigError, DataError, MmocapWarning
 from mmocap.outputs import skeleton
-from tests.analysis.test_figures import assert_fits
+from tests.helpers import assert_fits
 
 
 def walking(frames: int) -> np.ndarray:

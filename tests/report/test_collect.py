@@ -5,8 +5,7 @@ import pytest
 from mmocap.analysis.results import ResultsStore, load_runs
 from mmocap.errors import DataError
 from mmocap.report.collect import collect
-from tests.analysis.test_results import config, record_of
-from tests.helpers import run_cli
+from tests.helpers import compose_config, record_of, run_cli
 
 
 def test_collect_writes_csv_and_an_empty_store_is_an_error(tmp_path, capsys):
@@ -14,7 +13,7 @@ def test_collect_writes_csv_and_an_empty_store_is_an_error(tmp_path, capsys):
         load_runs(tmp_path)
     assert run_cli("collect", *[str(tmp_path)]) == 2
     assert "no run records" in capsys.readouterr().err
-    ResultsStore(tmp_path).put(record_of(config(), [4.0]))
+    ResultsStore(tmp_path).put(record_of(compose_config(), [4.0]))
     runs_csv, frames_csv = collect(tmp_path)
     assert pd.read_csv(runs_csv)["mean_marker_error_mm"].tolist() == [4.0]
     assert pd.read_csv(frames_csv).shape == (1, 4)

@@ -6,12 +6,12 @@ import pytest
 
 from mmocap.data.humaneva.export import export
 from mmocap.data.synthetic import generate
-from tests.data.humaneva import CAMERAS, FRAMES
+from tests.helpers import HE_CAMERAS, HE_FRAMES
 
 
 @pytest.fixture(scope="package")
 def synthetic(tmp_path_factory) -> Path:
-    return generate(tmp_path_factory.mktemp("synthetic") / "S1_walking", frames=FRAMES, cameras=CAMERAS,
+    return generate(tmp_path_factory.mktemp("synthetic") / "S1_walking", frames=HE_FRAMES, cameras=HE_CAMERAS,
                     width=96, height=72, background_frames=3, seed=3, progress=False)
 
 

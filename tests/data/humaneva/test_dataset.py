@@ -20,7 +20,7 @@ from mmocap.data.humaneva.synchronisation import SyncOffsets
 from mmocap.data.sequence import Sequence
 from mmocap.errors import ConfigError, DataError
 from mmocap.stages.accuracy import marker_error
-from tests.data.humaneva import CAMERAS, FIRST, FRAMES, LEAD, open_he
+from tests.helpers import HE_CAMERAS, HE_FIRST, HE_FRAMES, HE_LEAD, open_he
 
 
 def test_calibration_round_trip(synthetic, exported):
@@ -34,7 +34,7 @@ def test_calibration_round_trip(synthetic, exported):
 
 def test_other_cameras_follow_their_own_ofs(synthetic, damaged):
     """BW1 starting one image later: sequence frame k shows its image k + 2 + LEAD_IN (1-based)."""
-    SyncOffsets(2, 1 + LEAD, 2.0).save(damaged / "S1/Sync_Data/Walking_1_(BW1).ofs")
+    SyncOffsets(2, 1 + HE_LEAD, 2.0).save(damaged / "S1/Sync_Data/Walking_1_(BW1).ofs")
     seq = open_he(damaged)
     assert seq.image_index.tolist() == [[6, 7], [7, 8]] and seq.n_frames == 2
     original = Sequence.open(synthetic)
@@ -45,9 +45,9 @@ def test_other_cameras_follow_their_own_ofs(synthetic, damaged):
 def test_missing_markers_are_nan_and_the_start_skips_them(damaged):
     path = damaged / "S1/Mocap_Data/Walking_1.mat"
     labels, markers = read_mocap(path)
-    assert np.isnan(markers[:LEAD]).all() and not np.isnan(markers[LEAD:]).any()
-    markers[FIRST, labels.index("LKNE")] = np.nan   # image 6: the left knee marker drops out
-    markers[FIRST + 4, labels.index("C7")] = np.nan  # image 8: the neck marker
+    assert np.isnan(markers[:HE_LEAD]).all() and not np.isnan(markers[HE_LEAD:]).any()
+    markers[HE_FIRST, labels.index("LKNE")] = np.nan   # image 6: the left knee marker drops out
+    markers[HE_FIRST + 4, labels.index("C7")] = np.nan  # image 8: the neck marker
     write_mocap(path, labels, markers)
     seq = open_he(damaged)
     # the sequence starts at image 7, the first with every marker from the toolbox's first frame on
@@ -107,10 +107,10 @@ def test_background_too_short(damaged):
 def test_a_trial_without_mocap_opens_without_a_first_pose_or_takes_the_one_given(damaged, synthetic, tmp_path):
     (damaged / "S1/Mocap_Data/Walking_1.mat").unlink()
     found = open_he(damaged)  # the automatic start finds the first pose
-    assert found.x0 is None and found.n_frames == FRAMES and np.isnan(found.markers()).all()
+    assert found.x0 is None and found.n_frames == HE_FRAMES and np.isnan(found.markers()).all()
     np.savetxt(tmp_path / "x0.txt", Sequence.open(synthetic).x0)
     seq = open_he(damaged, x0=str(tmp_path / "x0.txt"))
-    assert seq.n_frames == FRAMES and np.isnan(seq.markers()).all()
+    assert seq.n_frames == HE_FRAMES and np.isnan(seq.markers()).all()
 
 
 @pytest.mark.parametrize("kwargs, message", [
@@ -129,7 +129,7 @@ def test_a_trial_without_mocap_opens_without_a_first_pose_or_takes_the_one_given
     (dict(split="train", action="Combo"), r"^dataset.split 'train' has no frames of S1 Combo_1: "),
 ])
 def test_bad_config_values(exported, kwargs, message):
-    args = dict(root=exported, cameras=CAMERAS) | kwargs
+    args = dict(root=exported, cameras=HE_CAMERAS) | kwargs
     with pytest.raises(ConfigError, match=message):
         HumanEvaDataset(**args)
 
@@ -157,7 +157,7 @@ def long_layout(exported, tmp_path_factory) -> Path:
         SyncOffsets(image_start, 1, 2.0).save(root / f"S1/Sync_Data/Walking_1_({cam}).ofs")
     path = root / "S1/Mocap_Data/Walking_1.mat"
     labels, markers = read_mocap(path)
-    write_mocap(path, labels, np.repeat(markers[FIRST:FIRST + 1], 2 * LONG, axis=0))
+    write_mocap(path, labels, np.repeat(markers[HE_FIRST:HE_FIRST + 1], 2 * LONG, axis=0))
     return root
 
 
@@ -195,11 +195,11 @@ def test_pipeline_runs_on_the_exported_folder(exported, tmp_path):
 
     cfg = mmocap_config.compose([
         "dataset=humaneva", f"dataset.root={exported}", "dataset.subject=S1", "dataset.action=Walking",
-        "dataset.trial=1", f"dataset.cameras=[{','.join(CAMERAS)}]", "tracking.frames=2",
+        "dataset.trial=1", f"dataset.cameras=[{','.join(HE_CAMERAS)}]", "tracking.frames=2",
         "tracking.evaluations=200", "progress=false", "overlays=1", "body.vertices=2000"])
     summary = run(cfg, tmp_path / "run")
     assert summary["frames"] == 2 and summary["subject"] == "S1" and summary["action"] == "Walking"
-    assert summary["cameras"] == CAMERAS
+    assert summary["cameras"] == HE_CAMERAS
     assert np.isfinite(summary["mean_marker_error_mm"]) and summary["mean_marker_error_mm"] < 60
     assert (tmp_path / "run" / "summary.json").is_file()
 

@@ -7,7 +7,8 @@ import pytest
 from mmocap.data.humaneva.export import export
 from mmocap.data.sequence import Sequence
 from mmocap.video import count_frames, frame_rate
-from tests.data.humaneva import FRAMES, LEAD_IN, open_he
+from tests.helpers import HE_FRAMES, HE_LEAD_IN, open_he
+from tests.helpers import mmocap as run_mmocap
 
 
 def test_exported_layout_has_the_real_names(exported):
@@ -18,7 +19,7 @@ def test_exported_layout_has_the_real_names(exported):
         assert (exported / path).is_file(), path
 
 
-@pytest.mark.parametrize("video, frames", [("S1/Image_Data/Walking_1_(C1).avi", LEAD_IN + FRAMES),
+@pytest.mark.parametrize("video, frames", [("S1/Image_Data/Walking_1_(C1).avi", HE_LEAD_IN + HE_FRAMES),
                                            ("Background/Background_1_(BW1).avi", 3)])
 def test_exported_videos_are_ffv1_at_the_sequence_rate(synthetic, exported, video, frames):
     """Lossless FFV1 in AVI, as :func:`mmocap.video.write_video` writes an .avi path."""
@@ -35,8 +36,8 @@ def test_images_background_and_markers_round_trip(synthetic, tmp_path, images):
     seq = open_he(root)
     original = Sequence.open(synthetic)
     # the sequence after the lead-in copies, at the toolbox's first frame (image 6)
-    assert seq.n_frames == FRAMES and seq.subject == "S1" and seq.meta["first_image"] == 6
-    for f in range(FRAMES):
+    assert seq.n_frames == HE_FRAMES and seq.subject == "S1" and seq.meta["first_image"] == 6
+    for f in range(HE_FRAMES):
         for mine, theirs in zip(seq.images(f), original.images(f)):
             np.testing.assert_array_equal(mine, theirs)  # lossless video
     for cam, cam0 in zip(seq.cameras, original.cameras):
@@ -46,12 +47,10 @@ def test_images_background_and_markers_round_trip(synthetic, tmp_path, images):
 
 def test_export_command(synthetic, tmp_path):
     def mmocap(*args):
-        from tests.helpers import mmocap as run
-
-        return run("export-humaneva", *args, cwd=tmp_path, timeout=120)
+        return run_mmocap("export-humaneva", *args, cwd=tmp_path, timeout=120)
 
     out = mmocap(synthetic, tmp_path / "he", "--images", "png", "--trial", "3")
     assert out.returncode == 0, out.stderr
-    assert len(list((tmp_path / "he/S1/Image_Data/Walking_3_(BW1)").glob("*.png"))) == LEAD_IN + FRAMES
+    assert len(list((tmp_path / "he/S1/Image_Data/Walking_3_(BW1)").glob("*.png"))) == HE_LEAD_IN + HE_FRAMES
     bad = mmocap(tmp_path / "nothing", tmp_path / "he2")
     assert bad.returncode == 2 and "not a sequence folder" in bad.stderr and "Traceback" not in bad.stderr

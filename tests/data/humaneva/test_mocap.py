@@ -7,7 +7,7 @@ from mmocap.body.model import MARKER_NAMES
 from mmocap.data.humaneva.mocap import read_mocap, sample_mocap, write_mocap
 from mmocap.data.sequence import Sequence
 from mmocap.errors import DataError
-from tests.data.humaneva import FIRST, FRAMES, LEAD, LEAD_IN, open_he
+from tests.helpers import HE_FIRST, HE_FRAMES, HE_LEAD, HE_LEAD_IN, open_he
 
 
 def test_markers_at_fractional_mocap_indices_are_interpolated():
@@ -31,13 +31,13 @@ def test_mocap_file_has_the_real_structure(synthetic, exported):
     assert {"LFHD", "C7", "LSHO", "RANK"} <= set(labels) and rate == 120.0
     # 120 Hz: the lead, stored as zeros (missing), the first frame held over the lead-in
     # images, then (frames - 1) * 2 + 1 samples
-    assert mat["Markers"].shape == (FIRST + 2 * (FRAMES - 1) + 1, len(labels), 3)
-    assert np.all(mat["Markers"][:LEAD] == 0)
-    held = mat["Markers"][LEAD:FIRST + 1]
-    np.testing.assert_array_equal(held, np.repeat(mat["Markers"][FIRST:FIRST + 1], 2 * LEAD_IN + 1, axis=0))
+    assert mat["Markers"].shape == (HE_FIRST + 2 * (HE_FRAMES - 1) + 1, len(labels), 3)
+    assert np.all(mat["Markers"][:HE_LEAD] == 0)
+    held = mat["Markers"][HE_LEAD:HE_FIRST + 1]
+    np.testing.assert_array_equal(held, np.repeat(mat["Markers"][HE_FIRST:HE_FIRST + 1], 2 * HE_LEAD_IN + 1, axis=0))
     truth = Sequence.open(synthetic).markers()
     ankle = labels.index("RANK")
-    np.testing.assert_allclose(mat["Markers"][FIRST + 1, ankle], truth[:2, MARKER_NAMES.index("r_ankle")].mean(0))
+    np.testing.assert_allclose(mat["Markers"][HE_FIRST + 1, ankle], truth[:2, MARKER_NAMES.index("r_ankle")].mean(0))
 
 
 def test_mocap_without_a_mapped_label(damaged):
