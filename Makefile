@@ -114,8 +114,9 @@ fig5: $(STAMP) ## Cano Fig. 5: the tracked model over S1 walking, first and last
 
 # One worker per core (pytest-xdist), each test file on one worker so that its module
 # fixtures are built once; BLAS on one thread, as in a run (mmocap.cli): its threads would
-# only fight the other worker for the cores.
-PYTEST := OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 $(PY) -m pytest -q -n auto --dist loadfile
+# only fight the other worker for the cores. TEST_WORKERS=0 runs the tests in one process.
+TEST_WORKERS ?= auto
+PYTEST := OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 $(PY) -m pytest -q -n $(TEST_WORKERS) --dist loadfile
 
 test: $(STAMP) ## Run the fast test suite
 	$(PYTEST)
