@@ -1,4 +1,5 @@
 """Shared fixtures: one tiny synthetic sequence rendered once per test session."""
+
 from pathlib import Path
 
 import pytest
@@ -11,4 +12,3 @@ from tests.helpers import TINY
 def tiny_sequence(tmp_path_factory) -> Path:
     """A 4-frame, 3-camera, 320x240 S1 walking sequence."""
     return generate(tmp_path_factory.mktemp("data") / "S1_walking", progress=False, **TINY)
-

@@ -12,6 +12,7 @@ Running the command line:
 - :func:`run_cli`: :func:`mmocap.cli.main` in this process, leaving the output to the test's
   ``capsys``; returns the exit status.
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -38,26 +39,41 @@ from mmocap.data.humaneva.layout import TOOLBOX_FIRST_FRAME
 
 #: the tiny synthetic sequence of the session fixture ``tiny_sequence`` (tests/conftest.py):
 #: 4 frames, 3 cameras (two colour, one greyscale), 320x240
-TINY = dict(subject="S1", action="walking", frames=4, cameras=("C1", "C2", "BW1"),
-            width=320, height=240, background_frames=3, seed=5)
+TINY = dict(
+    subject="S1",
+    action="walking",
+    frames=4,
+    cameras=("C1", "C2", "BW1"),
+    width=320,
+    height=240,
+    background_frames=3,
+    seed=5,
+)
 
 #: the tiny sequence that the bad-input corpus breaks copies of (``tiny_original``,
 #: tests/bad_input/conftest.py) and the fault tests sweep over: 2 frames, 2 cameras (one
 #: colour, one greyscale), 160x120
-TINY_BAD_INPUT = dict(subject="S1", action="walking", frames=2, cameras=("C1", "BW1"), width=160, height=120,
-                      background_frames=3, seed=3)
+TINY_BAD_INPUT = dict(
+    subject="S1", action="walking", frames=2, cameras=("C1", "BW1"), width=160, height=120, background_frames=3, seed=3
+)
 
 
 def overrides(root, **extra) -> list[str]:
     """Command-line overrides that select the :data:`TINY` sequence under ``root`` and track
     2 frames of it at 300 evaluations; ``extra`` adds or replaces overrides."""
     args = {
-        "dataset.root": str(root), "dataset.frames": TINY["frames"],
+        "dataset.root": str(root),
+        "dataset.frames": TINY["frames"],
         "dataset.cameras": "[" + ",".join(TINY["cameras"]) + "]",
         "dataset.all_cameras": "[" + ",".join(TINY["cameras"]) + "]",
-        "dataset.width": TINY["width"], "dataset.height": TINY["height"],
-        "dataset.background_frames": TINY["background_frames"], "dataset.seed": TINY["seed"],
-        "progress": "false", "overlays": 1, "tracking.frames": 2, "tracking.evaluations": 300,
+        "dataset.width": TINY["width"],
+        "dataset.height": TINY["height"],
+        "dataset.background_frames": TINY["background_frames"],
+        "dataset.seed": TINY["seed"],
+        "progress": "false",
+        "overlays": 1,
+        "tracking.frames": 2,
+        "tracking.evaluations": 300,
     }
     args.update(extra)
     return [f"{k}={v}" for k, v in args.items()]
@@ -66,9 +82,18 @@ def overrides(root, **extra) -> list[str]:
 def track_args(root: Path, out: Path) -> list[str]:
     """Overrides of a quick tracking run of the :data:`TINY_BAD_INPUT` sequence folder
     ``root`` into ``out``."""
-    return ["dataset=folder", f"dataset.root={root}", f"dataset.subject={TINY_BAD_INPUT['subject']}",
-            "evaluator=numpy", "body.vertices=1000", "tracking.evaluations=60", "overlays=1",
-            "progress=false", "foreground_cache=null", f"hydra.run.dir={out}"]
+    return [
+        "dataset=folder",
+        f"dataset.root={root}",
+        f"dataset.subject={TINY_BAD_INPUT['subject']}",
+        "evaluator=numpy",
+        "body.vertices=1000",
+        "tracking.evaluations=60",
+        "overlays=1",
+        "progress=false",
+        "foreground_cache=null",
+        f"hydra.run.dir={out}",
+    ]
 
 
 @dataclass
@@ -86,16 +111,24 @@ class Outcome:
         return self.code
 
     def __str__(self) -> str:
-        return (f"mmocap {' '.join(self.args)}\nexit status {self.code}\n"
-                f"--- stderr ---\n{self.stderr[-3000:]}\n--- stdout ---\n{self.stdout[-1500:]}")
+        return (
+            f"mmocap {' '.join(self.args)}\nexit status {self.code}\n"
+            f"--- stderr ---\n{self.stderr[-3000:]}\n--- stdout ---\n{self.stdout[-1500:]}"
+        )
 
 
 def mmocap(*args, cwd: Path | None = None, timeout: float = 600, env: dict | None = None) -> Outcome:
     """``python -m mmocap ARGS`` in a subprocess, as a user runs it; ``env`` adds variables."""
     args = [str(a) for a in args]
     environment = {**os.environ, "HYDRA_FULL_ERROR": "0", **(env or {})}
-    done = subprocess.run([sys.executable, "-m", "mmocap", *args], cwd=cwd, capture_output=True,
-                          text=True, timeout=timeout, env=environment)
+    done = subprocess.run(
+        [sys.executable, "-m", "mmocap", *args],
+        cwd=cwd,
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+        env=environment,
+    )
     return Outcome(args, done.returncode, done.stdout, done.stderr)
 
 
@@ -123,8 +156,13 @@ def mmocap_in_process(*args, cwd: Path | None = None, timeout: float = 600, env:
 
     args = [str(a) for a in args]
     out, err = io.StringIO(), io.StringIO()
-    with (_environment({"HYDRA_FULL_ERROR": "0", **(env or {})}), contextlib.chdir(cwd or os.getcwd()),
-          warnings.catch_warnings(), contextlib.redirect_stdout(out), contextlib.redirect_stderr(err)):
+    with (
+        _environment({"HYDRA_FULL_ERROR": "0", **(env or {})}),
+        contextlib.chdir(cwd or os.getcwd()),
+        warnings.catch_warnings(),
+        contextlib.redirect_stdout(out),
+        contextlib.redirect_stderr(err),
+    ):
         warnings.simplefilter("default")
         try:
             main(args)
@@ -165,8 +203,11 @@ def assert_warned(outcome: Outcome, summary: dict, *words: str) -> str:
     same warning in ``summary["warnings"]``; returns the line."""
     assert "Traceback" not in outcome.stderr, f"a traceback:\n{outcome}"
     assert outcome.code == 0, f"exit status {outcome.code}, expected 0:\n{outcome}"
-    lines = [line for line in outcome.stderr.splitlines() if line.startswith("mmocap: warning:")
-             and all(w.lower() in line.lower() for w in words)]
+    lines = [
+        line
+        for line in outcome.stderr.splitlines()
+        if line.startswith("mmocap: warning:") and all(w.lower() in line.lower() for w in words)
+    ]
     assert lines, f"no warning naming {words}:\n{outcome}"
     recorded = [w for w in summary.get("warnings", []) if all(x.lower() in w.lower() for x in words)]
     assert recorded, f"summary.json does not record the warning {words}: {summary.get('warnings')}"
@@ -181,8 +222,12 @@ SLACK_PX = 1.0
 
 def inside(box, outer) -> bool:
     """``box`` lies inside ``outer`` (display boxes), to :data:`SLACK_PX`."""
-    return (box.x0 >= outer.x0 - SLACK_PX and box.y0 >= outer.y0 - SLACK_PX
-            and box.x1 <= outer.x1 + SLACK_PX and box.y1 <= outer.y1 + SLACK_PX)
+    return (
+        box.x0 >= outer.x0 - SLACK_PX
+        and box.y0 >= outer.y0 - SLACK_PX
+        and box.x1 <= outer.x1 + SLACK_PX
+        and box.y1 <= outer.y1 + SLACK_PX
+    )
 
 
 def texts_of(fig) -> list[Text]:
@@ -221,8 +266,9 @@ def data_points_px(ax) -> np.ndarray:
     points = np.concatenate([p for p in points if len(p)]) if points else np.empty((0, 2))
     points = points[np.isfinite(points).all(axis=1)]
     box = ax.bbox
-    return points[(points[:, 0] >= box.x0) & (points[:, 0] <= box.x1)
-                  & (points[:, 1] >= box.y0) & (points[:, 1] <= box.y1)]
+    return points[
+        (points[:, 0] >= box.x0) & (points[:, 0] <= box.x1) & (points[:, 1] >= box.y0) & (points[:, 1] <= box.y1)
+    ]
 
 
 def assert_fits(fig, path):
@@ -246,8 +292,9 @@ def assert_fits(fig, path):
             if hasattr(ax, "zaxis"):
                 continue
             points = data_points_px(ax)
-            covered = ((points[:, 0] > box.x0) & (points[:, 0] < box.x1)
-                       & (points[:, 1] > box.y0) & (points[:, 1] < box.y1))
+            covered = (
+                (points[:, 0] > box.x0) & (points[:, 0] < box.x1) & (points[:, 1] > box.y0) & (points[:, 1] < box.y1)
+            )
             assert not covered.any(), f"the legend covers {covered.sum()} data points of {ax.get_title()!r}"
 
 
@@ -255,34 +302,49 @@ def assert_whole_frame_ticks(ax):
     """The x ticks an axes shows are whole frame numbers."""
     low, high = sorted(ax.get_xlim())
     ticks = [t for t in ax.get_xticks() if low <= t <= high]
-    assert ticks and all(float(t).is_integer() for t in ticks), ticks
+    assert ticks, ticks
+    assert all(float(t).is_integer() for t in ticks), ticks
 
 
 # -- results store: records as the pipeline makes them ----------------------------------------------
 
+
 def compose_config(*overrides, hydra=False):
-    """mmocap's config composed with ``overrides`` (and Hydra's own, with ``hydra``)."""
+    """Mmocap's config composed with ``overrides`` (and Hydra's own, with ``hydra``)."""
     return mmocap_config.compose(list(overrides), return_hydra_config=hydra)
 
 
 def summary_of(cfg, errors):
     """A summary as the pipeline writes it, for a run of ``cfg`` with these frame errors."""
-    return {"mean_marker_error_mm": float(np.mean(errors)), "frames": len(errors),
-            "evaluations_per_frame": int(cfg.tracking.evaluations), "optimizer": cfg.optimizer.name,
-            "strategy": "hierarchical" if "Hierarchical" in cfg.strategy._target_ else "holistic",
-            "dof": cfg.body.dof, "backend": cfg.evaluator.name, "vertices": cfg.body.vertices,
-            "subject": cfg.dataset.subject, "action": cfg.dataset.action, "seed": cfg.seed,
-            "provenance": {**provenance.facts(), "components": provenance.components(
-                {"optimizer": cfg.optimizer.name, "evaluator": cfg.evaluator.name})}}
+    return {
+        "mean_marker_error_mm": float(np.mean(errors)),
+        "frames": len(errors),
+        "evaluations_per_frame": int(cfg.tracking.evaluations),
+        "optimizer": cfg.optimizer.name,
+        "strategy": "hierarchical" if "Hierarchical" in cfg.strategy._target_ else "holistic",
+        "dof": cfg.body.dof,
+        "backend": cfg.evaluator.name,
+        "vertices": cfg.body.vertices,
+        "subject": cfg.dataset.subject,
+        "action": cfg.dataset.action,
+        "seed": cfg.seed,
+        "provenance": {
+            **provenance.facts(),
+            "components": provenance.components({"optimizer": cfg.optimizer.name, "evaluator": cfg.evaluator.name}),
+        },
+    }
 
 
 def record_of(cfg, errors, search=2.0, evaluation=1.5, foreground=0.3, fitness=None):
     """``fitness``: each frame's best fitness (0.1 each unless given)."""
     fitness = [0.1] * len(errors) if fitness is None else fitness
-    frames = [{"frame": k, "marker_error_mm": e, "fitness": f, "evaluations": 10, "seconds": 0.5,
-               "foreground_seconds": 0.1} for k, (e, f) in enumerate(zip(errors, fitness))]
-    return make_record(cfg, summary_of(cfg, errors), frames, search, evaluation, foreground, provenance.now(),
-                       Path("run"))
+    frames = [
+        {"frame": k, "marker_error_mm": e, "fitness": f, "evaluations": 10, "seconds": 0.5, "foreground_seconds": 0.1}
+        for k, (e, f) in enumerate(zip(errors, fitness))
+    ]
+    return make_record(
+        cfg, summary_of(cfg, errors), frames, search, evaluation, foreground, provenance.now(), Path("run")
+    )
 
 
 # -- HumanEva-I: a tiny synthetic sequence exported to its layout and read back ----------------------

@@ -5,6 +5,7 @@ as their kind's Protocol, so a built-in component whose methods or attributes st
 it fails the type check, not only a test at run time. The test makes sure that every
 built-in entry point is in a table.
 """
+
 from __future__ import annotations
 
 from collections.abc import Callable
@@ -42,8 +43,11 @@ EVALUATORS: dict[str, Callable[..., Evaluator]] = {
 }
 
 
-@pytest.mark.parametrize("kind, checked", [("optimizer", OPTIMIZERS), ("evaluator", EVALUATORS)])
+@pytest.mark.parametrize(("kind", "checked"), [("optimizer", OPTIMIZERS), ("evaluator", EVALUATORS)])
 def test_every_builtin_component_is_checked_against_its_protocol(kind: str, checked: dict[str, object]) -> None:
-    builtin = {ep.name: ep.load() for ep in entry_points(group=GROUPS[kind])
-               if ep.dist is not None and ep.dist.name == "mmocap"}
+    builtin = {
+        ep.name: ep.load()
+        for ep in entry_points(group=GROUPS[kind])
+        if ep.dist is not None and ep.dist.name == "mmocap"
+    }
     assert builtin == checked

@@ -11,8 +11,7 @@ from mmocap.errors import DataError
 
 @pytest.fixture
 def camera():
-    return Camera.look_at("C1", (3000, 1800, 2500), (0, 900, 0), 620.0, 640, 480,
-                          dist=(-0.22, 0.11, 8e-4, -6e-4, 0.02))
+    return Camera.look_at("C1", (3000, 1800, 2500), (0, 900, 0), 620.0, 640, 480, dist=(-0.22, 0.11, 8e-4, -6e-4, 0.02))
 
 
 def test_projection_agrees_with_opencv(camera):
@@ -42,11 +41,12 @@ def test_undistortion_maps_recover_the_pinhole_image(camera):
     point = (camera.R.T @ (3000.0 * ray - camera.t))[None]
     u, v = np.round(camera.project(point)[0]).astype(int)
     mask = np.zeros((480, 640), bool)
-    mask[v - 2:v + 3, u - 2:u + 3] = True
+    mask[v - 2 : v + 3, u - 2 : u + 3] = True
     undistorted = camera.undistort_mask(mask)
     rows, cols = np.nonzero(undistorted)
     ideal_uv = camera.ideal().project(point)[0]
-    assert abs(cols.mean() - ideal_uv[0]) < 1.0 and abs(rows.mean() - ideal_uv[1]) < 1.0
+    assert abs(cols.mean() - ideal_uv[0]) < 1.0
+    assert abs(rows.mean() - ideal_uv[1]) < 1.0
     assert np.hypot(*(ideal_uv - (u, v))) > 3  # the lens really moved it
 
 
@@ -83,8 +83,9 @@ def test_bad_calibration_files_name_the_file(tmp_path, camera):
 
 
 def test_cal_round_trip_projects_the_same(tmp_path, camera):
-    skewed = Camera(camera.name, camera.K + np.array([[0, 0.4, 0], [0, 0, 0], [0, 0, 0]]),
-                    camera.dist, camera.R, camera.t, 640, 480)
+    skewed = Camera(
+        camera.name, camera.K + np.array([[0, 0.4, 0], [0, 0, 0], [0, 0, 0]]), camera.dist, camera.R, camera.t, 640, 480
+    )
     path = tmp_path / "C1.cal"
     skewed.save_cal(path)
     assert len(path.read_text().split()) == 22
@@ -109,13 +110,16 @@ def test_cal_layout_is_fc_cc_alpha_kc_r_t(tmp_path):
     assert cam.name == "BW2"
 
 
-@pytest.mark.parametrize("text, message", [
-    ("600 610 320 240 0 0 0 0 0 0 1 0 0 0 1 0 0 0 1 0 0", "holds 21 numbers.*22"),
-    ("600 610 320 240 0 0 0 0 0 0 1 0 0 0 1 0 0 0 1 0 0 abc", "non-numeric"),
-    ("600 610 320 240 0 0 0 0 0 0 2 0 0 0 1 0 0 0 1 0 0 0", "not a rotation"),
-    ("-600 610 320 240 0 0 0 0 0 0 1 0 0 0 1 0 0 0 1 0 0 0", "focal lengths"),
-    ("600 610 320 240 0 0 0 0 0 0 1 0 0 0 1 0 0 0 1 0 0 nan", "finite"),
-])
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("600 610 320 240 0 0 0 0 0 0 1 0 0 0 1 0 0 0 1 0 0", "holds 21 numbers.*22"),
+        ("600 610 320 240 0 0 0 0 0 0 1 0 0 0 1 0 0 0 1 0 0 abc", "non-numeric"),
+        ("600 610 320 240 0 0 0 0 0 0 2 0 0 0 1 0 0 0 1 0 0 0", "not a rotation"),
+        ("-600 610 320 240 0 0 0 0 0 0 1 0 0 0 1 0 0 0 1 0 0 0", "focal lengths"),
+        ("600 610 320 240 0 0 0 0 0 0 1 0 0 0 1 0 0 0 1 0 0 nan", "finite"),
+    ],
+)
 def test_bad_cal_files_name_the_file(tmp_path, text, message):
     path = tmp_path / "C2.cal"
     path.write_text(text)
@@ -130,9 +134,18 @@ def test_missing_cal_file_names_it(tmp_path):
 
 # --- the one validation of every reader ----------------------------------------------------
 
+
 def good_values(camera) -> dict:
-    return dict(name=camera.name, K=camera.K.tolist(), dist=camera.dist.tolist(), R=camera.R.tolist(),
-                t=camera.t.tolist(), width=camera.width, height=camera.height, colour=True)
+    return dict(
+        name=camera.name,
+        K=camera.K.tolist(),
+        dist=camera.dist.tolist(),
+        R=camera.R.tolist(),
+        t=camera.t.tolist(),
+        width=camera.width,
+        height=camera.height,
+        colour=True,
+    )
 
 
 def test_checked_camera_keeps_good_values(camera):
@@ -147,6 +160,7 @@ def with_item(key, index, value):
         array = np.array(values[key], dtype=float)
         array[index] = value
         values[key] = array.tolist()
+
     return change
 
 
@@ -178,7 +192,7 @@ BAD_VALUES = {
 }
 
 
-@pytest.mark.parametrize("change, message", BAD_VALUES.values(), ids=BAD_VALUES.keys())
+@pytest.mark.parametrize(("change", "message"), BAD_VALUES.values(), ids=BAD_VALUES.keys())
 def test_checked_camera_names_source_camera_and_key(camera, change, message):
     values = good_values(camera)
     change(values)
@@ -219,12 +233,14 @@ def test_json_and_cal_readers_refuse_the_same_camera_the_same_way(tmp_path, came
         with pytest.raises(DataError) as caught:
             load()
         messages.append(str(caught.value).split(": ", 2)[2])  # after "camera C1: <file>: "
-    assert messages[0] == messages[1] and messages[0].startswith("'R' is not a rotation")
+    assert messages[0] == messages[1]
+    assert messages[0].startswith("'R' is not a rotation")
 
 
 def test_cal_errors_use_the_cal_names(tmp_path, camera):
-    values = Camera(camera.name, camera.K * np.array([[-1, 1, 1], [1, 1, 1], [1, 1, 1]]), camera.dist,
-                    camera.R, camera.t, 640, 480)
+    values = Camera(
+        camera.name, camera.K * np.array([[-1, 1, 1], [1, 1, 1], [1, 1, 1]]), camera.dist, camera.R, camera.t, 640, 480
+    )
     values.save_cal(tmp_path / "C1.cal")
     with pytest.raises(DataError, match=r"camera C1: .*C1.cal: 'fc, cc, alpha_c' focal lengths"):
         Camera.load_cal(tmp_path / "C1.cal", 640, 480)

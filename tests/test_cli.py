@@ -1,4 +1,5 @@
 """The command line end to end: tracking a tiny sequence, and clear errors for bad input."""
+
 import json
 import shutil
 from importlib.metadata import version
@@ -30,7 +31,8 @@ def test_list_shows_builtin_plugins(tmp_path):
     assert out.returncode == 0, out.stderr
     for name in ("cmaes", "numpy", "naive"):
         assert name in out.stdout
-    assert "mmocap.optimizers" in out.stdout and "mmocap.evaluators" in out.stdout
+    assert "mmocap.optimizers" in out.stdout
+    assert "mmocap.evaluators" in out.stdout
 
 
 def test_track_tiny_sequence(data_root, tmp_path):
@@ -39,10 +41,20 @@ def test_track_tiny_sequence(data_root, tmp_path):
     assert out.returncode == 0, out.stderr
     assert "mean marker error" in out.stdout
     summary = json.loads((run_dir / "summary.json").read_text())
-    for key in ("mean_marker_error_mm", "frames", "evaluations_per_frame", "seconds_per_frame",
-                "optimizer", "strategy", "dof", "backend"):
+    for key in (
+        "mean_marker_error_mm",
+        "frames",
+        "evaluations_per_frame",
+        "seconds_per_frame",
+        "optimizer",
+        "strategy",
+        "dof",
+        "backend",
+    ):
         assert key in summary
-    assert summary["frames"] == 2 and summary["dof"] == 39 and summary["optimizer"] == "cmaes"
+    assert summary["frames"] == 2
+    assert summary["dof"] == 39
+    assert summary["optimizer"] == "cmaes"
     assert summary["evaluations_used"] <= 2 * 300
     # started from the true first pose, with a small budget, at 320x240
     assert summary["mean_marker_error_mm"] < 30  # measured: 12.5 mm
@@ -50,7 +62,8 @@ def test_track_tiny_sequence(data_root, tmp_path):
     assert len(lines) == 3
     assert (run_dir / "error_per_frame.png").stat().st_size > 1000
     overlays = list((run_dir / "overlays").glob("*.png"))
-    assert len(overlays) == 1 and cv2.imread(str(overlays[0])) is not None
+    assert len(overlays) == 1
+    assert cv2.imread(str(overlays[0])) is not None
 
 
 BAD_CONFIGS = [
@@ -62,18 +75,26 @@ BAD_CONFIGS = [
     (["tracking.frames=99"], "tracking.frames must be in [1, 4], got 99"),
     (["dataset.cameras=[C1,C4]"], "C4 not in dataset.all_cameras"),
     (["strategy.rotation_radius=0"], "strategy.rotation_radius must be in (0, pi], got 0"),
-    (["tracking.evaluations=14"], "tracking.evaluations=14 gives the frame 13 evaluations but "
-                                  "optimizer 'cmaes' needs at least 14 for 39 degrees of freedom"),
+    (
+        ["tracking.evaluations=14"],
+        "tracking.evaluations=14 gives the frame 13 evaluations but "
+        "optimizer 'cmaes' needs at least 14 for 39 degrees of freedom",
+    ),
     (["optimizer.popsize=1"], "optimizer.popsize must be an integer in [2, inf), got 1"),
     (["strategy=hierarchical", "partition.steps=[[Root],[Torso]]"], "unknown joint(s) Torso"),
-    (["strategy=hierarchical", "body.dof=28",
-      "partition.steps=[[Root],[BottomSpine,UpperSpine,Neck],[LShoulder,LElbow],[LWrist,RWrist],"
-      "[RShoulder,RElbow],[LHip,LKnee,LAnkle],[RHip,RKnee,RAnkle]]"],
-     "strategy step 4 (LWrist, RWrist) has no degree of freedom in the 28-DOF body model"),
+    (
+        [
+            "strategy=hierarchical",
+            "body.dof=28",
+            "partition.steps=[[Root],[BottomSpine,UpperSpine,Neck],[LShoulder,LElbow],[LWrist,RWrist],"
+            "[RShoulder,RElbow],[LHip,LKnee,LAnkle],[RHip,RKnee,RAnkle]]",
+        ],
+        "strategy step 4 (LWrist, RWrist) has no degree of freedom in the 28-DOF body model",
+    ),
 ]
 
 
-@pytest.mark.parametrize("extra, message", BAD_CONFIGS, ids=[b[0][0] for b in BAD_CONFIGS])
+@pytest.mark.parametrize(("extra", "message"), BAD_CONFIGS, ids=[b[0][0] for b in BAD_CONFIGS])
 def test_bad_config_gives_one_clear_error(data_root, tmp_path, extra, message):
     out = mmocap(*overrides(data_root), *extra, f"hydra.run.dir={tmp_path / 'run'}", cwd=tmp_path)
     assert out.returncode != 0
@@ -102,8 +123,7 @@ def shrink_image(root):
     return "camera C1: image"
 
 
-@pytest.mark.parametrize("damage", [damage_calibration, remove_calibration, remove_camera_folder,
-                                    shrink_image])
+@pytest.mark.parametrize("damage", [damage_calibration, remove_calibration, remove_camera_folder, shrink_image])
 def test_bad_data_gives_one_clear_error(data_root, tmp_path, damage):
     message = damage(data_root)
     out = mmocap(*overrides(data_root), f"hydra.run.dir={tmp_path / 'run'}", cwd=tmp_path)
@@ -115,22 +135,38 @@ def test_bad_data_gives_one_clear_error(data_root, tmp_path, damage):
 
 
 def test_generate_only_renders(tmp_path):
-    out = mmocap("generate", f"dataset.root={tmp_path / 'data'}", "dataset.frames=2",
-                 "dataset.width=160", "dataset.height=120", "dataset.all_cameras=[C1,BW2]",
-                 "dataset.cameras=[BW2]", "dataset.action=gestures", "dataset.subject=S3",
-                 "progress=false", cwd=tmp_path)
+    out = mmocap(
+        "generate",
+        f"dataset.root={tmp_path / 'data'}",
+        "dataset.frames=2",
+        "dataset.width=160",
+        "dataset.height=120",
+        "dataset.all_cameras=[C1,BW2]",
+        "dataset.cameras=[BW2]",
+        "dataset.action=gestures",
+        "dataset.subject=S3",
+        "progress=false",
+        cwd=tmp_path,
+    )
     assert out.returncode == 0, out.stderr
     assert "sequence ready" in out.stdout
     meta = json.loads((tmp_path / "data" / "S3_gestures" / "sequence.json").read_text())
-    assert meta["cameras"] == ["C1", "BW2"] and meta["frames"] == 2
+    assert meta["cameras"] == ["C1", "BW2"]
+    assert meta["frames"] == 2
 
 
 @pytest.mark.slow
 def test_demo_scale_tracking_is_accurate(tmp_path):
     """The demo's setting on 20 frames: 640x480, 4 cameras, 39 DOF, 1500 evaluations."""
     run_dir = tmp_path / "run"
-    out = mmocap("+experiment=demo", "dataset.frames=20", f"dataset.root={tmp_path / 'data'}",
-                 "progress=false", f"hydra.run.dir={run_dir}", cwd=tmp_path)
+    out = mmocap(
+        "+experiment=demo",
+        "dataset.frames=20",
+        f"dataset.root={tmp_path / 'data'}",
+        "progress=false",
+        f"hydra.run.dir={run_dir}",
+        cwd=tmp_path,
+    )
     assert out.returncode == 0, out.stderr
     summary = json.loads((run_dir / "summary.json").read_text())
     assert summary["frames"] == 20

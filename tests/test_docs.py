@@ -20,6 +20,7 @@ tests/test_layers.py, their one owner, and its table of make targets with the Ma
 help; every page is in mkdocs.yml's nav; every generated results page starts with the
 stamp of its run; no page names the package's version.
 """
+
 from __future__ import annotations
 
 import inspect
@@ -61,7 +62,7 @@ def page_name(path: Path) -> str:
 class Block:
     lang: str
     code: str
-    line: int       # page line of the first line of code (1-based)
+    line: int  # page line of the first line of code (1-based)
     section: tuple  # (page, the nearest heading above it)
 
     @property
@@ -102,6 +103,7 @@ def params(blocks: list[Block]) -> list:
 
 # -- python ------------------------------------------------------------------------------------
 
+
 def sections() -> list[tuple]:
     """Sections (page, heading) holding python blocks, in page order."""
     return list(dict.fromkeys(b.section for b in of("python")))
@@ -131,6 +133,7 @@ def test_python_blocks_run(section):
 
 # -- toml and yaml -----------------------------------------------------------------------------
 
+
 @pytest.mark.parametrize("block", params(of("toml")))
 def test_toml_blocks_parse(block):
     tomllib.loads(block.code)
@@ -145,12 +148,13 @@ def test_yaml_blocks_parse(block):
 class Plugin:
     """What one section of the docs says a plugin is: its classes (from the python blocks),
     entry points (toml) and configs (yaml)."""
+
     section: tuple
     namespace: dict
     entry_points: list[EntryPoint]
-    configs: dict          # (group, name) -> YAML text
-    package_data: dict     # package -> patterns
-    find: dict             # [tool.setuptools.packages.find]
+    configs: dict  # (group, name) -> YAML text
+    package_data: dict  # package -> patterns
+    find: dict  # [tool.setuptools.packages.find]
 
     @classmethod
     def of_section(cls, section: tuple) -> Plugin:
@@ -203,8 +207,7 @@ class Plugin:
 
 
 def plugin_sections() -> list[tuple]:
-    return [s for s in dict.fromkeys(b.section for b in of("toml"))
-            if any(b.section == s for b in of("python"))]
+    return [s for s in dict.fromkeys(b.section for b in of("toml")) if any(b.section == s for b in of("python"))]
 
 
 @pytest.mark.parametrize("section", plugin_sections(), ids=section_id)
@@ -227,11 +230,15 @@ def test_plugin_parts_agree(section):
         defaults = {k: p.default for k, p in inspect.signature(cls).parameters.items()}
         assert {k: v for k, v in node.items() if k not in ("_target_", "name")} == defaults
         package = ep.module.partition(".")[0]
-        assert f"{package}*" in plugin.find.get("include", []) and "hydra_plugins*" in plugin.find["include"]
+        assert f"{package}*" in plugin.find.get("include", [])
+        assert "hydra_plugins*" in plugin.find["include"]
         assert plugin.find.get("namespaces") is True
         assert f"conf/{kind}/*.yaml" in plugin.package_data.get(package, [])
-    for search in (c for c in plugin.namespace.values()
-                   if isinstance(c, type) and issubclass(c, SearchPathPlugin) and c is not SearchPathPlugin):
+    for search in (
+        c
+        for c in plugin.namespace.values()
+        if isinstance(c, type) and issubclass(c, SearchPathPlugin) and c is not SearchPathPlugin
+    ):
         path = ConfigSearchPathImpl()
         search().manipulate_search_path(path)
         assert [p.path for p in path.get_path()] == [f"pkg://{package}.conf"]
@@ -247,8 +254,9 @@ def conformance_classes():
             plugin = Plugin.of_section(section)
         except Exception:
             continue
-        for suite in (c for c in plugin.namespace.values()
-                      if isinstance(c, type) and issubclass(c, SUITES) and c not in SUITES):
+        for suite in (
+            c for c in plugin.namespace.values() if isinstance(c, type) and issubclass(c, SUITES) and c not in SUITES
+        ):
             name = f"TestDocs{suite.__name__.removeprefix('Test')}"
 
             @pytest.fixture(autouse=True)
@@ -263,12 +271,18 @@ globals().update(conformance_classes())
 
 
 def test_the_docs_run_both_conformance_suites():
-    suites = {base for name, cls in globals().items() if name.startswith("TestDocs")
-              for base in SUITES if issubclass(cls, base)}
+    suites = {
+        base
+        for name, cls in globals().items()
+        if name.startswith("TestDocs")
+        for base in SUITES
+        if issubclass(cls, base)
+    }
     assert suites == set(SUITES)
 
 
 # -- shell -------------------------------------------------------------------------------------
+
 
 def make_targets() -> set[str]:
     text = (REPO / "Makefile").read_text()
@@ -336,19 +350,28 @@ def test_shell_blocks_name_existing_targets_and_subcommands(block):
 
 def test_the_checks_find_what_they_should():
     targets, names = make_targets(), subcommands()
-    assert {"demo", "test", "test-all", "install"} <= targets and "PY" not in targets
+    assert {"demo", "test", "test-all", "install"} <= targets
+    assert "PY" not in targets
     assert {"track", "generate", "list", "bench", "foreground-quality"} <= names
     bad = "make nope\n.venv/bin/mmocap trak x=1\npython -m mmocap.bench all\ncd a && make demo SCALE=x\n"
     found = [p for c in commands(bad) for p in problems(c, targets, names)]
-    assert len(found) == 3 and "make nope" in found[0] and "trak" in found[1] and "mmocap.bench" in found[2]
-    good = ("mmocap -m +experiment=x\nmmocap dataset=humaneva \\\n  x=1\n"
-            "python -m mmocap list\nmake table4 SCALE=default")
+    assert len(found) == 3
+    assert "make nope" in found[0]
+    assert "trak" in found[1]
+    assert "mmocap.bench" in found[2]
+    good = (
+        "mmocap -m +experiment=x\nmmocap dataset=humaneva \\\n  x=1\npython -m mmocap list\nmake table4 SCALE=default"
+    )
     assert not [p for c in commands(good) for p in problems(c, targets, names)]
 
 
 def test_every_block_has_a_known_language():
-    assert BLOCKS and all(b.lang in LANGUAGES for b in BLOCKS), [b.id for b in BLOCKS if b.lang not in LANGUAGES]
-    assert of("python") and of("toml") and of("yaml") and of(*SHELL)
+    assert BLOCKS
+    assert all(b.lang in LANGUAGES for b in BLOCKS), [b.id for b in BLOCKS if b.lang not in LANGUAGES]
+    assert of("python")
+    assert of("toml")
+    assert of("yaml")
+    assert of(*SHELL)
 
 
 # -- links, length, tables, nav, stamps ----------------------------------------------------------
@@ -393,9 +416,12 @@ def github_anchor(title: str) -> str:
 def relative_links(text: str) -> list[tuple[int, str]]:
     """(line, target) of each link of a Markdown text to a file or heading: not in code,
     not to a URL, not an image."""
-    return [(number, m["target"]) for number, line in prose(text)
-            for m in LINK.finditer(re.sub(r"`[^`]*`", "", line))
-            if not re.match(r"[a-z]+:", m["target"])]
+    return [
+        (number, m["target"])
+        for number, line in prose(text)
+        for m in LINK.finditer(re.sub(r"`[^`]*`", "", line))
+        if not re.match(r"[a-z]+:", m["target"])
+    ]
 
 
 @pytest.mark.parametrize("path", PAGES, ids=page_name)
@@ -418,8 +444,10 @@ def test_linked_headings_have_the_same_anchor_on_github():
 
 
 def test_the_link_checks_find_what_they_should():
-    assert anchor("Foreground: background models and `make foreground`") == \
-        "foreground-background-models-and-make-foreground"
+    assert (
+        anchor("Foreground: background models and `make foreground`")
+        == "foreground-background-models-and-make-foreground"
+    )
     assert anchor("The papers' conclusions, re-tested") == "the-papers-conclusions-re-tested"
     assert github_anchor("a - b") != anchor("a - b")
     text = "[a](usage.md#x) `[b](no.md)` [c](https://hydra.cc) ![d](e.png)\n```\n[f](g.md)\n```\n[h](#y)\n"
@@ -449,9 +477,11 @@ def tables(path: Path, header: str) -> list[list[list[str]]]:
 def module_of(name: str) -> str:
     """``cli.py`` -> ``mmocap.cli``, ``report/`` -> ``mmocap.report``, ``__init__.py`` -> ``mmocap``;
     the file or folder must exist as written."""
-    assert (REPO / "mmocap" / name).is_dir() == name.endswith("/") and (REPO / "mmocap" / name).exists(), (
+    assert (REPO / "mmocap" / name).exists(), f"the layer table names {name}, but mmocap/{name} does not exist"
+    assert (REPO / "mmocap" / name).is_dir() == name.endswith("/"), (
         f"the layer table names {name}, but mmocap/{name} does not exist as written (a module ends "
-        "in .py, a package in /)")
+        "in .py, a package in /)"
+    )
     stem = name.removesuffix(".py").removesuffix("/").replace("/", ".")
     return "mmocap" if stem == "__init__" else f"mmocap.{stem}"
 
@@ -480,7 +510,8 @@ def test_the_readme_lists_the_targets_make_help_lists():
     listed = {target for row in found[0] for target in re.findall(r"`([^`]+)`", row[0])}
     assert listed == set(documented_targets()), (
         f"only in the README: {sorted(listed - set(documented_targets()))}; "
-        f"only in make help: {sorted(set(documented_targets()) - listed)}")
+        f"only in make help: {sorted(set(documented_targets()) - listed)}"
+    )
 
 
 def nav_pages(nav) -> list[str]:
@@ -512,6 +543,10 @@ def test_a_results_page_starts_with_the_stamp_of_its_run(path):
 def test_no_page_names_the_version():
     """The version has one owner, pyproject.toml; a page that names it goes stale."""
     version = tomllib.loads((REPO / "pyproject.toml").read_text())["project"]["version"]
-    naming = [f"{page_name(p)}:{n}" for p in PAGES for n, line in enumerate(p.read_text().splitlines(), 1)
-              if re.search(rf"(?<![\d.]){re.escape(version)}(?![\d.])", line)]
+    naming = [
+        f"{page_name(p)}:{n}"
+        for p in PAGES
+        for n, line in enumerate(p.read_text().splitlines(), 1)
+        if re.search(rf"(?<![\d.]){re.escape(version)}(?![\d.])", line)
+    ]
     assert not naming, f"pages naming the version {version}: {naming}"

@@ -1,5 +1,6 @@
 """A sweep interrupted by SIGTERM, SIGINT or SIGKILL: no process of it is left running,
 nothing is half-written, and the same command then runs exactly the missing jobs."""
+
 import json
 import signal
 import subprocess
@@ -22,10 +23,23 @@ def sequence(tmp_path_factory) -> Path:
 
 
 def sweep_command(sequence: Path, folder: Path) -> list[str]:
-    return [sys.executable, "-m", "mmocap", "-m", f"seed={','.join(map(str, range(JOBS)))}", "dataset=folder",
-            f"dataset.root={sequence}", "evaluator=numpy", "body.vertices=1000", "tracking.evaluations=3000",
-            "overlays=0", "progress=false", "foreground_cache=null", f"hydra.sweep.dir={folder}",
-            "hydra.launcher.n_jobs=2"]
+    return [
+        sys.executable,
+        "-m",
+        "mmocap",
+        "-m",
+        f"seed={','.join(map(str, range(JOBS)))}",
+        "dataset=folder",
+        f"dataset.root={sequence}",
+        "evaluator=numpy",
+        "body.vertices=1000",
+        "tracking.evaluations=3000",
+        "overlays=0",
+        "progress=false",
+        "foreground_cache=null",
+        f"hydra.sweep.dir={folder}",
+        "hydra.launcher.n_jobs=2",
+    ]
 
 
 def session_processes(session: int) -> list[int]:
@@ -55,17 +69,24 @@ def records(folder: Path) -> dict[str, float]:
 @pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT, signal.SIGKILL], ids=lambda s: s.name)
 def test_an_interrupted_sweep_leaves_nothing_running_or_half_written_and_resumes(sequence, tmp_path, sig):
     folder = tmp_path / "sweep"
-    process = subprocess.Popen(sweep_command(sequence, folder), stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                               text=True, start_new_session=True)
+    process = subprocess.Popen(
+        sweep_command(sequence, folder),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+    )
     deadline = time.monotonic() + 120
     while not list((folder / "records").glob("*.json")):
-        assert process.poll() is None and time.monotonic() < deadline, process.communicate()
+        assert process.poll() is None, process.communicate()
+        assert time.monotonic() < deadline, "no record was written in 120 s"
         time.sleep(0.1)
     process.send_signal(sig)
     _, stderr = process.communicate(timeout=60)
     assert process.returncode in (128 + sig, -sig), stderr
     if sig != signal.SIGKILL:
-        assert f"mmocap: interrupted by {sig.name}" in stderr and f"hydra.sweep.dir={folder}" in stderr, stderr
+        assert f"mmocap: interrupted by {sig.name}" in stderr, stderr
+        assert f"hydra.sweep.dir={folder}" in stderr, stderr
         assert "Traceback" not in stderr
     for _ in range(100):  # workers of a SIGKILLed sweep get SIGTERM from the kernel
         if not session_processes(process.pid):

@@ -1,5 +1,6 @@
 """Safe file writes (mmocap.io): atomic files, checked images, append-only lines, locks, and
 the one-line messages of file-system faults."""
+
 import errno
 import json
 import os
@@ -48,10 +49,11 @@ def test_atomic_write_replaces_the_file_with_the_umasks_permissions(tmp_path):
 
 def test_an_error_while_writing_keeps_the_old_file_and_leaves_no_temporary(tmp_path):
     path = write_text_atomic(tmp_path / "a.txt", "old")
-    with pytest.raises(RuntimeError), atomic_writer(path) as f:
+    with pytest.raises(RuntimeError), atomic_writer(path) as f:  # noqa: PT012 - the error comes mid-write
         f.write("half")
         raise RuntimeError("crash")
-    assert path.read_text() == "old" and not leftovers(tmp_path)
+    assert path.read_text() == "old"
+    assert not leftovers(tmp_path)
 
 
 def test_a_path_written_by_name_appears_only_when_the_block_ends_without_an_error(tmp_path):
@@ -59,11 +61,13 @@ def test_a_path_written_by_name_appears_only_when_the_block_ends_without_an_erro
     with atomic_path(path) as tmp:
         tmp.write_text("new")
         assert path.read_text() == "old"
-    assert path.read_text() == "new" and not leftovers(tmp_path)
-    with pytest.raises(RuntimeError), atomic_path(path) as tmp:
+    assert path.read_text() == "new"
+    assert not leftovers(tmp_path)
+    with pytest.raises(RuntimeError), atomic_path(path) as tmp:  # noqa: PT012 - the error comes mid-write
         tmp.write_text("half")
         raise RuntimeError("crash")
-    assert path.read_text() == "new" and not leftovers(tmp_path)
+    assert path.read_text() == "new"
+    assert not leftovers(tmp_path)
 
 
 def test_a_path_the_block_did_not_write_is_a_write_error_naming_the_target(tmp_path):
@@ -78,18 +82,25 @@ def test_a_write_under_a_file_is_a_write_error_naming_the_file(tmp_path):
     with pytest.raises(WriteError) as caught:
         write_text_atomic(blocker / "sub" / "a.txt", "x")
     error = caught.value
-    assert isinstance(error, OSError) and isinstance(error, DataError)  # old handlers of OSError still catch it
-    assert str(error) == (f"cannot write {blocker / 'sub'}: {blocker} is a file, where a folder is needed; "
-                          "remove or rename that file, or use another path")
+    assert isinstance(error, OSError)
+    assert isinstance(error, DataError)
+    assert str(error) == (
+        f"cannot write {blocker / 'sub'}: {blocker} is a file, where a folder is needed; "
+        "remove or rename that file, or use another path"
+    )
     assert not leftovers(tmp_path)
 
 
-@pytest.mark.parametrize("code, tail", [
-    (errno.ENOSPC, "the disk is full; free some space on it or write somewhere else"),
-    (errno.EROFS, "the file system is read-only; write to a writable folder instead"),
-    (errno.EACCES, "permission denied; give yourself access to it (chmod, chown) or use another path"),
-    (errno.EIO, "Input/output error; check the path and the disk"),
-], ids=["full", "read-only", "permission", "other"])
+@pytest.mark.parametrize(
+    ("code", "tail"),
+    [
+        (errno.ENOSPC, "the disk is full; free some space on it or write somewhere else"),
+        (errno.EROFS, "the file system is read-only; write to a writable folder instead"),
+        (errno.EACCES, "permission denied; give yourself access to it (chmod, chown) or use another path"),
+        (errno.EIO, "Input/output error; check the path and the disk"),
+    ],
+    ids=["full", "read-only", "permission", "other"],
+)
 def test_a_file_system_fault_says_what_is_wrong_and_how_to_fix_it(code, tail):
     exc = OSError(code, os.strerror(code), "/data/out/a.png")
     assert describe_os_error(exc, "write") == f"cannot write /data/out/a.png: {tail}"
@@ -98,16 +109,19 @@ def test_a_file_system_fault_says_what_is_wrong_and_how_to_fix_it(code, tail):
 
 
 def test_an_error_without_a_path_is_given_the_path_written(tmp_path):
-    with pytest.raises(WriteError, match=r"cannot write .*x\.bin: the disk is full"):
-        with atomic_writer(tmp_path / "x.bin", "wb"):
-            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))  # as a write to a full disk does
+    with (
+        pytest.raises(WriteError, match=r"cannot write .*x\.bin: the disk is full"),
+        atomic_writer(tmp_path / "x.bin", "wb"),
+    ):
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))  # as a write to a full disk does
     assert not leftovers(tmp_path)
 
 
 def test_a_write_found_incomplete_is_put_down_to_a_full_disk_only_when_it_is(tmp_path, monkeypatch):
     path = tmp_path / "a.avi"
     assert str(io.incomplete_write(path, "only 1 of its 3 frames could be read back")) == (
-        f"cannot write {path}: only 1 of its 3 frames could be read back; check the path and the disk")
+        f"cannot write {path}: only 1 of its 3 frames could be read back; check the path and the disk"
+    )
     usage = shutil.disk_usage(tmp_path)
     monkeypatch.setattr(io.shutil, "disk_usage", lambda folder: usage._replace(free=4096))
     assert "the disk is full" in str(io.incomplete_write(path, "only 1 of its 3 frames could be read back"))
@@ -146,7 +160,8 @@ def test_blank_lines_and_lines_that_are_not_objects_are_skipped(tmp_path):
 
 def test_a_writable_folder_is_made_and_left_empty(tmp_path):
     folder = check_writable_folder(tmp_path / "a" / "b")
-    assert folder.is_dir() and list(folder.iterdir()) == []
+    assert folder.is_dir()
+    assert list(folder.iterdir()) == []
     (tmp_path / "file").write_text("")
     with pytest.raises(WriteError, match="is a file, where a folder is needed"):
         check_writable_folder(tmp_path / "file")
@@ -154,10 +169,10 @@ def test_a_writable_folder_is_made_and_left_empty(tmp_path):
 
 def test_a_lock_held_elsewhere_is_refused_naming_its_holder(tmp_path):
     lock = tmp_path / "run" / ".lock"
-    with locked(lock):
-        with pytest.raises(LockBusyError) as caught, locked(lock, wait=False):
-            pass
-    assert f"process {os.getpid()}" in caught.value.holder and str(lock) in str(caught.value)
+    with locked(lock), pytest.raises(LockBusyError) as caught, locked(lock, wait=False):
+        pass
+    assert f"process {os.getpid()}" in caught.value.holder
+    assert str(lock) in str(caught.value)
     with locked(lock, wait=False):  # free again
         pass
 
@@ -180,10 +195,14 @@ def test_a_waiting_lock_is_taken_when_its_holder_lets_go(tmp_path):
     assert order == ["released", "taken"]
 
 
-@pytest.mark.parametrize("code, runs", [(errno.EROFS, True), (errno.EACCES, True), (errno.ENOSPC, False)],
-                         ids=["read-only", "no-permission", "full"])
+@pytest.mark.parametrize(
+    ("code", "runs"),
+    [(errno.EROFS, True), (errno.EACCES, True), (errno.ENOSPC, False)],
+    ids=["read-only", "no-permission", "full"],
+)
 def test_exclusive_runs_without_a_lock_only_where_no_lock_file_can_be_made(tmp_path, monkeypatch, code, runs):
     """A read-only dataset folder can still be read; a full disk is an error."""
+
     def failing(lock, wait=True):
         raise WriteError(code, os.strerror(code), str(lock))
 
@@ -219,6 +238,9 @@ def test_a_json_object_is_read_and_its_file_named_in_every_error(tmp_path):
 def test_a_json_object_error_names_the_file_as_told_and_ends_with_the_fix(tmp_path):
     path = tmp_path / "r.json"
     path.write_text('"text"')
-    with pytest.raises(DataError, match=rf"^run record {path} is not a record \(a JSON object\) but str; "
-                                        "delete it$"):
+    with pytest.raises(
+        DataError,
+        match=rf"^run record {path} is not a record \(a JSON object\) but str; "
+        "delete it$",
+    ):
         read_json_object(path, name=f"run record {path}", wanted="a record (a JSON object)", fix="delete it")

@@ -2,6 +2,7 @@
 
 The layers, from the top down (a module may import its own layer and those below):
 """
+
 import ast
 from pathlib import Path
 
@@ -12,16 +13,37 @@ PACKAGE = Path(__file__).resolve().parents[1] / "mmocap"
 # Top first. A module is placed by its dotted name's longest prefix found here.
 LAYERS = [
     ("command line", ["mmocap.cli", "mmocap.__main__"]),
-    ("jobs", ["mmocap.pipeline", "mmocap.preflight", "mmocap.sweep", "mmocap.bench", "mmocap.report",
-              "mmocap.testing", "mmocap.data.recording.commands"]),
+    (
+        "jobs",
+        [
+            "mmocap.pipeline",
+            "mmocap.preflight",
+            "mmocap.sweep",
+            "mmocap.bench",
+            "mmocap.report",
+            "mmocap.testing",
+            "mmocap.data.recording.commands",
+        ],
+    ),
     ("analysis and run outputs", ["mmocap.analysis", "mmocap.outputs"]),
     ("stages", ["mmocap.stages"]),
-    ("components", ["mmocap.evaluators", "mmocap.optimizers", "mmocap.data", "mmocap.body",
-                    "mmocap.camera"]),
-    ("foundations", ["mmocap.api", "mmocap.registry", "mmocap.errors", "mmocap.io",
-                     "mmocap.validate", "mmocap.bitmask", "mmocap.config", "mmocap.provenance", "mmocap.video",
-                     "mmocap.run_folder",
-                     "mmocap"]),
+    ("components", ["mmocap.evaluators", "mmocap.optimizers", "mmocap.data", "mmocap.body", "mmocap.camera"]),
+    (
+        "foundations",
+        [
+            "mmocap.api",
+            "mmocap.registry",
+            "mmocap.errors",
+            "mmocap.io",
+            "mmocap.validate",
+            "mmocap.bitmask",
+            "mmocap.config",
+            "mmocap.provenance",
+            "mmocap.video",
+            "mmocap.run_folder",
+            "mmocap",
+        ],
+    ),
 ]
 __doc__ += "\n".join(f"{i}. {name}: {', '.join(prefixes)}" for i, (name, prefixes) in enumerate(LAYERS))
 
@@ -32,9 +54,8 @@ def layer_of(module: str) -> int:
     for index, (_, prefixes) in enumerate(LAYERS):
         for prefix in prefixes:
             nested = prefix != "mmocap" and module.startswith(prefix + ".")  # mmocap itself only
-            if module == prefix or nested:
-                if best is None or len(prefix) > best[1]:
-                    best = (index, len(prefix))
+            if (module == prefix or nested) and (best is None or len(prefix) > best[1]):
+                best = (index, len(prefix))
     assert best is not None, f"{module} is in no layer: add it to LAYERS"
     return best[0]
 
@@ -55,14 +76,14 @@ def imported(path: Path, module: str) -> set[str]:
         elif isinstance(node, ast.ImportFrom):
             base = node.module or ""
             if node.level:
-                parents = package.split(".")[:len(package.split(".")) - node.level + 1]
+                parents = package.split(".")[: len(package.split(".")) - node.level + 1]
                 base = ".".join(parents + ([base] if base else []))
             names.add(base)
             names.update(f"{base}.{alias.name}" for alias in node.names)
     return {n for n in names if n == "mmocap" or n.startswith("mmocap.")}
 
 
-@pytest.mark.parametrize("module, path", list(modules()), ids=[m for m, _ in modules()])
+@pytest.mark.parametrize(("module", "path"), list(modules()), ids=[m for m, _ in modules()])
 def test_imports_only_its_own_layer_or_below(module, path):
     own = layer_of(module)
     upward = sorted(name for name in imported(path, module) if layer_of(name) < own)

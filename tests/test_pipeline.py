@@ -1,4 +1,5 @@
 """Tracking through the Python API on the tiny sequence: accuracy and crash-safe output."""
+
 import functools
 
 import numpy as np
@@ -28,10 +29,18 @@ def test_tracking_recovers_the_pose_from_a_perturbed_start(tiny_sequence, tmp_pa
     means = []
     for seed in range(5):
         log = FrameLog(tmp_path / "frames.csv")
-        results = track(seq, body, fg, NumpyEvaluator(patch_scale=1.5), CMAES(sigma0=0.1),
-                        Holistic(), evaluations=1500, seed=seed, frames=3,
-                        on_frame=lambda r, log=log: log.write(r.frame, 0.0, r.fitness, r.evaluations,
-                                                              r.seconds, r.pose))
+        results = track(
+            seq,
+            body,
+            fg,
+            NumpyEvaluator(patch_scale=1.5),
+            CMAES(sigma0=0.1),
+            Holistic(),
+            evaluations=1500,
+            seed=seed,
+            frames=3,
+            on_frame=lambda r, log=log: log.write(r.frame, 0.0, r.fitness, r.evaluations, r.seconds, r.pose),
+        )
         log.close()
         errors = marker_error(body.markers(np.stack([r.pose for r in results])), truth[:3])
         assert all(r.evaluations == 1500 for r in results)
@@ -40,4 +49,5 @@ def test_tracking_recovers_the_pose_from_a_perturbed_start(tiny_sequence, tmp_pa
     assert max(means) < start_error, (start_error, means)
     assert np.median(means) < start_error / 2, (start_error, means)
     table = pd.read_csv(tmp_path / "frames.csv")
-    assert list(table["frame"]) == [0, 1, 2] and table.shape[1] == 5 + 51
+    assert list(table["frame"]) == [0, 1, 2]
+    assert table.shape[1] == 5 + 51

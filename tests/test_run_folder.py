@@ -1,4 +1,5 @@
 """The run folder (mmocap.run_folder): the summary's one reader and writer."""
+
 import json
 import re
 from pathlib import Path
@@ -30,8 +31,17 @@ def test_a_summary_reads_and_writes_back_byte_for_byte(tmp_path):
 
 
 def test_a_summary_of_an_older_mmocap_reads_its_later_keys_as_none(tmp_path):
-    later = ("frames_scored", "cheap_evaluations_per_frame", "foreground_seconds_per_frame", "evaluator_choice",
-             "body", "start", "recoveries", "fps", "warnings")
+    later = (
+        "frames_scored",
+        "cheap_evaluations_per_frame",
+        "foreground_seconds_per_frame",
+        "evaluator_choice",
+        "body",
+        "start",
+        "recoveries",
+        "fps",
+        "warnings",
+    )
     older = {k: v for k, v in json.loads(EXAMPLE.read_text()).items() if k not in later}
     summary = read_summary(run_folder(tmp_path, json.dumps(older)))
     assert all(getattr(summary, key) is None for key in later)
@@ -48,15 +58,19 @@ def broken(key: str, value) -> str:
     return json.dumps(summary)
 
 
-@pytest.mark.parametrize("text, problem", [
-    ('{"frames": ', "is not valid JSON"),
-    ("[1, 2]", "is not a run summary (a JSON object) but list"),
-    (broken("dof", ...), "lacks dof; it is not the summary of a finished tracking run"),
-    (broken("dof", "many"), ": dof is 'many', not an integer"),
-    (broken("action", 3), ": action is 3, not text or null"),
-    (broken("mean_marker_error_mm", "low"), ": mean_marker_error_mm is 'low', not a number or null"),
-    (broken("fps", True), ": fps is True, not a number or null"),
-], ids=["not-json", "not-an-object", "missing-key", "text-integer", "number-text", "text-number", "bool-number"])
+@pytest.mark.parametrize(
+    ("text", "problem"),
+    [
+        ('{"frames": ', "is not valid JSON"),
+        ("[1, 2]", "is not a run summary (a JSON object) but list"),
+        (broken("dof", ...), "lacks dof; it is not the summary of a finished tracking run"),
+        (broken("dof", "many"), ": dof is 'many', not an integer"),
+        (broken("action", 3), ": action is 3, not text or null"),
+        (broken("mean_marker_error_mm", "low"), ": mean_marker_error_mm is 'low', not a number or null"),
+        (broken("fps", True), ": fps is True, not a number or null"),
+    ],
+    ids=["not-json", "not-an-object", "missing-key", "text-integer", "number-text", "text-number", "bool-number"],
+)
 def test_a_broken_summary_is_one_line_naming_the_file(tmp_path, text, problem):
     path = tmp_path / SUMMARY
     with pytest.raises(DataError, match=rf"^{re.escape(str(path))}:? ?{re.escape(problem)}") as error:

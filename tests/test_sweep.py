@@ -1,4 +1,5 @@
 """Multirun sweeps end to end: launchers, resuming a killed sweep, progress, bad sweeps."""
+
 import importlib.metadata
 import importlib.util
 import json
@@ -35,19 +36,25 @@ def test_joblib_sweep_records_every_run_once_with_provenance(tiny_sequence, tmp_
     assert len(records(sweep)) == 2
     runs = pd.read_csv(sweep / "runs.csv")
     frames = pd.read_csv(sweep / "frames.csv")
-    assert sorted(runs["seed"]) == [0, 1] and set(runs["algorithm"]) == {"cmaes-holistic"}
-    assert len(frames) == 2 * 2 and set(frames["run_id"]) == set(runs["run_id"])
+    assert sorted(runs["seed"]) == [0, 1]
+    assert set(runs["algorithm"]) == {"cmaes-holistic"}
+    assert len(frames) == 2 * 2
+    assert set(frames["run_id"]) == set(runs["run_id"])
     assert (runs["evaluation_seconds_per_frame"] <= runs["seconds_per_frame"]).all()
     info = json.loads((sweep / "sweep.json").read_text())
-    assert info["jobs"] == 2 and "seed=0,1" in info["overrides"]
-    head = subprocess.run(["git", "rev-parse", "HEAD"], cwd=Path(__file__).parent, capture_output=True,
-                          text=True).stdout.strip()
+    assert info["jobs"] == 2
+    assert "seed=0,1" in info["overrides"]
+    head = subprocess.run(
+        ["git", "rev-parse", "HEAD"], cwd=Path(__file__).parent, capture_output=True, text=True
+    ).stdout.strip()
     assert info["provenance"]["git_commit"] == head  # run from this checkout: its commit
     assert info["provenance"]["versions"]["numpy"] == importlib.metadata.version("numpy")
     record = json.loads(records(sweep)[0].read_text())
-    assert record["config"]["tracking"]["evaluations"] == 100 and record["provenance"]["host"]
+    assert record["config"]["tracking"]["evaluations"] == 100
+    assert record["provenance"]["host"]
     log = out.stdout + out.stderr
-    assert "sweep: 2/2 runs done (0 found in the store)" in log and log.count("sweep: ") == 2
+    assert "sweep: 2/2 runs done (0 found in the store)" in log
+    assert log.count("sweep: ") == 2
 
     again = mmocap(*sweep_args(tiny_sequence.parent, sweep, seed="0,1,2"), cwd=tmp_path)
     assert again.returncode == 0, again.stderr
@@ -60,10 +67,16 @@ def test_joblib_sweep_records_every_run_once_with_provenance(tiny_sequence, tmp_
 def test_a_killed_sweep_resumes_without_losing_or_repeating_runs(tiny_sequence, tmp_path):
     """SIGKILL the whole sweep (launcher and workers) once its first record is written."""
     sweep = tmp_path / "sweep"
-    args = sweep_args(tiny_sequence.parent, sweep, seed="range(6)", **{"tracking.evaluations": 600,
-                                                                       "body.vertices": 13695})
-    proc = subprocess.Popen([sys.executable, "-m", "mmocap", *args], cwd=tmp_path, start_new_session=True,
-                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    args = sweep_args(
+        tiny_sequence.parent, sweep, seed="range(6)", **{"tracking.evaluations": 600, "body.vertices": 13695}
+    )
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "mmocap", *args],
+        cwd=tmp_path,
+        start_new_session=True,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
     deadline = time.monotonic() + 300
     while not records(sweep) and proc.poll() is None and time.monotonic() < deadline:
         time.sleep(0.02)
@@ -78,20 +91,28 @@ def test_a_killed_sweep_resumes_without_losing_or_repeating_runs(tiny_sequence, 
     assert log.count("already finished") == len(finished)
     assert f"sweep: 6/6 runs done ({len(finished)} found in the store)" in log
     after = {p.name: p.read_bytes() for p in records(sweep)}
-    assert len(after) == 6 and all(after[name] == data for name, data in finished.items())
+    assert len(after) == 6
+    assert all(after[name] == data for name, data in finished.items())
     runs = pd.read_csv(sweep / "runs.csv")
-    assert sorted(runs["seed"]) == list(range(6)) and runs["run_id"].is_unique
+    assert sorted(runs["seed"]) == list(range(6))
+    assert runs["run_id"].is_unique
     assert len(pd.read_csv(sweep / "frames.csv")) == 6 * 2
     assert not list(sweep.rglob("*.tmp"))
 
 
 @pytest.mark.slow
-@pytest.mark.skipif(importlib.util.find_spec("hydra_plugins.hydra_submitit_launcher") is None,
-                    reason="hydra-submitit-launcher not installed (pip install mmocap[slurm])")
+@pytest.mark.skipif(
+    importlib.util.find_spec("hydra_plugins.hydra_submitit_launcher") is None,
+    reason="hydra-submitit-launcher not installed (pip install mmocap[slurm])",
+)
 def test_submitit_local_launcher(tiny_sequence, tmp_path):
     sweep = tmp_path / "sweep"
-    out = mmocap(*sweep_args(tiny_sequence.parent, sweep, seed="0,1"), "hydra/launcher=submitit_local",
-                 "hydra.launcher.timeout_min=5", cwd=tmp_path)
+    out = mmocap(
+        *sweep_args(tiny_sequence.parent, sweep, seed="0,1"),
+        "hydra/launcher=submitit_local",
+        "hydra.launcher.timeout_min=5",
+        cwd=tmp_path,
+    )
     assert out.returncode == 0, out.stderr
     assert "hydra_submitit_launcher" in json.loads((sweep / "sweep.json").read_text())["launcher"]
     assert sorted(pd.read_csv(sweep / "runs.csv")["seed"]) == [0, 1]
@@ -102,15 +123,23 @@ def test_an_experiment_runs_on_the_tiny_sequence(tiny_sequence, tmp_path):
     """Fig. 10 at the smoke scale: four holistic algorithms, one run each with the paper's
     settings and one with the tuned ones."""
     sweep = tmp_path / "fig10"
-    out = mmocap("-m", "+experiment=fig10", "scale=smoke", *overrides(tiny_sequence.parent),
-                 "overlays=0", f"hydra.sweep.dir={sweep}", cwd=tmp_path)
+    out = mmocap(
+        "-m",
+        "+experiment=fig10",
+        "scale=smoke",
+        *overrides(tiny_sequence.parent),
+        "overlays=0",
+        f"hydra.sweep.dir={sweep}",
+        cwd=tmp_path,
+    )
     assert out.returncode == 0, out.stderr
     runs = pd.read_csv(sweep / "runs.csv")
     algorithms = ["apf-holistic", "cmaes-holistic", "de-holistic", "pso-holistic"]
     assert sorted(runs["algorithm"]) == sorted(2 * algorithms)
     assert sorted(runs["settings"]) == 4 * ["paper"] + 4 * ["tuned"]
     # the command line (tracking.evaluations=300, tracking.frames=2) wins over the experiment
-    assert set(runs["evaluations"]) == {300} and set(runs["frames"]) == {2}
+    assert set(runs["evaluations"]) == {300}
+    assert set(runs["frames"]) == {2}
 
 
 BAD_SWEEPS = [
@@ -122,23 +151,26 @@ BAD_SWEEPS = [
 ]
 
 
-@pytest.mark.parametrize("extra, message", BAD_SWEEPS, ids=[" ".join(b[0]) for b in BAD_SWEEPS])
+@pytest.mark.parametrize(("extra", "message"), BAD_SWEEPS, ids=[" ".join(b[0]) for b in BAD_SWEEPS])
 def test_a_bad_sweep_fails_before_any_job(tiny_sequence, tmp_path, extra, message):
     sweep = tmp_path / "sweep"
     out = mmocap(*sweep_args(tiny_sequence.parent, sweep), *extra, cwd=tmp_path)
     assert out.returncode != 0
     assert message in out.stderr
     assert "Traceback" not in out.stderr
-    assert not records(sweep) and not (sweep / "0").exists()
+    assert not records(sweep)
+    assert not (sweep / "0").exists()
 
 
 # conf/hydra/launcher/<name>, the plugin it extends, its launcher class, the extra installing it
-LAUNCHERS = [("local", "hydra_joblib_launcher", "JoblibLauncher", None),
-             ("slurm", "hydra_submitit_launcher", "SlurmLauncher", "slurm"),
-             ("ray_cpu", "hydra_ray_launcher", "RayLauncher", "ray")]
+LAUNCHERS = [
+    ("local", "hydra_joblib_launcher", "JoblibLauncher", None),
+    ("slurm", "hydra_submitit_launcher", "SlurmLauncher", "slurm"),
+    ("ray_cpu", "hydra_ray_launcher", "RayLauncher", "ray"),
+]
 
 
-@pytest.mark.parametrize("name, plugin, target, extra", LAUNCHERS, ids=[launcher[0] for launcher in LAUNCHERS])
+@pytest.mark.parametrize(("name", "plugin", "target", "extra"), LAUNCHERS, ids=[launcher[0] for launcher in LAUNCHERS])
 def test_launcher_configs_compose(name, plugin, target, extra):
     if importlib.util.find_spec(f"hydra_plugins.{plugin}") is None:
         pytest.skip(f"{plugin} not installed (pip install mmocap[{extra}])")

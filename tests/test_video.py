@@ -1,4 +1,5 @@
 """mmocap.video: frames decoded in order, MP4 and lossless AVI files written whole or not at all."""
+
 import cv2
 import numpy as np
 import pytest
@@ -21,7 +22,8 @@ def ramp(count: int, width: int = 64, height: int = 48) -> list[np.ndarray]:
 def test_a_lossless_video_reads_back_frame_for_frame_at_its_size(tmp_path, size):
     frames = ramp(12, *size)
     path = write_video(tmp_path / "v.mp4", frames, fps=25, crf=0)
-    assert count_frames(path) == 12 and frame_rate(path) == pytest.approx(25)
+    assert count_frames(path) == 12
+    assert frame_rate(path) == pytest.approx(25)
     reader = VideoReader(path)
     for k in (0, 5, 6, 11, 2):  # forwards, then back: reopened and decoded forwards
         np.testing.assert_array_equal(reader.read(k), frames[k])
@@ -39,7 +41,8 @@ def test_a_compressed_video_keeps_every_frame_near_its_values(tmp_path):
 def test_a_greyscale_frame_is_written_as_grey_colour(tmp_path):
     grey = [np.full((48, 64), 100 + k, np.uint8) for k in range(3)]
     frame = VideoReader(write_video(tmp_path / "g.mp4", grey, fps=30, crf=0)).read(1)
-    assert frame.shape == (48, 64, 3) and np.all(frame == 101)
+    assert frame.shape == (48, 64, 3)
+    assert np.all(frame == 101)
 
 
 def test_reading_past_the_end_names_the_video_and_its_length(tmp_path):
@@ -71,8 +74,9 @@ def test_without_imageio_ffmpeg_opencv_writes_a_lossy_video_and_refuses_a_lossle
     import importlib.util
 
     real = importlib.util.find_spec
-    monkeypatch.setattr(importlib.util, "find_spec",
-                        lambda name, *a: None if name == "imageio_ffmpeg" else real(name, *a))
+    monkeypatch.setattr(
+        importlib.util, "find_spec", lambda name, *a: None if name == "imageio_ffmpeg" else real(name, *a)
+    )
     path = write_video(tmp_path / "v.mp4", ramp(6), fps=30, crf=16)
     assert count_frames(path) == 6
     assert np.abs(VideoReader(path).read(3).astype(int) - ramp(6)[3]).mean() < 8
@@ -91,7 +95,9 @@ def fourcc(path) -> str:
 def test_an_avi_video_is_lossless_ffv1_and_takes_no_other_quality(tmp_path):
     frames = ramp(5)
     path = write_video(tmp_path / "v.avi", frames, fps=60, crf=0)
-    assert fourcc(path) == "FFV1" and count_frames(path) == 5 and frame_rate(path) == pytest.approx(60)
+    assert fourcc(path) == "FFV1"
+    assert count_frames(path) == 5
+    assert frame_rate(path) == pytest.approx(60)
     reader = VideoReader(path)
     for k in range(5):
         np.testing.assert_array_equal(reader.read(k), frames[k])
@@ -105,8 +111,9 @@ def test_without_imageio_ffmpeg_an_avi_video_is_still_written(tmp_path, monkeypa
     import importlib.util
 
     real = importlib.util.find_spec
-    monkeypatch.setattr(importlib.util, "find_spec",
-                        lambda name, *a: None if name == "imageio_ffmpeg" else real(name, *a))
+    monkeypatch.setattr(
+        importlib.util, "find_spec", lambda name, *a: None if name == "imageio_ffmpeg" else real(name, *a)
+    )
     path = write_video(tmp_path / "v.avi", ramp(3), fps=30, crf=0)
     assert fourcc(path) == "FFV1"
     np.testing.assert_array_equal(VideoReader(path).read(2), ramp(3)[2])

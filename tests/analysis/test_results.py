@@ -1,4 +1,5 @@
 """Results store, run keys, the runs/frames tables, and the experiment x scale sweeps."""
+
 import json
 import math
 import time
@@ -18,20 +19,36 @@ from mmocap.errors import ConfigError, DataError, MmocapWarning
 from mmocap.sweep import check_sweep, format_seconds, progress_line, sweep_overrides
 from tests.helpers import compose_config, record_of
 
-SINGLE_RUNS = ("demo", "fig5")   # experiments that are one run, not a sweep
+SINGLE_RUNS = ("demo", "fig5")  # experiments that are one run, not a sweep
 EXPERIMENTS = [name for name in mmocap_config.options("experiment") if name not in SINGLE_RUNS]
 
 
 def test_run_key_ignores_outputs_and_presentation_only():
     base = run_key(compose_config())
     assert base == run_key(compose_config())
-    assert len(base) == 16 and int(base, 16) >= 0
-    for same in (["progress=false"], ["overlays=0"], ["results.store=/x"], ["results.reuse=[/y]"],
-                 ["hydra.run.dir=/elsewhere"]):
+    assert len(base) == 16
+    assert int(base, 16) >= 0
+    for same in (
+        ["progress=false"],
+        ["overlays=0"],
+        ["results.store=/x"],
+        ["results.reuse=[/y]"],
+        ["hydra.run.dir=/elsewhere"],
+    ):
         assert run_key(compose_config(*same)) == base, same
-    changed = {run_key(compose_config(o)) for o in ("seed=1", "tracking.evaluations=500", "body.dof=28",
-                                             "optimizer=pso", "dataset.action=boxing", "body.vertices=20544")}
-    assert base not in changed and len(changed) == 6
+    changed = {
+        run_key(compose_config(o))
+        for o in (
+            "seed=1",
+            "tracking.evaluations=500",
+            "body.dof=28",
+            "optimizer=pso",
+            "dataset.action=boxing",
+            "body.vertices=20544",
+        )
+    }
+    assert base not in changed
+    assert len(changed) == 6
 
 
 def test_the_settings_presets_name_does_not_enter_the_key_but_its_values_do():
@@ -39,7 +56,9 @@ def test_the_settings_presets_name_does_not_enter_the_key_but_its_values_do():
     tuned = run_key(compose_config("+experiment=table4", "settings=tuned"))
     assert tuned == run_key(compose_config("+experiment=table4", "settings=tuned", "settings.name=renamed"))
     assert tuned == run_key(compose_config("+experiment=fig7", "settings=tuned"))  # Fig. 7 finds Table 4's runs
-    assert run_key(compose_config("+experiment=table4", "settings=paper")) == run_key(compose_config("+experiment=fig7"))
+    assert run_key(compose_config("+experiment=table4", "settings=paper")) == run_key(
+        compose_config("+experiment=fig7")
+    )
     assert run_key(compose_config("+experiment=table4", "settings=paper")) != tuned
 
 
@@ -58,11 +77,14 @@ def test_store_put_get_and_records(tmp_path):
     assert path == tmp_path / "records" / f"{run_key(cfg)}.json"
     assert not list(tmp_path.rglob("*.tmp"))
     record = store.get(run_key(cfg))
-    assert record["seed"] == 3 and record["summary"]["frames"] == 2
-    assert record["provenance"]["python"] and "numpy" in record["provenance"]["versions"]
+    assert record["seed"] == 3
+    assert record["summary"]["frames"] == 2
+    assert record["provenance"]["python"]
+    assert "numpy" in record["provenance"]["versions"]
     assert record["provenance"]["components"]["optimizer"]["distribution"] == "mmocap"
     assert record["timings"]["evaluation_seconds_per_frame"] == pytest.approx(0.75)
-    assert record["config"]["seed"] == 3 and "hydra" not in record["key_config"]
+    assert record["config"]["seed"] == 3
+    assert "hydra" not in record["key_config"]
     store.put(record_of(compose_config("seed=4"), [1.0]))
     assert sorted(r["seed"] for r in store.records()) == [3, 4]
 
@@ -105,23 +127,27 @@ def broken(record: dict, part: str, key: str, value) -> dict:
     return record
 
 
-@pytest.mark.parametrize("part, key, value, message", [
-    ("", "summary", ..., "lacks summary;"),
-    ("", "summary", [1], "summary is [1], not a JSON object"),
-    ("summary", "mean_marker_error_mm", ..., "lacks summary.mean_marker_error_mm"),
-    ("summary", "mean_marker_error_mm", "low", "summary.mean_marker_error_mm is 'low', not a number or null"),
-    ("summary", "dof", 39.5, "summary.dof is 39.5, not an integer"),
-    ("summary", "optimizer", None, "summary.optimizer is None, not text"),
-    ("timings", "seconds_per_frame", ..., "lacks timings.seconds_per_frame"),
-    ("", "provenance", None, "provenance is None, not a JSON object"),
-    ("", "frames", {"0": 1}, "frames is {'0': 1}, not a list"),
-])
+@pytest.mark.parametrize(
+    ("part", "key", "value", "message"),
+    [
+        ("", "summary", ..., "lacks summary;"),
+        ("", "summary", [1], "summary is [1], not a JSON object"),
+        ("summary", "mean_marker_error_mm", ..., "lacks summary.mean_marker_error_mm"),
+        ("summary", "mean_marker_error_mm", "low", "summary.mean_marker_error_mm is 'low', not a number or null"),
+        ("summary", "dof", 39.5, "summary.dof is 39.5, not an integer"),
+        ("summary", "optimizer", None, "summary.optimizer is None, not text"),
+        ("timings", "seconds_per_frame", ..., "lacks timings.seconds_per_frame"),
+        ("", "provenance", None, "provenance is None, not a JSON object"),
+        ("", "frames", {"0": 1}, "frames is {'0': 1}, not a list"),
+    ],
+)
 def test_a_record_missing_an_entry_or_with_one_of_the_wrong_kind_is_named(tmp_path, part, key, value, message):
     store = ResultsStore(tmp_path)
     path = store.put(broken(record_of(compose_config(), [4.0]), part, key, value))
     with pytest.raises(DataError) as err:
         load_runs(tmp_path)
-    assert str(err.value).startswith(f"run record {path}") and message in str(err.value)
+    assert str(err.value).startswith(f"run record {path}")
+    assert message in str(err.value)
     assert str(err.value).endswith("delete it to run that job again")
 
 
@@ -143,37 +169,78 @@ def test_a_run_without_ground_truth_is_kept_empty_with_a_warning(tmp_path):
     with pytest.warns(MmocapWarning, match=rf"1 of 2 run\(s\) .* no ground truth .*{unscored['run_id']}.json"):
         runs, frames = load_runs(tmp_path)
     by_seed = runs.set_index("seed")["mean_marker_error_mm"]
-    assert np.isnan(by_seed[1]) and by_seed[2] == 6.0
+    assert np.isnan(by_seed[1])
+    assert by_seed[2] == 6.0
     errors = frames.set_index("run_id")["marker_error_mm"]
-    assert np.isnan(errors[unscored["run_id"]]) and len(frames) == 2
+    assert np.isnan(errors[unscored["run_id"]])
+    assert len(frames) == 2
 
 
 def test_load_runs_gives_the_contract_tables(tmp_path):
     store = ResultsStore(tmp_path)
-    store.put(record_of(compose_config("seed=0", "algorithm=cmaes-hierarchical", "+experiment=cano_table3"), [10.0, 30.0],
-                        fitness=[0.2, 0.4]))
-    store.put(record_of(compose_config("seed=1", "body.dof=28", "evaluator=opencl", "+experiment=table4", "settings=paper",
-                               "realism=realistic"), [5.0, 7.0, 9.0], fitness=[0.1, 0.1, 0.4]))
+    store.put(
+        record_of(
+            compose_config("seed=0", "algorithm=cmaes-hierarchical", "+experiment=cano_table3"),
+            [10.0, 30.0],
+            fitness=[0.2, 0.4],
+        )
+    )
+    store.put(
+        record_of(
+            compose_config(
+                "seed=1", "body.dof=28", "evaluator=opencl", "+experiment=table4", "settings=paper", "realism=realistic"
+            ),
+            [5.0, 7.0, 9.0],
+            fitness=[0.1, 0.1, 0.4],
+        )
+    )
     runs, frames = load_runs(tmp_path)
     assert list(runs.columns[:19]) == [
-        "run_id", "subject", "action", "sequence", "seed", "optimizer", "strategy", "algorithm", "settings",
-        "realism", "dof",
-        "evaluations", "vertices", "backend", "frames", "mean_marker_error_mm", "mean_best_fitness",
-        "seconds_per_frame", "evaluation_seconds_per_frame"]
-    assert runs["run_id"].is_unique and len(runs) == 2
+        "run_id",
+        "subject",
+        "action",
+        "sequence",
+        "seed",
+        "optimizer",
+        "strategy",
+        "algorithm",
+        "settings",
+        "realism",
+        "dof",
+        "evaluations",
+        "vertices",
+        "backend",
+        "frames",
+        "mean_marker_error_mm",
+        "mean_best_fitness",
+        "seconds_per_frame",
+        "evaluation_seconds_per_frame",
+    ]
+    assert runs["run_id"].is_unique
+    assert len(runs) == 2
     first, second = runs.set_index("seed").loc[0], runs.set_index("seed").loc[1]
-    assert first["algorithm"] == "cmaes-hierarchical" and first["sequence"] == "S1_walking"
-    assert first["mean_marker_error_mm"] == 20.0 and first["frames"] == 2
-    assert first["mean_best_fitness"] == pytest.approx(0.3) and second["mean_best_fitness"] == pytest.approx(0.2)
-    assert pd.isna(first["settings"]) and second["settings"] == "paper"  # Cano Table 3 names no preset
-    assert first["realism"] == "exact" and second["realism"] == "realistic"
+    assert first["algorithm"] == "cmaes-hierarchical"
+    assert first["sequence"] == "S1_walking"
+    assert first["mean_marker_error_mm"] == 20.0
+    assert first["frames"] == 2
+    assert first["mean_best_fitness"] == pytest.approx(0.3)
+    assert second["mean_best_fitness"] == pytest.approx(0.2)
+    assert pd.isna(first["settings"])
+    assert second["settings"] == "paper"
+    assert first["realism"] == "exact"
+    assert second["realism"] == "realistic"
     assert second["backend"] == "opencl"
-    assert runs["dof"].dtype.kind == "i" and runs["seconds_per_frame"].dtype.kind == "f"
-    assert list(frames.columns) == ["run_id", "frame", "marker_error_mm", "fitness"] and len(frames) == 5
-    assert frames.groupby("run_id")["marker_error_mm"].mean().to_dict() == \
-        runs.set_index("run_id")["mean_marker_error_mm"].to_dict()
-    assert frames.groupby("run_id")["fitness"].mean().to_dict() == \
-        pytest.approx(runs.set_index("run_id")["mean_best_fitness"].to_dict())
+    assert runs["dof"].dtype.kind == "i"
+    assert runs["seconds_per_frame"].dtype.kind == "f"
+    assert list(frames.columns) == ["run_id", "frame", "marker_error_mm", "fitness"]
+    assert len(frames) == 5
+    assert (
+        frames.groupby("run_id")["marker_error_mm"].mean().to_dict()
+        == runs.set_index("run_id")["mean_marker_error_mm"].to_dict()
+    )
+    assert frames.groupby("run_id")["fitness"].mean().to_dict() == pytest.approx(
+        runs.set_index("run_id")["mean_best_fitness"].to_dict()
+    )
 
 
 @pytest.mark.parametrize("bad", [None, float("nan"), float("inf")])
@@ -186,9 +253,11 @@ def test_a_frame_without_a_finite_fitness_empties_its_runs_mean_with_a_warning(t
         runs, frames = load_runs(tmp_path)
     by_seed = runs.set_index("seed")
     assert np.isnan(by_seed.loc[1, "mean_best_fitness"])  # not 0.1, the mean of the frame that has one
-    assert by_seed.loc[1, "mean_marker_error_mm"] == 5.0 and by_seed.loc[2, "mean_best_fitness"] == 0.3
+    assert by_seed.loc[1, "mean_marker_error_mm"] == 5.0
+    assert by_seed.loc[2, "mean_best_fitness"] == 0.3
     kept = frames[frames.run_id == gap["run_id"]]["fitness"].tolist()
-    assert kept[0] == 0.1 and not np.isfinite(kept[1])
+    assert kept[0] == 0.1
+    assert not np.isfinite(kept[1])
 
 
 def test_a_frame_without_its_fitness_entry_is_named(tmp_path):
@@ -203,9 +272,12 @@ def test_a_frame_without_its_fitness_entry_is_named(tmp_path):
 # Tables 4-7 run each with both settings presets, on realistic data (and at the default and
 # paper scales on exact data too).
 JOBS = {
-    ("table4", "smoke"): 2 * 8 * 3 * 2, ("table4", "paper"): 2 * 2 * 8 * 3 * 9 * 30,
-    ("table6", "default"): 2 * 2 * 4 * 2 * 3 * 3 * 2, ("fig10", "paper"): 2 * 2 * 4,
-    ("cano_table3", "paper"): 2 * 3 * 4 * 6 * 10, ("fig4", "smoke"): 2 * 3 * 2 * 2,
+    ("table4", "smoke"): 2 * 8 * 3 * 2,
+    ("table4", "paper"): 2 * 2 * 8 * 3 * 9 * 30,
+    ("table6", "default"): 2 * 2 * 4 * 2 * 3 * 3 * 2,
+    ("fig10", "paper"): 2 * 2 * 4,
+    ("cano_table3", "paper"): 2 * 3 * 4 * 6 * 10,
+    ("fig4", "smoke"): 2 * 3 * 2 * 2,
 }
 
 
@@ -230,7 +302,8 @@ def test_the_yeguas_algorithms_are_the_papers_eight():
     for name in values["algorithm"]:
         cfg = compose_config(f"algorithm={name}", "+experiment=table4")
         optimizer, strategy = name.split("-")
-        assert cfg.optimizer.name == optimizer and strategy.capitalize() in cfg.strategy._target_
+        assert cfg.optimizer.name == optimizer
+        assert strategy.capitalize() in cfg.strategy._target_
 
 
 def test_command_line_values_replace_the_sweepers():
@@ -238,7 +311,8 @@ def test_command_line_values_replace_the_sweepers():
     with open_dict(cfg):
         cfg.hydra.overrides.task = ["+experiment=table4", "seed=0,1,2", "body.dof=28"]
     values = sweep_overrides(cfg)
-    assert values["seed"] == ["0", "1", "2"] and values["body.dof"] == ["28"]
+    assert values["seed"] == ["0", "1", "2"]
+    assert values["body.dof"] == ["28"]
 
 
 def test_a_sweep_that_cannot_run_is_caught():
@@ -252,18 +326,22 @@ def test_a_sweep_that_cannot_run_is_caught():
         check_sweep(cfg, {"evaluator": ["numpy", "multiprocessing"]})
     with pytest.raises(ConfigError, match="evaluator=multiprocessing"):
         check_sweep(compose_config("+experiment=table4", "evaluator=multiprocessing", hydra=True), {})
-    check_sweep(compose_config("+experiment=table4", "hydra.launcher.n_jobs=1", hydra=True), {"evaluator": ["multiprocessing"]})
-    check_sweep(compose_config("+experiment=table4", "hydra/launcher=basic", hydra=True), {"evaluator": ["multiprocessing"]})
+    check_sweep(
+        compose_config("+experiment=table4", "hydra.launcher.n_jobs=1", hydra=True), {"evaluator": ["multiprocessing"]}
+    )
+    check_sweep(
+        compose_config("+experiment=table4", "hydra/launcher=basic", hydra=True), {"evaluator": ["multiprocessing"]}
+    )
 
 
 def test_progress_line_counts_this_session_and_estimates_time_left(tmp_path):
     info = {"session": "s2", "jobs": 10, "started": 0.0}
-    lines = [{"session": "s1", "job": 0, "ran": True}] + \
-            [{"session": "s2", "job": k, "ran": k >= 2} for k in range(4)]
+    lines = [{"session": "s1", "job": 0, "ran": True}] + [{"session": "s2", "job": k, "ran": k >= 2} for k in range(4)]
     path = tmp_path / "progress.jsonl"
     path.write_text("".join(json.dumps(line) + "\n" for line in lines))
     info["started"] = time.time() - 100  # 100 s for 2 runs: 50 s per run, 6 left
     text = progress_line(path, info)
     assert text.startswith("sweep: 4/10 runs done (2 found in the store), about 5 min 0")
-    assert format_seconds(7) == "7 s" and format_seconds(125) == "2 min 05 s"
+    assert format_seconds(7) == "7 s"
+    assert format_seconds(125) == "2 min 05 s"
     assert format_seconds(3725) == "1 h 02 min"

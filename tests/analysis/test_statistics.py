@@ -1,6 +1,7 @@
 """Friedman ranks, Iman-Davenport and Holm against a control, checked against published
 worked examples (Demšar 2006; the Yeguas paper's Tables 4 and 6; Cano Table 3), scipy, and
 hand-made cases; then bad input and the command line."""
+
 import subprocess
 import sys
 
@@ -26,19 +27,29 @@ from mmocap.errors import DataError, MmocapWarning
 # Demšar (2006), JMLR 7, Table 6: AUC of four C4.5 variants on fourteen UCI data sets.
 DEMSAR_NAMES = ["C4.5", "C4.5+m", "C4.5+cf", "C4.5+m+cf"]
 DEMSAR_AUC = [
-    [0.763, 0.768, 0.771, 0.798], [0.599, 0.591, 0.590, 0.569], [0.954, 0.971, 0.968, 0.967],
-    [0.628, 0.661, 0.654, 0.657], [0.882, 0.888, 0.886, 0.898], [0.936, 0.931, 0.916, 0.931],
-    [0.661, 0.668, 0.609, 0.685], [0.583, 0.583, 0.563, 0.625], [0.775, 0.838, 0.866, 0.875],
-    [1.000, 1.000, 1.000, 1.000], [0.940, 0.962, 0.965, 0.962], [0.619, 0.666, 0.614, 0.669],
+    [0.763, 0.768, 0.771, 0.798],
+    [0.599, 0.591, 0.590, 0.569],
+    [0.954, 0.971, 0.968, 0.967],
+    [0.628, 0.661, 0.654, 0.657],
+    [0.882, 0.888, 0.886, 0.898],
+    [0.936, 0.931, 0.916, 0.931],
+    [0.661, 0.668, 0.609, 0.685],
+    [0.583, 0.583, 0.563, 0.625],
+    [0.775, 0.838, 0.866, 0.875],
+    [1.000, 1.000, 1.000, 1.000],
+    [0.940, 0.962, 0.965, 0.962],
+    [0.619, 0.666, 0.614, 0.669],
     # voting: the paper ranks its two 0.975 as 2 (C4.5+cf) and 3 (C4.5+m+cf), so the
     # unrounded AUCs differed; 0.9751 restores that order. The other ties are the paper's.
-    [0.972, 0.981, 0.9751, 0.975], [0.957, 0.978, 0.946, 0.970],
+    [0.972, 0.981, 0.9751, 0.975],
+    [0.957, 0.978, 0.946, 0.970],
 ]
 
 
 def long_table(matrix, names, block="block", algorithm="algorithm", value="value"):
-    return pd.DataFrame([(i, name, v) for i, row in enumerate(matrix) for name, v in zip(names, row)],
-                        columns=[block, algorithm, value])
+    return pd.DataFrame(
+        [(i, name, v) for i, row in enumerate(matrix) for name, v in zip(names, row)], columns=[block, algorithm, value]
+    )
 
 
 @pytest.fixture
@@ -53,7 +64,8 @@ def test_demsar_ranks_friedman_and_iman_davenport(demsar):
     assert ranks[DEMSAR_NAMES].to_numpy() == pytest.approx([3.143, 2.000, 2.893, 1.964], abs=5e-4)
     assert result.statistic == pytest.approx(9.28, abs=5e-3)
     assert result.iman_davenport == pytest.approx(3.69, abs=5e-3)
-    assert result.n_blocks == 14 and result.n_algorithms == 4
+    assert result.n_blocks == 14
+    assert result.n_algorithms == 4
     assert result.control == "C4.5+m+cf"
     # mushroom ties all four: mid-rank 2.5 each
     assert list(result.ranks.loc[9]) == [2.5, 2.5, 2.5, 2.5]
@@ -62,8 +74,7 @@ def test_demsar_ranks_friedman_and_iman_davenport(demsar):
 def test_demsar_holm_against_c45(demsar):
     """Demšar Sec. 3.2.2: C4.5 as the control, SE = 0.488; z = 2.416, 2.342, 0.512;
     p = 0.016, 0.019, 0.607 against Holm's 0.017, 0.025, 0.050: the first two rejected."""
-    result = friedman_holm(demsar, "dataset", "classifier", "auc", higher_is_better=True,
-                           control="C4.5")
+    result = friedman_holm(demsar, "dataset", "classifier", "auc", higher_is_better=True, control="C4.5")
     table = result.comparisons.set_index("algorithm")
     assert list(table.index) == ["C4.5", "C4.5+m+cf", "C4.5+m", "C4.5+cf"]
     others = table.loc[["C4.5+m+cf", "C4.5+m", "C4.5+cf"]]
@@ -71,7 +82,8 @@ def test_demsar_holm_against_c45(demsar):
     assert others["p"].to_numpy() == pytest.approx([0.016, 0.019, 0.607], abs=2e-3)
     assert others["holm_alpha"].to_numpy() == pytest.approx([0.05 / 3, 0.025, 0.05])
     assert list(others["significant"]) == [True, True, False]
-    assert np.isnan(table.loc["C4.5", "p"]) and not table.loc["C4.5", "significant"]
+    assert np.isnan(table.loc["C4.5", "p"])
+    assert not table.loc["C4.5", "significant"]
 
 
 # Yeguas Table 4 (39 DOF; 500, 1500 and 3000 evaluations) and Table 6 (H-PSO): average ranks
@@ -87,7 +99,7 @@ YEGUAS = [
 ]
 
 
-@pytest.mark.parametrize("ninths, chi2, p_values", YEGUAS)
+@pytest.mark.parametrize(("ninths", "chi2", "p_values"), YEGUAS)
 def test_yeguas_tables_from_their_ranks(ninths, chi2, p_values):
     ranks = pd.Series(np.array(ninths) / 9.0, index=[f"a{i}" for i in range(len(ninths))])
     statistic, *_ = friedman_statistic(ranks.to_numpy(), 9)
@@ -107,12 +119,13 @@ def test_cano_table3_ranks():
     published errors are rounded to 0.1 mm, which creates ties the paper's own data did not
     have (s1_walking's two 0.0428): every rank agrees to within 1/12, half a rank in one block."""
     errors = [
-        [.0323, .0317, .0318, .0310, .0377, .0390, .0371, .0381, .0387, .0386, .0392, .0394],
-        [.0830, .0486, .0447, .0428, .0742, .0541, .0428, .0467, .0642, .0550, .0437, .0442],
-        [.0784, .0571, .0498, .0500, .0833, .0750, .0669, .0673, .0828, .0714, .0730, .0599],
-        [.0696, .0508, .0376, .0372, .0716, .0437, .0383, .0354, .0640, .0479, .0504, .0378],
-        [.0468, .0379, .0373, .0372, .0609, .0393, .0412, .0393, .0613, .0400, .0400, .0397],
-        [.1118, .0730, .0682, .0665, .1179, .0799, .0690, .0675, .1125, .0981, .0811, .0787]]
+        [0.0323, 0.0317, 0.0318, 0.0310, 0.0377, 0.0390, 0.0371, 0.0381, 0.0387, 0.0386, 0.0392, 0.0394],
+        [0.0830, 0.0486, 0.0447, 0.0428, 0.0742, 0.0541, 0.0428, 0.0467, 0.0642, 0.0550, 0.0437, 0.0442],
+        [0.0784, 0.0571, 0.0498, 0.0500, 0.0833, 0.0750, 0.0669, 0.0673, 0.0828, 0.0714, 0.0730, 0.0599],
+        [0.0696, 0.0508, 0.0376, 0.0372, 0.0716, 0.0437, 0.0383, 0.0354, 0.0640, 0.0479, 0.0504, 0.0378],
+        [0.0468, 0.0379, 0.0373, 0.0372, 0.0609, 0.0393, 0.0412, 0.0393, 0.0613, 0.0400, 0.0400, 0.0397],
+        [0.1118, 0.0730, 0.0682, 0.0665, 0.1179, 0.0799, 0.0690, 0.0675, 0.1125, 0.0981, 0.0811, 0.0787],
+    ]
     published = [9.50, 4.83, 2.83, 1.50, 10.67, 7.33, 4.83, 4.50, 10.50, 8.00, 7.50, 6.00]
     names = [f"c{i:02d}" for i in range(12)]
     result = friedman_holm(long_table(errors, names), "block", "algorithm", "value")
@@ -137,7 +150,7 @@ def test_ties_get_mid_ranks_and_lower_is_better():
 
 
 def test_holm_steps_down_and_stops_at_the_first_retained():
-    """k = 4: thresholds 0.05/3, 0.05/2, 0.05. p = 0.01 passes, 0.03 fails its 0.025, so
+    """K = 4: thresholds 0.05/3, 0.05/2, 0.05. p = 0.01 passes, 0.03 fails its 0.025, so
     0.04 is retained although it is below 0.05; adjusted p = 0.03, 0.06, 0.06."""
     n = 60
     se = np.sqrt(4 * 5 / (6 * n))
@@ -153,9 +166,13 @@ def test_holm_steps_down_and_stops_at_the_first_retained():
 
 
 def test_several_rows_per_cell_are_averaged():
-    rows = pd.DataFrame({"sequence": ["s1"] * 4 + ["s2"] * 3,
-                         "algorithm": ["a", "a", "b", "c", "a", "b", "c"],
-                         "value": [1.0, 9.0, 4.0, 6.0, 1.0, 2.0, 3.0]})
+    rows = pd.DataFrame(
+        {
+            "sequence": ["s1"] * 4 + ["s2"] * 3,
+            "algorithm": ["a", "a", "b", "c", "a", "b", "c"],
+            "value": [1.0, 9.0, 4.0, 6.0, 1.0, 2.0, 3.0],
+        }
+    )
     result = friedman_holm(rows, "sequence", "algorithm", "value")
     assert result.ranks.loc["s1"].tolist() == [2.0, 1.0, 3.0]  # a: mean of 1 and 9 = 5
     assert result.ranks.loc["s2"].tolist() == [1.0, 2.0, 3.0]
@@ -167,29 +184,37 @@ def test_incomplete_blocks_are_dropped_with_a_warning():
     table = table[~((table.block == 1) & (table.algorithm == "c"))]
     with pytest.warns(IncompleteBlocksWarning, match=r"block 1 \(no c\)|1 \(no c\)"):
         result = friedman_holm(table, "block", "algorithm", "value")
-    assert result.n_blocks == 2 and result.dropped == ["1"]
+    assert result.n_blocks == 2
+    assert result.dropped == ["1"]
 
 
 BAD = [
     (lambda t: t.drop(columns="value"), "missing column(s) 'value'"),
     (lambda t: t[t.algorithm != "c"], "at least 3 values of 'algorithm', got 2"),
     (lambda t: t[t.block == 0], "at least 2 blocks (block) with a value for every algorithm, got 1"),
-    (lambda t: t.assign(value=t.value.astype(object).where(t.index != 4, "fast")),
-     "'value' holds 1 value(s) that are not numbers, the first 'fast' in data row 5"),
-    (lambda t: t.assign(value=t.value.where(t.index != 2, np.nan)),
-     "'value' holds 1 NaN or infinite value(s) (an empty cell is NaN), the first in data row 3"),
+    (
+        lambda t: t.assign(value=t.value.astype(object).where(t.index != 4, "fast")),
+        "'value' holds 1 value(s) that are not numbers, the first 'fast' in data row 5",
+    ),
+    (
+        lambda t: t.assign(value=t.value.where(t.index != 2, np.nan)),
+        "'value' holds 1 NaN or infinite value(s) (an empty cell is NaN), the first in data row 3",
+    ),
     (lambda t: t.assign(value=t.value.where(t.index != 0, np.inf)), "NaN or infinite"),
-    (lambda t: t.assign(algorithm=t.algorithm.where(t.index != 1, None)),
-     "column 'algorithm' has 1 empty cell(s), the first in data row 2"),
+    (
+        lambda t: t.assign(algorithm=t.algorithm.where(t.index != 1, None)),
+        "column 'algorithm' has 1 empty cell(s), the first in data row 2",
+    ),
 ]
 
 
-@pytest.mark.parametrize("damage, message", BAD)
+@pytest.mark.parametrize(("damage", "message"), BAD)
 def test_bad_input_is_a_clear_error(damage, message):
     table = damage(long_table([[1, 2, 3], [1, 3, 2], [2, 1, 3]], list("abc")))
     with pytest.raises(DataError) as err:
         friedman_holm(table, "block", "algorithm", "value", source="results.csv")
-    assert str(err.value).startswith("results.csv: ") and message in str(err.value)
+    assert str(err.value).startswith("results.csv: ")
+    assert message in str(err.value)
 
 
 def test_unknown_control_and_bad_alpha():
@@ -209,8 +234,11 @@ def test_read_table_skips_provenance_lines_and_names_missing_files(tmp_path):
 
 
 def test_read_table_refuses_what_is_not_one_table(tmp_path):
-    cases = {"empty.csv": ("", "is empty"), "binary.csv": ("a,b\n\0\1,2\n", "binary data"),
-             "twice.csv": ("block,value,value\n0,1,2\n", "'value' appear more than once")}
+    cases = {
+        "empty.csv": ("", "is empty"),
+        "binary.csv": ("a,b\n\0\1,2\n", "binary data"),
+        "twice.csv": ("block,value,value\n0,1,2\n", "'value' appear more than once"),
+    }
     for name, (text, message) in cases.items():
         (tmp_path / name).write_text(text)
         with pytest.raises(DataError, match=message):
@@ -223,20 +251,27 @@ def test_numbers_as_algorithm_names_match_the_control_as_text():
     table = long_table([[3, 1, 2], [3, 2, 1], [1, 2, 3]], [10, 20, 30])
     for control in ("20", 20):
         result = friedman_holm(table, "block", "algorithm", "value", control=control)
-        assert result.control == "20" and result.comparisons["algorithm"].tolist()[0] == "20"
+        assert result.control == "20"
+        assert result.comparisons["algorithm"].tolist()[0] == "20"
 
 
 def test_cell_means_near_the_float_limit_rank_as_moderate_values():
     # two rows per cell; the plain sum of a's 1.6e308 and 1.7e308 overflows to inf (rank 3)
-    moderate = pd.DataFrame({"block": [0, 0, 0, 0, 1, 1, 1, 1], "algorithm": list("aabcaabc"),
-                             "value": [1.6, 1.7, 1.66, 1.75, 1.0, 1.1, 1.2, 1.3]})
+    moderate = pd.DataFrame(
+        {
+            "block": [0, 0, 0, 0, 1, 1, 1, 1],
+            "algorithm": list("aabcaabc"),
+            "value": [1.6, 1.7, 1.66, 1.75, 1.0, 1.1, 1.2, 1.3],
+        }
+    )
     huge = moderate.assign(value=moderate.value * 1e308)
     with np.errstate(over="ignore"):
         assert np.isinf(huge.value.to_numpy()[:2].sum())
     a = friedman_holm(moderate, "block", "algorithm", "value")
     b = friedman_holm(huge, "block", "algorithm", "value")
     assert b.ranks.loc[0].tolist() == [1.0, 2.0, 3.0] == a.ranks.loc[0].tolist()
-    assert b.statistic == a.statistic and b.comparisons["p"].equals(a.comparisons["p"])
+    assert b.statistic == a.statistic
+    assert b.comparisons["p"].equals(a.comparisons["p"])
     assert overflow_free_mean([1.6e308, 1.7e308]) == pytest.approx(1.65e308, rel=1e-15)
 
 
@@ -250,8 +285,11 @@ def test_an_error_names_the_row_in_the_file_after_filtering():
 def test_whole_numbers_and_empty_cells_name_the_first_bad_cell():
     table = pd.DataFrame({"dof": [39, 28.0, "39.5", None], "name": ["a", None, "c", None]})
     assert whole_numbers(table.iloc[:2], "dof", "runs.csv").tolist() == [39, 28]
-    with pytest.raises(DataError, match=r"runs.csv: column 'dof' must hold whole numbers; 2 cell\(s\) do not, "
-                                        r"the first '39.5' in data row 3"):
+    with pytest.raises(
+        DataError,
+        match=r"runs.csv: column 'dof' must hold whole numbers; 2 cell\(s\) do not, "
+        r"the first '39.5' in data row 3",
+    ):
         whole_numbers(table, "dof", "runs.csv")
     with pytest.raises(DataError, match="the first an empty cell in data row 4"):
         whole_numbers(table.iloc[[0, 3]], "dof", "runs.csv")
@@ -276,23 +314,39 @@ def test_the_summary_says_how_many_incomplete_blocks_were_left_out():
 
 
 def stats_cli(*args, cwd):
-    return subprocess.run([sys.executable, "-m", "mmocap", "stats", *args], cwd=cwd,
-                          capture_output=True, text=True, timeout=120)
+    return subprocess.run(
+        [sys.executable, "-m", "mmocap", "stats", *args], cwd=cwd, capture_output=True, text=True, timeout=120
+    )
 
 
 def test_cli_prints_and_writes_the_table(tmp_path, demsar):
     demsar.to_csv(tmp_path / "auc.csv", index=False)
-    out = stats_cli("auc.csv", "--block", "dataset", "--algorithm", "classifier", "--value", "auc",
-                    "--higher-is-better", "--control", "C4.5", "--out", "tables/demsar", cwd=tmp_path)
+    out = stats_cli(
+        "auc.csv",
+        "--block",
+        "dataset",
+        "--algorithm",
+        "classifier",
+        "--value",
+        "auc",
+        "--higher-is-better",
+        "--control",
+        "C4.5",
+        "--out",
+        "tables/demsar",
+        cwd=tmp_path,
+    )
     assert out.returncode == 0, out.stderr
-    assert "chi2_F = 9.279" in out.stdout and "Iman-Davenport F_F = 3.686" in out.stdout
+    assert "chi2_F = 9.279" in out.stdout
+    assert "Iman-Davenport F_F = 3.686" in out.stdout
     assert "| C4.5+m+cf " in out.stdout
     written = pd.read_csv(tmp_path / "tables/demsar.csv", comment="#")
     assert written["Algorithm"].tolist() == ["C4.5", "C4.5+m+cf", "C4.5+m", "C4.5+cf"]
     assert written["Significant"].tolist() == [False, True, True, False]
     assert (tmp_path / "tables/demsar.csv").read_text().startswith("# mmocap ")
     tex = (tmp_path / "tables/demsar.tex").read_text()
-    assert r"\toprule" in tex and "C4.5+m+cf &" in tex
+    assert r"\toprule" in tex
+    assert "C4.5+m+cf &" in tex
     assert "| C4.5+cf " in (tmp_path / "tables/demsar.md").read_text()
 
 
@@ -300,7 +354,9 @@ def test_cli_bad_input_is_one_line_and_exit_2(tmp_path, demsar):
     demsar.to_csv(tmp_path / "auc.csv", index=False)
     out = stats_cli("auc.csv", "--block", "dataset", "--algorithm", "classifier", cwd=tmp_path)
     assert out.returncode == 2
-    assert out.stderr == ("mmocap: error: auc.csv: missing column(s) 'mean_marker_error_mm'; "
-                          "columns are dataset, classifier, auc\n")
+    assert out.stderr == (
+        "mmocap: error: auc.csv: missing column(s) 'mean_marker_error_mm'; columns are dataset, classifier, auc\n"
+    )
     out = stats_cli("missing.csv", cwd=tmp_path)
-    assert out.returncode == 2 and out.stderr == "mmocap: error: missing.csv: no such file\n"
+    assert out.returncode == 2
+    assert out.stderr == "mmocap: error: missing.csv: no such file\n"

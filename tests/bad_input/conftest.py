@@ -10,6 +10,7 @@ with a ``mmocap: warning: ...`` line that the run's ``summary.json`` records too
 
 Every case works on its own copy of one tiny synthetic sequence (:func:`sequence_copy`).
 """
+
 from __future__ import annotations
 
 import os
@@ -61,8 +62,7 @@ def make_read_only():
 
     def make(folder: Path) -> Path:
         if os.geteuid() == 0:
-            if not (_mount("--bind", str(folder), str(folder))
-                    and _mount("-o", "remount,bind,ro", str(folder))):
+            if not (_mount("--bind", str(folder), str(folder)) and _mount("-o", "remount,bind,ro", str(folder))):
                 pytest.skip("cannot make a read-only bind mount here: the read-only case is not run")
             mounted.append(folder)
         else:

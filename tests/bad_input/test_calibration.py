@@ -4,6 +4,7 @@ the JSON files of a sequence folder are held to the same checks as HumanEva's ``
 
 Before, the JSON reader checked only det(R): a negative focal length and a sheared R with
 determinant 1 tracked with exit 0 and errors of hundreds of mm."""
+
 import json
 
 import numpy as np
@@ -29,6 +30,7 @@ def set_item(key, index, value):
         array = np.asarray(d[key], float)
         array[index] = value
         d[key] = array.tolist()
+
     return change
 
 
@@ -56,7 +58,7 @@ CASES = {
 }
 
 
-@pytest.mark.parametrize("change, culprits", CASES.values(), ids=CASES.keys())
+@pytest.mark.parametrize(("change", "culprits"), CASES.values(), ids=CASES.keys())
 def test_a_bad_calibration_value_names_file_camera_and_key(sequence_copy, tmp_path, change, culprits):
     path = sequence_copy / "calibration" / "C1.json"
     edit(path, change)
@@ -78,7 +80,7 @@ FILE_CASES = {
 }
 
 
-@pytest.mark.parametrize("damage, culprits", FILE_CASES.values(), ids=FILE_CASES.keys())
+@pytest.mark.parametrize(("damage", "culprits"), FILE_CASES.values(), ids=FILE_CASES.keys())
 def test_a_bad_calibration_file_names_it_and_the_camera(sequence_copy, tmp_path, damage, culprits):
     path = sequence_copy / "calibration" / "BW1.json"
     damage(path)

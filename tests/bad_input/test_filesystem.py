@@ -5,6 +5,7 @@ A fault ends in one line naming the path, what is wrong and how to fix it, exit 
 leaves nothing half-written (the rules of :mod:`mmocap.io`): no run record, no temporary
 file, no ``summary.json`` of an incomplete run, no partial export.
 """
+
 from __future__ import annotations
 
 import json
@@ -27,9 +28,19 @@ from tests.helpers import mmocap_in_process as mmocap
 #: ``make_read_only`` mounts a read-only file system for root and removes permissions otherwise
 READ_ONLY = "the file system is read-only" if os.geteuid() == 0 else "permission denied"
 #: overrides that have the synthetic dataset render a tiny sequence (dataset.root added)
-SYNTHETIC = ["dataset.frames=2", "dataset.width=160", "dataset.height=120", "dataset.cameras=[C1,BW1]",
-             "dataset.all_cameras=[C1,BW1]", "dataset.background_frames=3", "body.vertices=1000",
-             "tracking.evaluations=60", "evaluator=numpy", "progress=false", "foreground_cache=null"]
+SYNTHETIC = [
+    "dataset.frames=2",
+    "dataset.width=160",
+    "dataset.height=120",
+    "dataset.cameras=[C1,BW1]",
+    "dataset.all_cameras=[C1,BW1]",
+    "dataset.background_frames=3",
+    "body.vertices=1000",
+    "tracking.evaluations=60",
+    "evaluator=numpy",
+    "progress=false",
+    "foreground_cache=null",
+]
 
 
 def fill(disk: Path, leave: int) -> None:
@@ -39,8 +50,13 @@ def fill(disk: Path, leave: int) -> None:
 
 def sweep_args(root: Path, sweep: Path) -> list[str]:
     """A one-job multirun of the sequence folder ``root`` into ``sweep``, in this process."""
-    return ["-m", *[a for a in track_args(root, sweep) if not a.startswith("hydra.run.dir=")],
-            f"hydra.sweep.dir={sweep}", "hydra/launcher=basic", "overlays=0"]
+    return [
+        "-m",
+        *[a for a in track_args(root, sweep) if not a.startswith("hydra.run.dir=")],
+        f"hydra.sweep.dir={sweep}",
+        "hydra/launcher=basic",
+        "overlays=0",
+    ]
 
 
 def assert_nothing_half_written(folder: Path) -> None:
@@ -53,6 +69,7 @@ def assert_nothing_half_written(folder: Path) -> None:
 
 # --- the run folder (hydra.run.dir) --------------------------------------------------------
 # each: (fixture request, tmp_path) -> (the run folder, the words the error must hold)
+
 
 def read_only_run_folder(request, tmp_path):
     out = tmp_path / "run"
@@ -85,13 +102,17 @@ def disk_fills_during_the_run(request, tmp_path):
     return disk / "run", [str(disk / "run"), "the disk is full", "free some space"]
 
 
-RUN_FOLDERS = [read_only_run_folder, run_folder_is_a_file, run_folder_under_a_file, disk_full_before_the_run,
-               disk_fills_during_the_run]
+RUN_FOLDERS = [
+    read_only_run_folder,
+    run_folder_is_a_file,
+    run_folder_under_a_file,
+    disk_full_before_the_run,
+    disk_fills_during_the_run,
+]
 
 
 @pytest.mark.parametrize("make", RUN_FOLDERS, ids=[m.__name__.replace("_", "-") for m in RUN_FOLDERS])
-def test_a_run_folder_that_cannot_be_written_is_named_and_no_record_is_written(sequence_copy, tmp_path, request,
-                                                                               make):
+def test_a_run_folder_that_cannot_be_written_is_named_and_no_record_is_written(sequence_copy, tmp_path, request, make):
     out, words = make(request, tmp_path)
     before = out.read_text() if out.is_file() else None
     assert_clean_error(mmocap(*track_args(sequence_copy, out)), *words)
@@ -105,13 +126,15 @@ def test_a_read_only_dataset_root_the_synthetic_sequence_must_render_into(tmp_pa
     root.mkdir()
     make_read_only(root)
     out = tmp_path / "run"
-    assert_clean_error(mmocap(f"dataset.root={root}", *SYNTHETIC, f"hydra.run.dir={out}"),
-                       str(root / "S1_walking"), READ_ONLY)
+    assert_clean_error(
+        mmocap(f"dataset.root={root}", *SYNTHETIC, f"hydra.run.dir={out}"), str(root / "S1_walking"), READ_ONLY
+    )
     assert list(root.iterdir()) == []
     assert_nothing_half_written(out)
 
 
 # --- stats --out -----------------------------------------------------------------------------
+
 
 @pytest.fixture
 def results_table(tmp_path) -> Path:
@@ -134,10 +157,12 @@ def test_stats_out_that_cannot_be_written(results_table, tmp_path, make_read_onl
         words = [str(folder), "is a file, where a folder is needed"]
     outcome = mmocap("stats", results_table, "--block", "block", "--value", "value", "--out", folder / "stem")
     assert_clean_error(outcome, *words)
-    assert not list(tmp_path.rglob("stem.*")) and not list(tmp_path.rglob("*.tmp"))
+    assert not list(tmp_path.rglob("stem.*"))
+    assert not list(tmp_path.rglob("*.tmp"))
 
 
 # --- export-humaneva -------------------------------------------------------------------------
+
 
 def export_into_a_file(request, tmp_path):
     out = tmp_path / "humaneva"
@@ -181,19 +206,25 @@ def test_export_humaneva_that_cannot_be_written_leaves_no_partial_export(sequenc
 
 # --- a run folder in use -----------------------------------------------------------------------
 
+
 def test_a_second_run_into_a_run_folder_in_use_refuses_naming_it(sequence_copy, tmp_path):
     out = tmp_path / "run"
     with locked(out / RUN_LOCK):  # the first run, tracking
         outcome = mmocap(*track_args(sequence_copy, out))
     assert_clean_error(outcome, str(out), "in use by another run", f"process {os.getpid()}", "run_dir_busy=wait")
-    assert not (out / "frames.csv.partial").exists() and not (out / "frames.csv").exists()
+    assert not (out / "frames.csv.partial").exists()
+    assert not (out / "frames.csv").exists()
 
 
 def test_with_run_dir_busy_wait_the_second_run_waits_for_the_first(sequence_copy, tmp_path):
     out = tmp_path / "run"
     with locked(out / RUN_LOCK):
-        second = subprocess.Popen([sys.executable, "-m", "mmocap", *track_args(sequence_copy, out),
-                                   "run_dir_busy=wait"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        second = subprocess.Popen(
+            [sys.executable, "-m", "mmocap", *track_args(sequence_copy, out), "run_dir_busy=wait"],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
         deadline = time.monotonic() + 60
         while not (out / "cli.log").exists() and time.monotonic() < deadline:  # Hydra has set the run up
             time.sleep(0.05)
@@ -212,30 +243,36 @@ def test_a_bad_run_dir_busy_names_the_key(sequence_copy, tmp_path):
 
 # --- files torn or left behind by a crash ------------------------------------------------------
 
+
 def test_a_torn_last_line_of_progress_jsonl_is_skipped(sequence_copy, tmp_path):
     sweep = tmp_path / "sweep"
     sweep.mkdir()
     progress = sweep / "progress.jsonl"
     progress.write_text('{"session": "old", "job": 0, "status": "COMPLETED", "ran": true}\n{"session": "old", "jo')
     outcome = mmocap(*sweep_args(sequence_copy, sweep))
-    assert outcome.code == 0 and "Traceback" not in outcome.stderr, outcome
+    assert outcome.code == 0, outcome
+    assert "Traceback" not in outcome.stderr, outcome
     assert "sweep: 1/1 runs done (0 found in the store)" in outcome.stdout + outcome.stderr, outcome
     lines = progress.read_text().splitlines()
-    assert lines[1] == '{"session": "old", "jo' and json.loads(lines[2])["ran"] is True
+    assert lines[1] == '{"session": "old", "jo'
+    assert json.loads(lines[2])["ran"] is True
 
 
 def test_temporary_files_left_by_a_crash_are_ignored_or_cleaned(sequence_copy, tmp_path):
     out = tmp_path / "run"
     (out / "records").mkdir(parents=True)
-    stale = {out / "records" / ".0123456789abcdef.json.a1b2c3.tmp": '{"run_id": "0123',  # a record torn by SIGKILL
-             out / ".summary.json.d4e5f6.tmp": '{"mean',
-             out / "frames.csv.partial": "frame,marker_error_mm\n0,1"}
+    stale = {
+        out / "records" / ".0123456789abcdef.json.a1b2c3.tmp": '{"run_id": "0123',  # a record torn by SIGKILL
+        out / ".summary.json.d4e5f6.tmp": '{"mean',
+        out / "frames.csv.partial": "frame,marker_error_mm\n0,1",
+    }
     for path, text in stale.items():
         path.write_text(text)
     outcome = mmocap(*track_args(sequence_copy, out))
     assert outcome.code == 0, outcome
     assert [p.suffix for p in (out / "records").iterdir() if not p.name.startswith(".")] == [".json"]
-    assert not (out / ".summary.json.d4e5f6.tmp").exists() and not (out / "frames.csv.partial").exists()
+    assert not (out / ".summary.json.d4e5f6.tmp").exists()
+    assert not (out / "frames.csv.partial").exists()
     assert len(pd.read_csv(out / "frames.csv")) == 2
     collected = mmocap("collect", out)
     assert collected.code == 0, collected

@@ -1,6 +1,7 @@
 """Cameras whose foreground is empty or nearly the whole image: the run stops naming the
 camera (``coverage.action=stop``, the default) or tracks without it, warned and recorded
 (``coverage.action=drop``). Before this check, black images gave 451 mm with exit 0."""
+
 import json
 
 import cv2
@@ -18,8 +19,11 @@ def paint(sequence, camera: str, value: int) -> None:
         assert cv2.imwrite(str(path), np.full_like(image, value))
 
 
-@pytest.mark.parametrize("camera, value", [("BW1", 0), ("C1", 0), ("C1", 255)],
-                         ids=["black-greyscale-camera", "black-colour-camera", "white-colour-camera"])
+@pytest.mark.parametrize(
+    ("camera", "value"),
+    [("BW1", 0), ("C1", 0), ("C1", 255)],
+    ids=["black-greyscale-camera", "black-colour-camera", "white-colour-camera"],
+)
 def test_a_blind_camera_stops_the_run_naming_it(sequence_copy, tmp_path, camera, value):
     paint(sequence_copy, camera, value)
     out = tmp_path / "run"
@@ -38,5 +42,6 @@ def test_drop_tracks_without_the_blind_camera_and_records_why(sequence_copy, tmp
 
 
 def test_a_bad_action_is_a_config_error(sequence_copy, tmp_path):
-    assert_clean_error(mmocap(*track_args(sequence_copy, tmp_path / "run"), "coverage.action=ignore"),
-                       "coverage.action")
+    assert_clean_error(
+        mmocap(*track_args(sequence_copy, tmp_path / "run"), "coverage.action=ignore"), "coverage.action"
+    )

@@ -5,6 +5,7 @@ colour camera and 1 for a greyscale one, of the calibration's size. Nothing is c
 (:func:`mmocap.data.sequence.read_image`). Before, a greyscale file in a colour camera was
 silently read as colour (``cv2.IMREAD_COLOR`` copies the grey into three channels) and tracked.
 """
+
 import cv2
 import numpy as np
 import pytest
@@ -20,12 +21,21 @@ def rewrite(path, convert) -> None:
 
 
 CASES = {
-    "greyscale-in-colour-camera": ("C1", lambda p: rewrite(p, lambda im: cv2.cvtColor(im, cv2.COLOR_BGR2GRAY)),
-                                   ("has 1 channel", "is colour")),
-    "colour-in-greyscale-camera": ("BW1", lambda p: rewrite(p, lambda im: cv2.cvtColor(im, cv2.COLOR_GRAY2BGR)),
-                                   ("has 3 channels", "is greyscale")),
-    "with-alpha-channel": ("C1", lambda p: rewrite(p, lambda im: cv2.cvtColor(im, cv2.COLOR_BGR2BGRA)),
-                           ("has 4 channels",)),
+    "greyscale-in-colour-camera": (
+        "C1",
+        lambda p: rewrite(p, lambda im: cv2.cvtColor(im, cv2.COLOR_BGR2GRAY)),
+        ("has 1 channel", "is colour"),
+    ),
+    "colour-in-greyscale-camera": (
+        "BW1",
+        lambda p: rewrite(p, lambda im: cv2.cvtColor(im, cv2.COLOR_GRAY2BGR)),
+        ("has 3 channels", "is greyscale"),
+    ),
+    "with-alpha-channel": (
+        "C1",
+        lambda p: rewrite(p, lambda im: cv2.cvtColor(im, cv2.COLOR_BGR2BGRA)),
+        ("has 4 channels",),
+    ),
     "16-bit": ("BW1", lambda p: rewrite(p, lambda im: im.astype(np.uint16) * 256), ("uint16", "8-bit")),
     "wrong-size": ("C1", lambda p: rewrite(p, lambda im: cv2.resize(im, (80, 60))), ("is 80x60", "160x120")),
     "corrupt": ("BW1", lambda p: p.write_bytes(b"\x89PNG\r\n\x1a\n" + b"garbage" * 50), ("cannot read",)),
@@ -33,7 +43,7 @@ CASES = {
 }
 
 
-@pytest.mark.parametrize("camera, damage, culprits", CASES.values(), ids=CASES.keys())
+@pytest.mark.parametrize(("camera", "damage", "culprits"), CASES.values(), ids=CASES.keys())
 def test_a_bad_image_names_camera_and_file(sequence_copy, tmp_path, camera, damage, culprits):
     path = sequence_copy / "images" / camera / "000001.png"
     damage(path)
@@ -48,7 +58,8 @@ def test_the_old_reader_took_a_greyscale_file_for_colour(sequence_copy):
     path = sequence_copy / "images" / "C1" / "000000.png"
     rewrite(path, lambda im: cv2.cvtColor(im, cv2.COLOR_BGR2GRAY))
     image = cv2.imread(str(path), cv2.IMREAD_COLOR)
-    assert image.shape[2] == 3 and np.array_equal(image[..., 0], image[..., 2])
+    assert image.shape[2] == 3
+    assert np.array_equal(image[..., 0], image[..., 2])
 
 
 def test_a_greyscale_background_frame_in_a_colour_camera_names_it(sequence_copy, tmp_path):
@@ -59,5 +70,10 @@ def test_a_greyscale_background_frame_in_a_colour_camera_names_it(sequence_copy,
 
 def test_a_missing_frame_is_found_when_the_sequence_opens(sequence_copy, tmp_path):
     (sequence_copy / "images" / "BW1" / "000001.png").unlink()
-    assert_clean_error(mmocap(*track_args(sequence_copy, tmp_path / "run")),
-                       "camera BW1", str(sequence_copy / "images" / "BW1"), "000001.png", "lacks 1 of the 2 frames")
+    assert_clean_error(
+        mmocap(*track_args(sequence_copy, tmp_path / "run")),
+        "camera BW1",
+        str(sequence_copy / "images" / "BW1"),
+        "000001.png",
+        "lacks 1 of the 2 frames",
+    )

@@ -6,6 +6,7 @@ says whether they stop the run (``stop``) or are left out of the marker error wi
 recorded warning (``warn``, the default), ``frames_scored`` in ``summary.json`` saying over
 how many frames the error is. Before, such frames were NaN and the mean silently left them out.
 """
+
 import json
 
 import pandas as pd
@@ -25,10 +26,12 @@ def edit_lines(path, change) -> None:
 def replace_cell(line: int, column: str, value: str):
     """The change of :func:`edit_lines` that sets ``column`` of file line ``line`` (1 = the
     header) to ``value``."""
+
     def change(lines):
         cells = lines[line - 1].split(",")
         cells[HEADER.split(",").index(column)] = value
-        return lines[:line - 1] + [",".join(cells)] + lines[line:]
+        return lines[: line - 1] + [",".join(cells)] + lines[line:]
+
     return change
 
 
@@ -48,7 +51,7 @@ CASES = {
 }
 
 
-@pytest.mark.parametrize("damage, culprits", CASES.values(), ids=CASES.keys())
+@pytest.mark.parametrize(("damage", "culprits"), CASES.values(), ids=CASES.keys())
 def test_a_bad_marker_file_names_it_and_the_problem(sequence_copy, tmp_path, damage, culprits):
     path = sequence_copy / "markers_mm.csv"
     damage(path)
@@ -81,7 +84,8 @@ def test_a_missing_frame_is_left_out_of_the_mean_with_a_recorded_warning(sequenc
     outcome = mmocap(*track_args(sequence_copy, out))
     summary = run_summary(out)
     assert_warned(outcome, summary, str(sequence_copy / "markers_mm.csv"), "1 of the 2 tracked frames", "frame 1")
-    assert summary["frames"] == 2 and summary["frames_scored"] == 1
+    assert summary["frames"] == 2
+    assert summary["frames_scored"] == 1
     frames = pd.read_csv(out / "frames.csv")
     assert frames["marker_error_mm"].isna().tolist() == [False, True]
     assert summary["mean_marker_error_mm"] == pytest.approx(frames["marker_error_mm"][0], abs=1e-3)
@@ -91,8 +95,12 @@ def test_a_missing_frame_is_left_out_of_the_mean_with_a_recorded_warning(sequenc
 def test_stop_ends_the_run_naming_the_file_and_the_frames(sequence_copy, tmp_path):
     drop_frame(sequence_copy / "markers_mm.csv", 1)
     out = tmp_path / "run"
-    assert_clean_error(mmocap(*track_args(sequence_copy, out), "evaluation.missing_markers=stop"),
-                       str(sequence_copy / "markers_mm.csv"), "frame 1", "evaluation.missing_markers=warn")
+    assert_clean_error(
+        mmocap(*track_args(sequence_copy, out), "evaluation.missing_markers=stop"),
+        str(sequence_copy / "markers_mm.csv"),
+        "frame 1",
+        "evaluation.missing_markers=warn",
+    )
     assert not (out / "summary.json").exists()
 
 
@@ -103,17 +111,24 @@ def test_no_ground_truth_at_all_gives_null_not_nan(sequence_copy, tmp_path):
     summary = run_summary(out)
     assert_warned(outcome, summary, "none of the 2 tracked frames", "null")
     assert summary["frames_scored"] == 0
-    assert summary["mean_marker_error_mm"] is None and summary["max_marker_error_mm"] is None
+    assert summary["mean_marker_error_mm"] is None
+    assert summary["max_marker_error_mm"] is None
     assert "NaN" not in (out / "summary.json").read_text()
     assert "no ground truth" in outcome.stdout
 
 
 def test_no_ground_truth_at_all_stops_unless_warned(sequence_copy, tmp_path):
     clear_coordinates(sequence_copy / "markers_mm.csv")
-    assert_clean_error(mmocap(*track_args(sequence_copy, tmp_path / "run"), "evaluation.missing_markers=stop"),
-                       str(sequence_copy / "markers_mm.csv"), "none of the 2 tracked frames")
+    assert_clean_error(
+        mmocap(*track_args(sequence_copy, tmp_path / "run"), "evaluation.missing_markers=stop"),
+        str(sequence_copy / "markers_mm.csv"),
+        "none of the 2 tracked frames",
+    )
 
 
 def test_an_unknown_missing_markers_action_is_a_config_error(sequence_copy, tmp_path):
-    assert_clean_error(mmocap(*track_args(sequence_copy, tmp_path / "run"), "evaluation.missing_markers=ignore"),
-                       "evaluation.missing_markers", "ignore")
+    assert_clean_error(
+        mmocap(*track_args(sequence_copy, tmp_path / "run"), "evaluation.missing_markers=ignore"),
+        "evaluation.missing_markers",
+        "ignore",
+    )

@@ -1,6 +1,7 @@
 """Bad start poses (``x0`` in ``sequence.json``, the first frame's pose of 51 numbers in mm
 and rad): each stops the run with one line naming ``x0`` and the file, before any tracking
 (docs/usage.md lists a NaN pose as a one-line error)."""
+
 import json
 
 import pytest
@@ -16,7 +17,7 @@ def change_x0(path, change) -> None:
 
 
 def set_entry(index, value):
-    return lambda x0: x0[:index] + [value] + x0[index + 1:]
+    return lambda x0: x0[:index] + [value] + x0[index + 1 :]
 
 
 CASES = {

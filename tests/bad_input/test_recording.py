@@ -1,5 +1,6 @@
 """Bad recordings and recording settings, as a user meets them on the command line: one line
 naming the file, camera or key, exit status 2."""
+
 import shutil
 from pathlib import Path
 
@@ -39,16 +40,22 @@ def calibration_in_metres_without_saying(root: Path) -> list[str]:
 
 
 CASES = {
-    "no-calibration": (lambda root: (root / "calibration.yml").unlink() or [],
-                       ["no calibration in recording", "calibration.yml"]),
+    "no-calibration": (
+        lambda root: (root / "calibration.yml").unlink() or [],
+        ["no calibration in recording", "calibration.yml"],
+    ),
     "ambiguous-units": (calibration_in_metres_without_saying, ["calibration.yml", "dataset.units"]),
-    "camera-without-video": (lambda root: (root / "videos" / "BW1.mp4").unlink() or ["dataset.cameras=[C1,BW1]"],
-                             ["camera BW1", "no video"]),
+    "camera-without-video": (
+        lambda root: (root / "videos" / "BW1.mp4").unlink() or ["dataset.cameras=[C1,BW1]"],
+        ["camera BW1", "no video"],
+    ),
     "offset-of-unknown-camera": (lambda root: ["dataset.offsets={C7:2}"], ["dataset.offsets", "C7"]),
     "unknown-up-axis": (lambda root: ["dataset.up=up"], ["dataset.up", "+z"]),
     "units-cm": (lambda root: ["dataset.units=cm"], ["dataset.units", "mm, m, auto"]),
-    "no-background": (lambda root: shutil.rmtree(root / "background") or [],
-                      ["camera C1", "background", "dataset.background=[first,last]"]),
+    "no-background": (
+        lambda root: shutil.rmtree(root / "background") or [],
+        ["camera C1", "background", "dataset.background=[first,last]"],
+    ),
     "start-mode": (lambda root: ["start.mode=sometimes"], ["start.mode", "auto, search"]),
     "body-height": (lambda root: ["body.height_mm=180"], ["body.height_mm", "1000"]),
 }
@@ -58,7 +65,15 @@ CASES = {
 def test_a_bad_recording_is_one_line(recording, tmp_path, case):
     breaker, culprits = CASES[case]
     extra = breaker(recording)
-    outcome = mmocap("track", "dataset=recording", f"dataset.root={recording}", "evaluator=numpy",
-                     "body.vertices=1000", "progress=false", "foreground_cache=null",
-                     f"hydra.run.dir={tmp_path / 'run'}", *extra)
+    outcome = mmocap(
+        "track",
+        "dataset=recording",
+        f"dataset.root={recording}",
+        "evaluator=numpy",
+        "body.vertices=1000",
+        "progress=false",
+        "foreground_cache=null",
+        f"hydra.run.dir={tmp_path / 'run'}",
+        *extra,
+    )
     assert_clean_error(outcome, *culprits)

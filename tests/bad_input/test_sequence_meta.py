@@ -1,5 +1,6 @@
 """Bad ``sequence.json`` files: each stops the run with one line naming the file and the key
 (:func:`mmocap.data.sequence.read_meta`)."""
+
 import json
 
 import pytest
@@ -33,7 +34,7 @@ KEY_CASES = {
 }
 
 
-@pytest.mark.parametrize("change, key, words", KEY_CASES.values(), ids=KEY_CASES.keys())
+@pytest.mark.parametrize(("change", "key", "words"), KEY_CASES.values(), ids=KEY_CASES.keys())
 def test_a_wrong_value_names_the_file_and_the_key(sequence_copy, tmp_path, change, key, words):
     path = sequence_copy / "sequence.json"
     edit(path, change)
@@ -55,7 +56,7 @@ FILE_CASES = {
 }
 
 
-@pytest.mark.parametrize("damage, words", FILE_CASES.values(), ids=FILE_CASES.keys())
+@pytest.mark.parametrize(("damage", "words"), FILE_CASES.values(), ids=FILE_CASES.keys())
 def test_a_damaged_file_is_named(sequence_copy, tmp_path, damage, words):
     path = sequence_copy / "sequence.json"
     damage(path)
@@ -64,5 +65,9 @@ def test_a_damaged_file_is_named(sequence_copy, tmp_path, damage, words):
 
 def test_more_frames_than_images_names_the_missing_ones(sequence_copy, tmp_path):
     edit(sequence_copy / "sequence.json", set_key("frames", 3))
-    assert_clean_error(mmocap(*track_args(sequence_copy, tmp_path / "run")),
-                       "camera C1", "000002.png", str(sequence_copy / "sequence.json"))
+    assert_clean_error(
+        mmocap(*track_args(sequence_copy, tmp_path / "run")),
+        "camera C1",
+        "000002.png",
+        str(sequence_copy / "sequence.json"),
+    )

@@ -1,5 +1,6 @@
 """The silhouette kernel's roofline: the floor from a device's rates, the rates measured, and the
 table of both beside the kernel."""
+
 import math
 
 import pytest
@@ -26,7 +27,8 @@ def test_the_rates_measured_on_the_default_device_are_finite_and_positive():
     assert device
     for name in ("flops", "read_bytes", "clear_words", "ors"):
         value = getattr(rates, name)
-        assert math.isfinite(value) and value > 0, name
+        assert math.isfinite(value), name
+        assert value > 0, name
 
 
 def test_the_table_puts_the_kernel_beside_the_floor_with_their_ratios(monkeypatch):

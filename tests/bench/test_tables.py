@@ -1,4 +1,5 @@
 """Cano Tables 1 and 2 (mmocap.bench.tables): how many frames a backend's frame time is the mean of."""
+
 import time
 
 import numpy as np
@@ -28,14 +29,16 @@ def small_scene():
     return Scene(2000, cameras=1)
 
 
-@pytest.mark.parametrize("delay, frames, seconds, expected", [
-    (0.0, 1, 0.0, 1),      # no time budget: the frames asked for
-    (0.0, 2, 10.0, 5),     # fast frames: more, up to MAX_FRAMES
-    (0.02, 1, 0.1, 1),     # a frame of 10 calls takes 0.2 s: no second one within 0.1 s
-    (0.02, 3, 0.1, 3),     # but never fewer than asked for
-])
-def test_frame_ms_adds_frames_that_fit_in_the_time_given(small_scene, delay, frames, seconds,
-                                                         expected):
+@pytest.mark.parametrize(
+    ("delay", "frames", "seconds", "expected"),
+    [
+        (0.0, 1, 0.0, 1),  # no time budget: the frames asked for
+        (0.0, 2, 10.0, 5),  # fast frames: more, up to MAX_FRAMES
+        (0.02, 1, 0.1, 1),  # a frame of 10 calls takes 0.2 s: no second one within 0.1 s
+        (0.02, 3, 0.1, 3),  # but never fewer than asked for
+    ],
+)
+def test_frame_ms_adds_frames_that_fit_in_the_time_given(small_scene, delay, frames, seconds, expected):
     ev = CountingEvaluator(delay)
     frame_ms(ev, small_scene, 140, frames, seconds)
     # the warm-up call, then per frame the start pose and CMA-ES's 10 calls (139 evaluations)

@@ -1,4 +1,5 @@
 """Inverse kinematics: a pose found from its markers alone."""
+
 import numpy as np
 
 from mmocap.body.inverse_kinematics import fit_pose
@@ -13,8 +14,8 @@ def test_fit_pose_recovers_a_turned_pose():
     mask = dof_mask(39)
     x = np.zeros(51)
     x[:3] = (300.0, 950.0, -200.0)
-    x[4] = 2.5                                  # root turned about y
-    x[3 + 3 * 11] = 0.6                         # left knee flexed
-    x[3 + 3 * 4 + 1] = 1.0                      # left elbow flexed
+    x[4] = 2.5  # root turned about y
+    x[3 + 3 * 11] = 0.6  # left knee flexed
+    x[3 + 3 * 4 + 1] = 1.0  # left elbow flexed
     fitted = fit_pose(body, body.markers(x[None])[0], mask)
     assert marker_error(body.markers(fitted[None]), body.markers(x[None]))[0] < 5.0

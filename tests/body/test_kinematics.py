@@ -14,9 +14,11 @@ def body():
 
 def rot(axis, angle):
     c, s = np.cos(angle), np.sin(angle)
-    return {"x": np.array([[1, 0, 0], [0, c, -s], [0, s, c]]),
-            "y": np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]]),
-            "z": np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])}[axis]
+    return {
+        "x": np.array([[1, 0, 0], [0, c, -s], [0, s, c]]),
+        "y": np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]]),
+        "z": np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]]),
+    }[axis]
 
 
 def test_euler_order_matches_elementary_rotations():
@@ -31,8 +33,19 @@ def test_dof_counts_follow_table_1():
     assert skeleton.dof_mask(51).sum() == 51
     names = np.array(skeleton.parameter_names())
     reduced = set(names[skeleton.dof_mask(39) & ~skeleton.dof_mask(28)])
-    assert reduced == {"UpperSpine.rx", "UpperSpine.ry", "UpperSpine.rz", "LWrist.ry", "LWrist.rz",
-                       "RWrist.ry", "RWrist.rz", "LAnkle.rx", "LAnkle.ry", "RAnkle.rx", "RAnkle.ry"}
+    assert reduced == {
+        "UpperSpine.rx",
+        "UpperSpine.ry",
+        "UpperSpine.rz",
+        "LWrist.ry",
+        "LWrist.rz",
+        "RWrist.ry",
+        "RWrist.rz",
+        "LAnkle.rx",
+        "LAnkle.ry",
+        "RAnkle.rx",
+        "RAnkle.ry",
+    }
     assert set(names[skeleton.dof_mask(39)]) >= {"LElbow.ry", "LKnee.rx", "Root.tx"}
     assert "LElbow.rx" not in set(names[skeleton.dof_mask(39)])
     with pytest.raises(ConfigError, match="body.dof"):
@@ -74,19 +87,23 @@ def test_composition_child_follows_parent(body):
     for j_idx, p in enumerate(skeleton.PARENT_INDEX):
         if p >= 0:
             local = np.linalg.inv(G[:, p]) @ G[:, j_idx]
-            np.testing.assert_allclose(local[:, :3, 3],
-                                       np.broadcast_to(body.joint_rest_positions[j_idx]
-                                                       - body.joint_rest_positions[p], (3, 3)), atol=1e-6)
+            np.testing.assert_allclose(
+                local[:, :3, 3],
+                np.broadcast_to(body.joint_rest_positions[j_idx] - body.joint_rest_positions[p], (3, 3)),
+                atol=1e-6,
+            )
             np.testing.assert_allclose(np.linalg.det(G[:, j_idx, :3, :3]), 1.0, atol=1e-9)
 
 
 def test_flexion_signs(body):
     """+Rx bends the knee backwards; +Ry brings the forearm forward on both sides."""
     j = {n: i for i, n in enumerate(skeleton.JOINTS)}
-    for param, _joint, end, axis, sign in (("LKnee.rx", "LKnee", "LAnkle", 2, -1),
-                                          ("LElbow.ry", "LElbow", "LWrist", 2, +1),
-                                          ("RElbow.ry", "RElbow", "RWrist", 2, +1),
-                                          ("LHip.rx", "LHip", "LKnee", 2, +1)):
+    for param, _joint, end, axis, sign in (
+        ("LKnee.rx", "LKnee", "LAnkle", 2, -1),
+        ("LElbow.ry", "LElbow", "LWrist", 2, +1),
+        ("RElbow.ry", "RElbow", "RWrist", 2, +1),
+        ("LHip.rx", "LHip", "LKnee", 2, +1),
+    ):
         x = np.zeros(skeleton.N_FULL)
         before = body.joint_positions(x[None])[0, j[end], axis]
         x[skeleton.parameter_index(param)] = 0.5 if param != "LHip.rx" else -0.5
@@ -104,9 +121,11 @@ def test_joint_limits_and_masks(body):
     assert np.all(lower <= upper)
     # every axis that Table 1 does not list is pinned to 0
     pinned = ~skeleton.dof_mask(39)
-    assert np.all(lower[pinned] == 0) and np.all(upper[pinned] == 0)
+    assert np.all(lower[pinned] == 0)
+    assert np.all(upper[pinned] == 0)
     b28 = BodyModel("S1", dof=28)
-    assert b28.mask.sum() == 28 and np.all(b28.mask <= body.mask)
+    assert b28.mask.sum() == 28
+    assert np.all(b28.mask <= body.mask)
 
 
 def test_skinning_transform_definition():
@@ -123,6 +142,7 @@ def test_skinning_transform_definition():
 
 def test_kinematic_chain_is_the_bodys_transforms_and_describes_its_inputs(body):
     from mmocap.body.kinematics import KinematicChain
+
     rng = np.random.default_rng(2)
     X = rng.normal(0, 0.4, size=(5, skeleton.N_FULL))
     X[:, :3] = rng.normal(0, 500, (5, 3))
@@ -143,13 +163,11 @@ def test_kinematic_chain_is_the_bodys_transforms_and_describes_its_inputs(body):
     rows = chain.pose_rows(X)
     assert rows.shape == (5, 3 + 6 * 16)
     np.testing.assert_array_equal(rows[:, :3], X[:, :3])
-    np.testing.assert_array_equal(rows[:, 3 + 6 * 4:3 + 6 * 5],
-                                  np.c_[np.cos(X[:, 15:18]), np.sin(X[:, 15:18])])
+    np.testing.assert_array_equal(rows[:, 3 + 6 * 4 : 3 + 6 * 5], np.c_[np.cos(X[:, 15:18]), np.sin(X[:, 15:18])])
     table = chain.rows()
     assert table.shape == (16, 16)
     np.testing.assert_array_equal(table[:, 15], skeleton.PARENT_INDEX)
     np.testing.assert_array_equal(table[:, :9], frames.reshape(16, 9))
     np.testing.assert_array_equal(table[:, 12:15], rest)
     child = skeleton.JOINTS.index("LKnee")
-    np.testing.assert_array_equal(table[child, 9:12],
-                                  rest[child] - rest[skeleton.PARENT_INDEX[child]])
+    np.testing.assert_array_equal(table[child, 9:12], rest[child] - rest[skeleton.PARENT_INDEX[child]])

@@ -21,7 +21,9 @@ def test_makehuman_mesh_is_a_closed_body():
     # every joint owns skin
     assert np.all(np.bincount(mesh.vertex_joint, minlength=16) > 100)
     # left joints on +x, right on -x, head above pelvis
-    assert mesh.pivots[3, 0] > 100 and mesh.pivots[6, 0] < -100 and mesh.pivots[9, 1] > 400
+    assert mesh.pivots[3, 0] > 100
+    assert mesh.pivots[6, 0] < -100
+    assert mesh.pivots[9, 1] > 400
 
 
 def test_subject_dimensions_differ():
@@ -31,7 +33,7 @@ def test_subject_dimensions_differ():
     for name, dims in SUBJECTS.items():
         fitted = fit_subject(mesh, dims)
         heights[name] = np.ptp(fitted.vertices[:, 1])
-        volumes[name] = fitted.trimesh().volume / dims.height_mm ** 3
+        volumes[name] = fitted.trimesh().volume / dims.height_mm**3
         assert heights[name] == pytest.approx(dims.height_mm, rel=1e-6)
     assert len(set(np.round(list(heights.values())))) == 3
     assert volumes["S2"] > volumes["S1"] * 1.1 > volumes["S3"] * 1.1  # girth 1.12 vs 1 vs 0.9
@@ -48,11 +50,12 @@ def test_resampling_gives_exact_even_counts(count):
     assert np.all(np.diff(samples.joint) >= 0)  # sorted by joint
     # evenness: nearest-neighbour distances are far more uniform than the raw mesh's
     from scipy.spatial import cKDTree
+
     d, _ = cKDTree(samples.points).query(samples.points, k=2)
     spacing = d[:, 1]
     assert spacing.std() / spacing.mean() < 0.35
     # normals point away from the body axis on the trunk
-    trunk = (samples.joint == 1)
+    trunk = samples.joint == 1
     radial = samples.points[trunk] - samples.points[trunk].mean(axis=0)
     radial[:, 1] = 0
     assert np.mean(np.sum(radial * samples.normals[trunk], axis=1) > 0) > 0.9
@@ -68,9 +71,10 @@ def test_body_model_markers_on_skin():
         BodyModel("S9")
 
 
-@pytest.mark.parametrize("height_mm, girth", [(1000, 0.6), (2300, 1.6), (2300, 0.6), (1000, 1.6)])
+@pytest.mark.parametrize(("height_mm", "girth"), [(1000, 0.6), (2300, 1.6), (2300, 0.6), (1000, 1.6)])
 def test_every_height_and_girth_allowed_builds_a_body_with_its_markers(height_mm, girth):
     body = BodyModel("S1", vertices=1000, height_mm=height_mm, girth=girth)
     markers = body.markers(body.rest_pose()[None])[0]
     assert np.ptp(markers[:, 1]) > 0.6 * height_mm  # head to ankles
-    assert body.subject.height_mm == height_mm and body.subject.girth == girth
+    assert body.subject.height_mm == height_mm
+    assert body.subject.girth == girth

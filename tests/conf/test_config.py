@@ -14,7 +14,7 @@ def options(group):
     return mmocap_config.options(group)
 
 
-@pytest.mark.parametrize("group, option", [(g, o) for g in GROUPS for o in options(g)])
+@pytest.mark.parametrize(("group", "option"), [(g, o) for g in GROUPS for o in options(g)])
 def test_every_option_instantiates(group, option):
     if group == "evaluator" and (reason := registry.unavailable("evaluator", option)):
         pytest.skip(f"evaluator {option} cannot run here: {reason}")
@@ -26,7 +26,8 @@ def test_every_option_instantiates(group, option):
     component = instantiate(cfg[group])
     if group == "background":
         component = component()  # a factory: one model per camera
-        assert hasattr(component, "fit") and hasattr(component, "apply")
+        assert hasattr(component, "fit")
+        assert hasattr(component, "apply")
     if group == "optimizer":
         assert isinstance(component, Optimizer)
     if group == "evaluator":
@@ -36,13 +37,16 @@ def test_every_option_instantiates(group, option):
 def test_demo_experiment_composes():
     cfg = mmocap_config.compose(["+experiment=demo"], return_hydra_config=True)
     assert cfg.hydra.run.dir == "outputs/demo"
-    assert cfg.dataset.frames >= 60 and len(cfg.dataset.cameras) == 4
-    assert cfg.tracking.evaluations == 1500 and cfg.body.dof == 39
+    assert cfg.dataset.frames >= 60
+    assert len(cfg.dataset.cameras) == 4
+    assert cfg.tracking.evaluations == 1500
+    assert cfg.body.dof == 39
 
 
 def test_fig5_experiment_is_the_cano_recommended_configuration():
     cfg = mmocap_config.compose(["+experiment=fig5"], return_hydra_config=True)
-    assert cfg.hydra.run.dir == "outputs/fig5" and cfg.overlays == 2
+    assert cfg.hydra.run.dir == "outputs/fig5"
+    assert cfg.overlays == 2
     assert (cfg.body.vertices, cfg.tracking.evaluations, cfg.evaluator.name) == (27393, 1500, "opencl")
     assert (cfg.dataset.subject, cfg.dataset.action) == ("S1", "walking")
 
@@ -50,10 +54,10 @@ def test_fig5_experiment_is_the_cano_recommended_configuration():
 def test_builtins_are_registered_as_entry_points():
     assert {"cmaes"} <= set(registry.available("optimizer"))
     assert {"naive", "numpy"} <= set(registry.available("evaluator"))
-    assert all(ep.dist.name == "mmocap" for ep in registry.available("optimizer").values()
-               if ep.name == "cmaes")
+    assert all(ep.dist.name == "mmocap" for ep in registry.available("optimizer").values() if ep.name == "cmaes")
 
 
 def test_search_seed_does_not_change_the_data():
     cfg = mmocap_config.compose(["seed=7"])
-    assert cfg.seed == 7 and cfg.dataset.seed == 0
+    assert cfg.seed == 7
+    assert cfg.dataset.seed == 0

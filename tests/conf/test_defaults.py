@@ -5,6 +5,7 @@ The shipped YAML of a component lists its parameters, so that they can be seen
 test fails when the two disagree, or when a YAML key is not a parameter at all. Only the
 exceptions below may differ, each for the reason given.
 """
+
 import inspect
 
 import pytest
@@ -17,11 +18,13 @@ GROUPS = ("optimizer", "evaluator", "background", "strategy", "body", "dataset")
 
 # (group, option) -> {key: why the option sets its own value}
 PRESETS = {
-    ("background", "knn"): {"method": "the option selects OpenCV's KNN subtractor",
-                            "threshold": "KNN's dist2Threshold (OpenCV's default 400) is on another "
-                                         "scale than MOG2's varThreshold"},
-    ("dataset", "humaneva"): {"marker_map": "HumanEva-I's mocap labels: the reader's default "
-                                            "(None) reads them from this file"},
+    ("background", "knn"): {
+        "method": "the option selects OpenCV's KNN subtractor",
+        "threshold": "KNN's dist2Threshold (OpenCV's default 400) is on another scale than MOG2's varThreshold",
+    },
+    ("dataset", "humaneva"): {
+        "marker_map": "HumanEva-I's mocap labels: the reader's default (None) reads them from this file"
+    },
 }
 
 
@@ -50,8 +53,9 @@ def option_values():
             yield "config", key, node
 
 
-@pytest.mark.parametrize("group, option, node", list(option_values()),
-                         ids=[f"{g}/{o}" for g, o, _ in option_values()])
+@pytest.mark.parametrize(
+    ("group", "option", "node"), list(option_values()), ids=[f"{g}/{o}" for g, o, _ in option_values()]
+)
 def test_yaml_values_are_the_codes_defaults(group, option, node):
     parameters = inspect.signature(component(node)).parameters
     presets = PRESETS.get((group, option), {})

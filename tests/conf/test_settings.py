@@ -1,5 +1,6 @@
 """The optimiser settings presets: settings=paper gives Yeguas Table 3's values to every
 algorithm, settings=tuned leaves conf/optimizer/<name>.yaml as it is."""
+
 import pytest
 from hydra.utils import instantiate
 from omegaconf import OmegaConf
@@ -12,10 +13,26 @@ ALGORITHMS = mmocap_config.options("algorithm")
 # population or swarm, no velocity clamp, the APF's survival rate), per optimiser
 TABLE3 = {
     "cmaes": {"sigma0": 1.0},
-    "de": {"popsize": 10, "n_placing": 5, "n_leading": 5, "n_correcting": 5, "cr": 0.9, "f": 0.5,
-           "init_spread": 1.0, "include_x0": False},
-    "pso": {"popsize": 10, "phi1": 2.0, "phi2": 2.0, "w_max": 2.0, "w_min": 0.1, "v_max": None,
-            "init_spread": 1.0, "include_x0": False},
+    "de": {
+        "popsize": 10,
+        "n_placing": 5,
+        "n_leading": 5,
+        "n_correcting": 5,
+        "cr": 0.9,
+        "f": 0.5,
+        "init_spread": 1.0,
+        "include_x0": False,
+    },
+    "pso": {
+        "popsize": 10,
+        "phi1": 2.0,
+        "phi2": 2.0,
+        "w_max": 2.0,
+        "w_min": 0.1,
+        "v_max": None,
+        "init_spread": 1.0,
+        "include_x0": False,
+    },
     "apf": {"layers": 10, "survival_rate": 0.5, "init_spread": 1.0},
     "psapf": {"layers": 10, "survival_rate": 0.5, "init_spread": 1.0},
 }
@@ -29,7 +46,8 @@ def composed(settings, algorithm):
 def test_paper_preset_gives_table3_values_and_keeps_the_rest(algorithm):
     cfg = composed("paper", algorithm)
     name = cfg.optimizer.name
-    assert algorithm.startswith(name) and cfg.settings.name == "paper"
+    assert algorithm.startswith(name)
+    assert cfg.settings.name == "paper"
     tuned = OmegaConf.to_container(mmocap_config.load(f"optimizer/{name}.yaml"))
     optimizer = OmegaConf.to_container(cfg.optimizer)
     assert set(optimizer) == set(tuned)  # the preset sets values, it adds no key
@@ -57,4 +75,5 @@ def test_the_presets_are_different_runs(algorithm):
 
 def test_the_preset_also_composes_outside_the_tables():
     cfg = mmocap_config.compose(["+settings=paper", "+algorithm=pso-hierarchical"])
-    assert cfg.optimizer.v_max is None and cfg.optimizer.include_x0 is False
+    assert cfg.optimizer.v_max is None
+    assert cfg.optimizer.include_x0 is False

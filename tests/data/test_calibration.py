@@ -23,8 +23,9 @@ def assert_same_cameras(read: list[Camera], expected: list[Camera], colour: bool
     for got, want in zip(read, expected, strict=True):
         for attr in ("K", "dist", "R", "t"):
             scale = np.abs(getattr(want, attr)).max()
-            np.testing.assert_allclose(getattr(got, attr), getattr(want, attr), rtol=1e-9, atol=1e-9 * scale,
-                                       err_msg=f"{want.name}.{attr}")
+            np.testing.assert_allclose(
+                getattr(got, attr), getattr(want, attr), rtol=1e-9, atol=1e-9 * scale, err_msg=f"{want.name}.{attr}"
+            )
         assert (got.width, got.height) == (want.width, want.height)
         if colour:
             assert got.colour == want.colour
@@ -44,21 +45,25 @@ def pose2sim_toml(cameras: list[Camera]) -> str:
     text = ""
     for c in cameras:
         matrix = "[ " + ", ".join(toml_list(row) for row in c.K) + "]"
-        text += (f'[{c.name}]\nname = "{c.name}"\nsize = {toml_list([c.width, c.height])}\nmatrix = {matrix}\n'
-                 f"distortions = {toml_list(c.dist[:4])}\nrotation = {toml_list(rodrigues(c.R))}\n"
-                 f"translation = {toml_list(c.t / 1000)}\nfisheye = false\n\n")
+        text += (
+            f'[{c.name}]\nname = "{c.name}"\nsize = {toml_list([c.width, c.height])}\nmatrix = {matrix}\n'
+            f"distortions = {toml_list(c.dist[:4])}\nrotation = {toml_list(rodrigues(c.R))}\n"
+            f"translation = {toml_list(c.t / 1000)}\nfisheye = false\n\n"
+        )
     return text + "[metadata]\nadjusted = false\nerror = 0.0\n"
 
 
 def anipose_toml(cameras: list[Camera]) -> str:
-    """aniposelib's CameraGroup.dump: [cam_0]..., integer sizes, 5 distortions, mm, the toml
+    """Aniposelib's CameraGroup.dump: [cam_0]..., integer sizes, 5 distortions, mm, the toml
     package's trailing commas, a metadata table."""
     text = ""
     for i, c in enumerate(cameras):
         matrix = "[ " + ", ".join(toml_list(row, True) for row in c.K) + ",]"
-        text += (f'[cam_{i}]\nname = "{c.name}"\nsize = [ {c.width}, {c.height},]\nmatrix = {matrix}\n'
-                 f"distortions = {toml_list(c.dist, True)}\nrotation = {toml_list(rodrigues(c.R), True)}\n"
-                 f"translation = {toml_list(c.t, True)}\n\n")
+        text += (
+            f'[cam_{i}]\nname = "{c.name}"\nsize = [ {c.width}, {c.height},]\nmatrix = {matrix}\n'
+            f"distortions = {toml_list(c.dist, True)}\nrotation = {toml_list(rodrigues(c.R), True)}\n"
+            f"translation = {toml_list(c.t, True)}\n\n"
+        )
     return text + "[metadata]\nadjusted = true\nerror = 0.31\n"
 
 
@@ -127,7 +132,8 @@ def test_easymocap_names_layout_in_one_file_and_in_intri_extri(tmp_path, rig):
     write(folder / "extri.yml", False, True)
     calibration = read_calibration(folder)
     assert_same_cameras(calibration.cameras, rig, colour=False)
-    assert calibration.units == "m" and calibration.format.startswith("EasyMocap")
+    assert calibration.units == "m"
+    assert calibration.format.startswith("EasyMocap")
 
 
 def test_pose2sim_metres_and_anipose_mm_give_the_same_cameras(tmp_path, rig, caplog):
@@ -140,9 +146,13 @@ def test_pose2sim_metres_and_anipose_mm_give_the_same_cameras(tmp_path, rig, cap
     assert_same_cameras(anipose.cameras, rig, colour=False)
     assert (pose2sim.units, anipose.units) == ("m", "mm")
     lines = [r.getMessage() for r in caplog.records]
-    assert re.fullmatch(rf"calibration file {re.escape(str(tmp_path))}/Calib.toml: units m \(detected from camera "
-                        r"distances 4\.\d\d?-4\.\d\d? m\): converted to mm", lines[0]), lines[0]
-    assert "units mm (detected from camera distances" in lines[1] and "converted" not in lines[1]
+    assert re.fullmatch(
+        rf"calibration file {re.escape(str(tmp_path))}/Calib.toml: units m \(detected from camera "
+        r"distances 4\.\d\d?-4\.\d\d? m\): converted to mm",
+        lines[0],
+    ), lines[0]
+    assert "units mm (detected from camera distances" in lines[1]
+    assert "converted" not in lines[1]
 
 
 def test_explicit_units_are_taken_and_announced(tmp_path, rig, caplog):
@@ -154,7 +164,7 @@ def test_explicit_units_are_taken_and_announced(tmp_path, rig, caplog):
 
 
 def test_a_camera_at_the_origin_is_left_out_of_the_units_detection(tmp_path, rig):
-    """anipose calibrates relative to cam_0, which then stands at the origin."""
+    """Anipose calibrates relative to cam_0, which then stands at the origin."""
     shift = rig[0].centre
     moved = [Camera(c.name, c.K, c.dist, c.R, c.t + c.R @ shift, c.width, c.height) for c in rig]
     (tmp_path / "calibration.toml").write_text(pose2sim_toml(moved))
@@ -169,7 +179,8 @@ def test_ambiguous_units_are_refused(tmp_path, rig):
     with pytest.raises(DataError) as error:
         read_calibration(tmp_path / "calibration.toml")
     message = str(error.value)
-    assert "\n" not in message and str(tmp_path / "calibration.toml") in message
+    assert "\n" not in message
+    assert str(tmp_path / "calibration.toml") in message
     assert "cannot tell whether its translations are in mm or m" in message
     assert "set calibration units to mm or m" in message
     assert read_calibration(tmp_path / "calibration.toml", units="mm").units == "mm"
@@ -204,9 +215,11 @@ def write(path: Path, text: str) -> Path:
 
 def yaml_with(edit):
     """A maker of the round-trip YAML of the rig with ``edit(text) -> text`` applied."""
+
     def make(folder: Path, rig) -> Path:
         path = write_opencv_yaml(folder / "calibration.yml", rig)
         return write(path, edit(path.read_text()))
+
     return make
 
 
@@ -216,35 +229,46 @@ def toml_with(edit):
 
 
 def yaml_matrix(key: str, rows: int, cols: int, data) -> str:
-    return (f"   {key}: !!opencv-matrix\n      rows: {rows}\n      cols: {cols}\n      dt: d\n"
-            f"      data: [ {', '.join(map(str, data))} ]\n")
+    return (
+        f"   {key}: !!opencv-matrix\n      rows: {rows}\n      cols: {cols}\n      dt: d\n"
+        f"      data: [ {', '.join(map(str, data))} ]\n"
+    )
 
 
 def matrix_replaced(camera: str, key: str, new: str):
     """An edit replacing ``camera``'s matrix ``key`` by ``new`` (YAML lines, or '')."""
+
     def edit(text: str) -> str:
         block = re.search(rf"^{camera}:\n(?:   .*\n)*", text, re.M)
         body = re.sub(rf"^   {key}: !!opencv-matrix\n(?:      .*\n)+", new, block.group(0), count=1, flags=re.M)
-        return text[:block.start()] + body + text[block.end():]
+        return text[: block.start()] + body + text[block.end() :]
+
     return edit
 
 
 def xml_with(dist):
     """A maker of an OpenCV XML of the rig, one map per camera, with OpenCV's tutorial names, a
     Rodrigues ``rvec``, and ``dist(camera)`` as distortion coefficients; written by cv2 itself."""
+
     def make(folder: Path, rig) -> Path:
         path = folder / "rig.xml"
         storage = cv2.FileStorage(str(path), cv2.FILE_STORAGE_WRITE)
         storage.write("calibration_time", "today")
         for c in rig:
             storage.startWriteStruct(c.name, cv2.FileNode_MAP)
-            for key, value in (("camera_matrix", c.K), ("distortion_coefficients", dist(c)),
-                               ("rvec", cv2.Rodrigues(c.R)[0]), ("tvec", c.t), ("image_width", c.width),
-                               ("image_height", c.height)):
+            for key, value in (
+                ("camera_matrix", c.K),
+                ("distortion_coefficients", dist(c)),
+                ("rvec", cv2.Rodrigues(c.R)[0]),
+                ("tvec", c.t),
+                ("image_width", c.width),
+                ("image_height", c.height),
+            ):
                 storage.write(key, value)
             storage.endWriteStruct()
         storage.release()
         return path
+
     return make
 
 
@@ -254,8 +278,13 @@ def camera_folder(folder: Path, cameras: list[Camera]) -> Path:
     folder.mkdir()
     for camera in cameras:
         storage = cv2.FileStorage(str(folder / f"{camera.name}.yml"), cv2.FILE_STORAGE_WRITE)
-        for key, value in (("K", camera.K), ("D", camera.dist[:4]), ("R", camera.R), ("T", camera.t),
-                           ("size", np.array([camera.width, camera.height]))):
+        for key, value in (
+            ("K", camera.K),
+            ("D", camera.dist[:4]),
+            ("R", camera.R),
+            ("T", camera.t),
+            ("size", np.array([camera.width, camera.height])),
+        ):
             storage.write(key, value)
         storage.release()
     write(folder / "BW9.yml", "%YAML:1.0\n---\ncalibration_time: today\n")
@@ -264,37 +293,79 @@ def camera_folder(folder: Path, cameras: list[Camera]) -> Path:
 
 BAD_INPUTS = {
     # id: (make(folder, rig) -> the file, cameras=, words the one-line message holds besides the file)
-    "missing_K": (yaml_with(matrix_replaced("C2", "K", "")), None,
-                  ("camera C2", "lacks the camera matrix", "K, camera_matrix, cameraMatrix")),
-    "K_2x2": (yaml_with(matrix_replaced("C1", "K", yaml_matrix("K", 2, 2, [1, 0, 0, 1]))), None,
-              ("camera C1", "'K' must be 3 x 3 numbers, got shape (2, 2)")),
-    "R_not_a_rotation": (yaml_with(matrix_replaced("BW1", "R", yaml_matrix("R", 3, 3, [2, 0, 0, 0, 2, 0, 0, 0, 2]))),
-                         None, ("camera BW1", "'R' is not a rotation matrix")),
-    "t_of_two": (yaml_with(matrix_replaced("C1", "t", yaml_matrix("t", 2, 1, [1, 2]))), None,
-                 ("camera C1", "'t' must be 3 numbers, got shape (2, 1)")),
-    "unknown_camera": (yaml_with(lambda text: text), ["C1", "C9"],
-                       ("camera C9", "has no camera of that name (it has C1, C2, BW1)")),
-    "unparsable_yaml": (yaml_with(lambda text: text.replace("data: [ ", "data: [ [", 1)), None,
-                        ("cannot be read as OpenCV FileStorage", "Parsing error at line")),
+    "missing_K": (
+        yaml_with(matrix_replaced("C2", "K", "")),
+        None,
+        ("camera C2", "lacks the camera matrix", "K, camera_matrix, cameraMatrix"),
+    ),
+    "K_2x2": (
+        yaml_with(matrix_replaced("C1", "K", yaml_matrix("K", 2, 2, [1, 0, 0, 1]))),
+        None,
+        ("camera C1", "'K' must be 3 x 3 numbers, got shape (2, 2)"),
+    ),
+    "R_not_a_rotation": (
+        yaml_with(matrix_replaced("BW1", "R", yaml_matrix("R", 3, 3, [2, 0, 0, 0, 2, 0, 0, 0, 2]))),
+        None,
+        ("camera BW1", "'R' is not a rotation matrix"),
+    ),
+    "t_of_two": (
+        yaml_with(matrix_replaced("C1", "t", yaml_matrix("t", 2, 1, [1, 2]))),
+        None,
+        ("camera C1", "'t' must be 3 numbers, got shape (2, 1)"),
+    ),
+    "unknown_camera": (
+        yaml_with(lambda text: text),
+        ["C1", "C9"],
+        ("camera C9", "has no camera of that name (it has C1, C2, BW1)"),
+    ),
+    "unparsable_yaml": (
+        yaml_with(lambda text: text.replace("data: [ ", "data: [ [", 1)),
+        None,
+        ("cannot be read as OpenCV FileStorage", "Parsing error at line"),
+    ),
     "unparsable_toml": (toml_with(lambda text: text.replace("]\n", "\n", 1)), None, ("is not valid TOML", "line 1")),
-    "nonzero_k4_k6": (xml_with(lambda c: np.r_[c.dist, 0.01, 0, 0.002]), None,
-                      ("camera C1", "'distortion_coefficients'", "k4 = 0.01, k6 = 0.002", "CALIB_RATIONAL_MODEL")),
-    "six_coefficients": (xml_with(lambda c: np.r_[c.dist, 0]), None,
-                         ("camera C1", "'distortion_coefficients' must be 4, 5, 8, 12 or 14", "got shape (6,)")),
-    "duplicate_names": (lambda folder, rig: write(folder / "calibration.toml", anipose_toml([*rig, rig[0]])), None,
-                        ("camera C1", "holds two cameras of that name")),
-    "fisheye": (toml_with(lambda text: text.replace("[cam_1]\n", "[cam_1]\nfisheye = true\n")), None,
-                ("camera C2", "'fisheye' is True", "not supported")),
-    "missing_size": (toml_with(lambda text: re.sub(r"size = .*\n", "", text, count=1)), None,
-                     ("camera C1", "lacks the image size", "image_width", "size", "[cam_0]")),
-    "size_of_three": (toml_with(lambda text: text.replace("size = [", "size = [ 1,", 1)), None,
-                      ("camera C1", "'size' must be [width, height]")),
+    "nonzero_k4_k6": (
+        xml_with(lambda c: np.r_[c.dist, 0.01, 0, 0.002]),
+        None,
+        ("camera C1", "'distortion_coefficients'", "k4 = 0.01, k6 = 0.002", "CALIB_RATIONAL_MODEL"),
+    ),
+    "six_coefficients": (
+        xml_with(lambda c: np.r_[c.dist, 0]),
+        None,
+        ("camera C1", "'distortion_coefficients' must be 4, 5, 8, 12 or 14", "got shape (6,)"),
+    ),
+    "duplicate_names": (
+        lambda folder, rig: write(folder / "calibration.toml", anipose_toml([*rig, rig[0]])),
+        None,
+        ("camera C1", "holds two cameras of that name"),
+    ),
+    "fisheye": (
+        toml_with(lambda text: text.replace("[cam_1]\n", "[cam_1]\nfisheye = true\n")),
+        None,
+        ("camera C2", "'fisheye' is True", "not supported"),
+    ),
+    "missing_size": (
+        toml_with(lambda text: re.sub(r"size = .*\n", "", text, count=1)),
+        None,
+        ("camera C1", "lacks the image size", "image_width", "size", "[cam_0]"),
+    ),
+    "size_of_three": (
+        toml_with(lambda text: text.replace("size = [", "size = [ 1,", 1)),
+        None,
+        ("camera C1", "'size' must be [width, height]"),
+    ),
     "no_cameras": (toml_with(lambda text: "[metadata]\nerror = 0.1\n"), None, ("holds no cameras", "metadata")),
-    "folder_file_without_camera": (lambda folder, rig: camera_folder(folder, rig[:1]), None,
-                                   ("calibration file", "BW9.yml holds no camera", "must hold one")),
+    "folder_file_without_camera": (
+        lambda folder, rig: camera_folder(folder, rig[:1]),
+        None,
+        ("calibration file", "BW9.yml holds no camera", "must hold one"),
+    ),
     "not_found": (lambda folder, rig: folder / "nothing.yml", None, ("calibration file not found",)),
-    "unknown_suffix": (lambda folder, rig: write(folder / "calibration.txt", "1 2 3"), None,
-                       ("unknown format .txt", ".toml")),
+    "unknown_suffix": (
+        lambda folder, rig: write(folder / "calibration.txt", "1 2 3"),
+        None,
+        ("unknown format .txt", ".toml"),
+    ),
 }
 
 

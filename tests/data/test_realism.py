@@ -16,17 +16,28 @@ from mmocap.data.synthetic import SyntheticDataset, generate
 from mmocap.errors import ConfigError
 from tests.helpers import TINY
 
-REALISTIC = dict(name="realistic", height_sd_mm=20.0, girth_sd=0.05, marker_standoff_mm=9.0,
-                 marker_placement_sd_mm=10.0, rotation_sd_deg=0.05, translation_sd_mm=2.0,
-                 focal_sd=0.002, principal_point_sd_px=0.7, sync_frames=0.25, camouflage=0.3)
+REALISTIC = dict(
+    name="realistic",
+    height_sd_mm=20.0,
+    girth_sd=0.05,
+    marker_standoff_mm=9.0,
+    marker_placement_sd_mm=10.0,
+    rotation_sd_deg=0.05,
+    translation_sd_mm=2.0,
+    focal_sd=0.002,
+    principal_point_sd_px=0.7,
+    sync_frames=0.25,
+    camouflage=0.3,
+)
 
 
 @pytest.fixture(scope="module")
 def pair(tmp_path_factory):
     """The tiny sequence rendered exact and with a strong realism (same seed)."""
     root = tmp_path_factory.mktemp("realism")
-    strong = Realism(**{**REALISTIC, "name": "strong", "height_sd_mm": 60.0,
-                        "rotation_sd_deg": 0.5, "translation_sd_mm": 20.0})
+    strong = Realism(
+        **{**REALISTIC, "name": "strong", "height_sd_mm": 60.0, "rotation_sd_deg": 0.5, "translation_sd_mm": 20.0}
+    )
     exact = generate(root / "exact", progress=False, **TINY)
     other = generate(root / "strong", progress=False, realism=strong, **TINY)
     return exact, other, strong
@@ -39,16 +50,18 @@ def test_the_config_group_composes_every_level():
             realism = Realism.from_config(cfg.dataset.realism)
             assert realism.name == level
         assert Realism.from_config(compose("config").dataset.realism) == Realism()
-        assert Realism.from_config(compose("config", overrides=["realism=realistic"]).realism) \
-            == Realism(**REALISTIC)
+        assert Realism.from_config(compose("config", overrides=["realism=realistic"]).realism) == Realism(**REALISTIC)
 
 
-@pytest.mark.parametrize("values, message", [
-    ({"height_mm": 3}, r"realism: unknown setting\(s\) height_mm; known: camouflage"),
-    ({"sync_frames": 2}, r"realism.sync_frames must be a number in \[0.0, 0.5\], got 2"),
-    ({"girth_sd": -0.1}, r"realism.girth_sd must be a number in"),
-    ({"name": 3}, r"realism.name must be a name, got 3"),
-])
+@pytest.mark.parametrize(
+    ("values", "message"),
+    [
+        ({"height_mm": 3}, r"realism: unknown setting\(s\) height_mm; known: camouflage"),
+        ({"sync_frames": 2}, r"realism.sync_frames must be a number in \[0.0, 0.5\], got 2"),
+        ({"girth_sd": -0.1}, r"realism.girth_sd must be a number in"),
+        ({"name": 3}, r"realism.name must be a name, got 3"),
+    ],
+)
 def test_bad_settings_name_the_key(values, message):
     with pytest.raises(ConfigError, match=message):
         Realism.from_config(values)
@@ -78,8 +91,13 @@ def test_realism_departs_from_exact_in_every_respect(pair):
     # exact writes no error at all
     for d in meta_exact["realism"]["cameras"].values():
         assert d.pop("reprojection_px") < 1e-9
-        assert d == {"rotation_deg": 0.0, "position_mm": 0.0, "focal": 0.0,
-                     "principal_point_px": [0.0, 0.0], "time_offset_frames": 0.0}
+        assert d == {
+            "rotation_deg": 0.0,
+            "position_mm": 0.0,
+            "focal": 0.0,
+            "principal_point_px": [0.0, 0.0],
+            "time_offset_frames": 0.0,
+        }
     assert all(d["reprojection_px"] > 0.5 for d in meta["realism"]["cameras"].values())
 
 
@@ -98,7 +116,7 @@ def test_markers_stand_off_the_skin_by_the_set_amount(pair):
     np.testing.assert_allclose(on_skin, Sequence.open(exact).markers(), atol=1e-3)
     stood_off = realism_draws.posed_markers(mesh, indices, offsets, S)
     distance = np.linalg.norm(stood_off - on_skin, axis=2)
-    assert np.all(np.abs(distance - 9.0) < 1.5)   # the skin stretches a little under skinning
+    assert np.all(np.abs(distance - 9.0) < 1.5)  # the skin stretches a little under skinning
     # in the rendered pair the markers moved by standoff and placement (and the body)
     moved = np.linalg.norm(Sequence.open(other).markers() - Sequence.open(exact).markers(), axis=2)
     assert 8 < np.median(moved) < 60
@@ -114,12 +132,12 @@ def test_poses_between_frames_are_interpolated():
 def test_camouflage_pulls_colours_to_the_scene():
     colours = np.array([[1.0, 0.0, 0.0]])
     scene = np.zeros((2, 2, 3), np.uint8)
-    scene[..., 0] = 255   # blue in BGR
+    scene[..., 0] = 255  # blue in BGR
     np.testing.assert_allclose(realism_draws.camouflaged(colours, [scene], 0.25), [[0.75, 0, 0.25]])
 
 
 def test_each_level_has_its_own_folder(tmp_path):
     exact = SyntheticDataset(root=str(tmp_path), frames=1, cameras=["C1"], all_cameras=["C1"])
-    realistic = SyntheticDataset(root=str(tmp_path), frames=1, cameras=["C1"], all_cameras=["C1"],
-                                 realism=REALISTIC)
-    assert exact.path.name == "S1_walking" and realistic.path.name == "S1_walking_realistic"
+    realistic = SyntheticDataset(root=str(tmp_path), frames=1, cameras=["C1"], all_cameras=["C1"], realism=REALISTIC)
+    assert exact.path.name == "S1_walking"
+    assert realistic.path.name == "S1_walking_realistic"

@@ -1,5 +1,6 @@
 """The sequence folder reader: metadata, images, markers and ground-truth coverage, each
 checked as it is read (the command-line cases are in tests/bad_input/)."""
+
 import inspect
 import json
 import shutil
@@ -38,20 +39,25 @@ def test_the_missing_markers_default_is_the_yaml_one():
 
 def test_a_good_folder_opens_with_its_cameras(folder):
     seq = Sequence.open(folder, ["BW1", "C1"])
-    assert [c.name for c in seq.cameras] == ["BW1", "C1"] and [c.colour for c in seq.cameras] == [False, True]
+    assert [c.name for c in seq.cameras] == ["BW1", "C1"]
+    assert [c.colour for c in seq.cameras] == [False, True]
     grey, colour = seq.images(0)
-    assert grey.shape == (240, 320) and colour.shape == (240, 320, 3)
+    assert grey.shape == (240, 320)
+    assert colour.shape == (240, 320, 3)
     assert grey.dtype == colour.dtype == np.uint8
 
 
-@pytest.mark.parametrize("change, message", [
-    (lambda m: m.pop("fps"), "lacks the key fps"),
-    (lambda m: m.update(frames=True), "'frames' must be a positive integer, got True"),
-    (lambda m: m.update(fps=float("nan")), "'fps' must be a positive number"),
-    (lambda m: m.update(cameras=[]), "'cameras' must be a non-empty list"),
-    (lambda m: m.update(marker_names=list(MARKER_NAMES[:-1])), "'marker_names' must be the body model's"),
-    (lambda m: m["x0"].__setitem__(5, float("nan")), "'x0' must be the first frame's pose: a list of 51 finite"),
-])
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        (lambda m: m.pop("fps"), "lacks the key fps"),
+        (lambda m: m.update(frames=True), "'frames' must be a positive integer, got True"),
+        (lambda m: m.update(fps=float("nan")), "'fps' must be a positive number"),
+        (lambda m: m.update(cameras=[]), "'cameras' must be a non-empty list"),
+        (lambda m: m.update(marker_names=list(MARKER_NAMES[:-1])), "'marker_names' must be the body model's"),
+        (lambda m: m["x0"].__setitem__(5, float("nan")), "'x0' must be the first frame's pose: a list of 51 finite"),
+    ],
+)
 def test_read_meta_names_the_file_and_key(folder, change, message):
     path = folder / "sequence.json"
     meta = json.loads(path.read_text())
@@ -84,18 +90,22 @@ def colour_camera():
     return Camera.look_at("C1", (3000, 1500, 0), (0, 900, 0), 300.0, 32, 24)
 
 
-@pytest.mark.parametrize("image, colour, message", [
-    (np.zeros((24, 32), np.uint8), True, "has 1 channel, but the calibration says camera C1 is colour"),
-    (np.zeros((24, 32, 3), np.uint8), False, "has 3 channels, but the calibration says camera C1 is greyscale"),
-    (np.zeros((24, 32, 4), np.uint8), True, "has 4 channels"),
-    (np.zeros((24, 32, 3), np.uint16), True, "has uint16 pixels"),
-    (np.zeros((20, 32, 3), np.uint8), True, "is 32x20, calibration says 32x24"),
-])
+@pytest.mark.parametrize(
+    ("image", "colour", "message"),
+    [
+        (np.zeros((24, 32), np.uint8), True, "has 1 channel, but the calibration says camera C1 is colour"),
+        (np.zeros((24, 32, 3), np.uint8), False, "has 3 channels, but the calibration says camera C1 is greyscale"),
+        (np.zeros((24, 32, 4), np.uint8), True, "has 4 channels"),
+        (np.zeros((24, 32, 3), np.uint16), True, "has uint16 pixels"),
+        (np.zeros((20, 32, 3), np.uint8), True, "is 32x20, calibration says 32x24"),
+    ],
+)
 def test_read_image_takes_the_file_as_it_is(tmp_path, colour_camera, image, colour, message):
     path = tmp_path / "000000.png"
     cv2.imwrite(str(path), image)
-    camera = colour_camera if colour else Camera.look_at("C1", (3000, 1500, 0), (0, 900, 0), 300.0, 32, 24,
-                                                         colour=False)
+    camera = (
+        colour_camera if colour else Camera.look_at("C1", (3000, 1500, 0), (0, 900, 0), 300.0, 32, 24, colour=False)
+    )
     with pytest.raises(DataError, match=f"camera C1: image .*000000.png {message}"):
         read_image(path, camera)
 
@@ -119,13 +129,19 @@ def test_markers_round_trip_with_missing_coordinates_and_a_trailing_blank_line(f
     np.testing.assert_allclose(seq.markers(), truth, atol=5e-4)
 
 
-@pytest.mark.parametrize("edit, message", [
-    (lambda lines: lines + [lines[1]], "frame 0 marker head appears 2 times"),
-    (lambda lines: [lines[0], "x,head,1,2,3"] + lines[2:], r"column 'frame' must hold integer .* line 2: x,head,1,2,3"),
-    (lambda lines: lines + ["9,head,1,2,3"], r"frame 9 is outside the sequence's 4 frames \(0-3\)"),
-    (lambda lines: lines + ["1,tail,1,2,3"], r"unknown marker names \['tail'\]"),
-    (lambda lines: [lines[0].replace("y_mm", "why")] + lines[1:], "lacks the column y_mm"),
-])
+@pytest.mark.parametrize(
+    ("edit", "message"),
+    [
+        (lambda lines: lines + [lines[1]], "frame 0 marker head appears 2 times"),
+        (
+            lambda lines: [lines[0], "x,head,1,2,3"] + lines[2:],
+            r"column 'frame' must hold integer .* line 2: x,head,1,2,3",
+        ),
+        (lambda lines: lines + ["9,head,1,2,3"], r"frame 9 is outside the sequence's 4 frames \(0-3\)"),
+        (lambda lines: lines + ["1,tail,1,2,3"], r"unknown marker names \['tail'\]"),
+        (lambda lines: [lines[0].replace("y_mm", "why")] + lines[1:], "lacks the column y_mm"),
+    ],
+)
 def test_bad_marker_tables_name_the_file_and_the_line(folder, edit, message):
     path = folder / "markers_mm.csv"
     path.write_text("\n".join(edit(path.read_text().splitlines())) + "\n")
@@ -151,12 +167,19 @@ def test_ground_truth_of_every_frame_gives_no_warning(folder):
 
 def test_frames_without_ground_truth_warn_or_stop(folder):
     seq = without_frames(folder, [1, 3])
-    with pytest.warns(MmocapWarning, match=r"markers_mm.csv: 2 of the 4 tracked frames \(frames 1, 3\) have no "
-                                           "ground-truth markers: the marker error is over the 2 frames scored"):
+    with pytest.warns(
+        MmocapWarning,
+        match=r"markers_mm.csv: 2 of the 4 tracked frames \(frames 1, 3\) have no "
+        "ground-truth markers: the marker error is over the 2 frames scored",
+    ):
         truth = seq.ground_truth(4)
-    assert np.isnan(truth[[1, 3]]).all() and not np.isnan(truth[[0, 2]]).any()
-    with pytest.raises(DataError, match=r"markers_mm.csv: 2 of the 4 tracked frames \(frames 1, 3\) have no "
-                                        "ground-truth markers; .*evaluation.missing_markers=warn"):
+    assert np.isnan(truth[[1, 3]]).all()
+    assert not np.isnan(truth[[0, 2]]).any()
+    with pytest.raises(
+        DataError,
+        match=r"markers_mm.csv: 2 of the 4 tracked frames \(frames 1, 3\) have no "
+        "ground-truth markers; .*evaluation.missing_markers=warn",
+    ):
         seq.ground_truth(4, "stop")
 
 

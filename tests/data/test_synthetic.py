@@ -18,7 +18,9 @@ def test_layout_on_disk(tiny_sequence):
     meta = json.loads((root / "sequence.json").read_text())
     assert meta["format"] == "mmocap-sequence/1"
     assert meta["cameras"] == ["C1", "C2", "BW1"]
-    assert meta["frames"] == 4 and meta["fps"] == 60.0 and meta["subject"] == "S1"
+    assert meta["frames"] == 4
+    assert meta["fps"] == 60.0
+    assert meta["subject"] == "S1"
     assert meta["dimensions"]["height_mm"] == 1780.0
     assert len(meta["x0"]) == 51
     for cam in meta["cameras"]:
@@ -28,7 +30,8 @@ def test_layout_on_disk(tiny_sequence):
         assert len(list((root / "silhouettes" / cam).glob("*.png"))) == 4
     colour = cv2.imread(str(root / "images" / "C1" / "000000.png"), cv2.IMREAD_UNCHANGED)
     grey = cv2.imread(str(root / "images" / "BW1" / "000000.png"), cv2.IMREAD_UNCHANGED)
-    assert colour.shape == (240, 320, 3) and grey.shape == (240, 320)
+    assert colour.shape == (240, 320, 3)
+    assert grey.shape == (240, 320)
     table = pd.read_csv(root / "markers_mm.csv")
     assert list(table.columns) == ["frame", "marker", "x_mm", "y_mm", "z_mm"]
     assert len(table) == 4 * len(MARKER_NAMES)
@@ -44,7 +47,8 @@ def test_ground_truth_is_consistent_but_not_the_trackers_model(tiny_sequence):
     err = marker_error(body.markers(poses), truth)
     # the tracker's rigid markers at the true pose sit close to, but not exactly on, the
     # skinned mesh's markers: the data is not rendered from the tracker's own model
-    assert np.all(err < 15) and np.all(err > 0.05)
+    assert np.all(err < 15)
+    assert np.all(err > 0.05)
     # the person is in every view: silhouettes cover a sensible part of the image
     for cam in seq.cameras:
         area = seq.silhouette(0, cam).mean()
@@ -93,24 +97,40 @@ def test_lighting_flickers_and_the_person_casts_a_shadow(tiny_sequence):
         # on the floor, at the feet: below the silhouette's centre
         assert np.nonzero(shadow)[0].mean() > np.nonzero(seq.silhouette(0, cam))[0].mean(), cam.name
     gains = np.array(gains)
-    assert np.ptp(gains[0]) > 0.005                       # the light's gain changes frame to frame
+    assert np.ptp(gains[0]) > 0.005  # the light's gain changes frame to frame
     np.testing.assert_allclose(gains, gains[[0]].repeat(len(gains), 0), atol=2e-3)  # one light for all
 
 
 def test_lighting_effects_can_be_turned_off(tmp_path):
-    root = generate(tmp_path / "plain", frames=1, cameras=("C1",), width=160, height=120,
-                    background_frames=3, flicker=0.0, shadow_strength=0.0, shot_noise=0.0,
-                    progress=False)
+    root = generate(
+        tmp_path / "plain",
+        frames=1,
+        cameras=("C1",),
+        width=160,
+        height=120,
+        background_frames=3,
+        flicker=0.0,
+        shadow_strength=0.0,
+        shot_noise=0.0,
+        progress=False,
+    )
     seq = Sequence.open(root)
     cam = seq.cameras[0]
     means = [frame.mean() for frame in seq.background(cam)]
     assert np.ptp(means) / means[0] < 1e-3
-    assert _outside_darker(seq, cam).sum() < 5             # only noise
+    assert _outside_darker(seq, cam).sum() < 5  # only noise
 
 
-@pytest.mark.parametrize("kwargs", [{"flicker": -0.1}, {"shadow_strength": 1.5},
-                                    {"shot_noise": -1.0}, {"shadow_softness": 2.0},
-                                    {"noise_sigma": -2.0}])
+@pytest.mark.parametrize(
+    "kwargs",
+    [
+        {"flicker": -0.1},
+        {"shadow_strength": 1.5},
+        {"shot_noise": -1.0},
+        {"shadow_softness": 2.0},
+        {"noise_sigma": -2.0},
+    ],
+)
 def test_bad_lighting_settings_name_the_value(tmp_path, kwargs):
     name = next(iter(kwargs))
     with pytest.raises(ConfigError, match=f"dataset.{name} must be a number in"):
@@ -120,8 +140,9 @@ def test_bad_lighting_settings_name_the_value(tmp_path, kwargs):
 def test_a_damaged_sequence_json_is_rendered_again(tmp_path):
     from mmocap.data.synthetic import SyntheticDataset
 
-    dataset = SyntheticDataset(root=str(tmp_path), frames=1, cameras=["C1"], all_cameras=["C1"], width=64,
-                               height=48, background_frames=2)
+    dataset = SyntheticDataset(
+        root=str(tmp_path), frames=1, cameras=["C1"], all_cameras=["C1"], width=64, height=48, background_frames=2
+    )
     dataset.open(progress=False)
     (dataset.path / "sequence.json").write_text('{"format": "mmocap-seq')
     assert dataset.open(progress=False).n_frames == 1

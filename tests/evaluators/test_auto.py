@@ -1,5 +1,6 @@
 """evaluator=auto: opencl where it works, else numpy, said in one log line; the run's
 summary names the backend that ran."""
+
 import json
 import logging
 
@@ -33,7 +34,9 @@ def auto_lines(caplog) -> list[str]:
 def test_opencl_is_chosen_where_it_works_and_counts_as_naive(caplog):
     caplog.set_level(logging.INFO)
     ev = registry.make_evaluator("auto", patch_scale=1.7)
-    assert isinstance(ev, OpenCLEvaluator) and ev.name == "opencl" and ev.patch_scale == 1.7
+    assert isinstance(ev, OpenCLEvaluator)
+    assert ev.name == "opencl"
+    assert ev.patch_scale == 1.7
     [line] = auto_lines(caplog)
     assert line.startswith("evaluator=auto chose opencl: OpenCL device ")
     assert "counts a test scene exactly as numpy does" in line
@@ -48,7 +51,9 @@ def test_numpy_when_opencl_is_unavailable(monkeypatch, caplog):
     caplog.set_level(logging.INFO)
     monkeypatch.setattr(OpenCLEvaluator, "unavailable", classmethod(lambda cls: "no device (test)"))
     ev = registry.make_evaluator("auto", patch_scale=1.5)
-    assert isinstance(ev, NumpyEvaluator) and ev.name == "numpy" and ev.patch_scale == 1.5
+    assert isinstance(ev, NumpyEvaluator)
+    assert ev.name == "numpy"
+    assert ev.patch_scale == 1.5
     assert auto_lines(caplog) == ["evaluator=auto chose numpy: OpenCL is unavailable: no device (test)"]
 
 
@@ -61,8 +66,10 @@ def test_numpy_when_the_opencl_check_fails(monkeypatch, caplog):
     monkeypatch.setattr(OpenCLEvaluator, "unavailable", classmethod(lambda cls: None))
     monkeypatch.setattr(auto, "check_opencl", broken)
     assert auto.auto_evaluator().name == "numpy"
-    assert auto_lines(caplog) == ["evaluator=auto chose numpy: the OpenCL check failed: "
-                                  "RuntimeError: clBuildProgram failed: BUILD_PROGRAM_FAILURE"]
+    assert auto_lines(caplog) == [
+        "evaluator=auto chose numpy: the OpenCL check failed: "
+        "RuntimeError: clBuildProgram failed: BUILD_PROGRAM_FAILURE"
+    ]
 
 
 @needs_opencl
@@ -102,7 +109,9 @@ def test_the_test_scene_covers_the_image_border_and_the_foreground():
         ev.setup(body, [camera], [foreground])
         model_px, overlap_px = ev.counts(X)
         image = ev.render(X[2], 0)
-    assert (model_px > 0).all() and (overlap_px < model_px).any() and overlap_px.any()
+    assert (model_px > 0).all()
+    assert (overlap_px < model_px).any()
+    assert overlap_px.any()
     assert image[:, -1].any()  # the third pose reaches past the right border
 
 
@@ -113,8 +122,7 @@ def test_auto_is_the_default_and_the_summary_names_the_backend_that_ran(tiny_seq
     root.mkdir()
     (root / "S1_walking").symlink_to(tiny_sequence)
     run_dir = tmp_path / "run"
-    out = mmocap(*overrides(root, **{"tracking.frames": 1}), "overlays=0", f"hydra.run.dir={run_dir}",
-                 cwd=tmp_path)
+    out = mmocap(*overrides(root, **{"tracking.frames": 1}), "overlays=0", f"hydra.run.dir={run_dir}", cwd=tmp_path)
     assert out.returncode == 0, out.stderr
     summary = json.loads((run_dir / "summary.json").read_text())
     expected, _ = auto.choose()

@@ -1,4 +1,5 @@
 """Silhouette evaluators: the shared rule, the naive reference and the NumPy backend."""
+
 import numpy as np
 import pytest
 
@@ -51,7 +52,7 @@ def test_fitness_from_counts_follows_eq6_and_the_empty_cases():
     expected = np.array([0.0, 0.0, 1.0, 1.0, 30 / 80 + 10 / 40])
     np.testing.assert_allclose(fitness_from_counts(model, overlap, fg), [expected.mean()])
     for c in range(5):
-        f = fitness_from_counts(model[:, c:c + 1], overlap[:, c:c + 1], fg[c:c + 1])
+        f = fitness_from_counts(model[:, c : c + 1], overlap[:, c : c + 1], fg[c : c + 1])
         assert f[0] == pytest.approx(expected[c])
 
 
@@ -78,14 +79,16 @@ def test_empty_foreground_and_model_outside_the_view(backend, body):
     with backend() as ev:
         ev.setup(body, cameras, empty_masks(cameras))
         model_px, _ = ev.counts(away[None])
-        assert model_px[0, 0] == 0 and model_px[0, 1] > 0
+        assert model_px[0, 0] == 0
+        assert model_px[0, 1] > 0
         f = ev(np.stack([TRUE_POSE, away]))
         # a view with model and no foreground scores 1, one with neither 0; fused by the mean
         np.testing.assert_array_equal(f, [1.0, 0.5])
         ev.setup(body, cameras, own_render(backend, body, cameras, TRUE_POSE))
         f = ev(away[None])
         assert ev.counts(away[None])[0][0, 0] == 0  # front: foreground, no model: f_c = 1
-        assert np.isfinite(f).all() and 0.5 < f[0] < 1.0
+        assert np.isfinite(f).all()
+        assert 0.5 < f[0] < 1.0
 
 
 def test_conformance_cases_reach_every_numpy_path():
@@ -102,7 +105,8 @@ def test_conformance_cases_reach_every_numpy_path():
     with NaiveEvaluator() as naive:
         naive.setup(BlobBody(), [FRONT], empty_masks([FRONT]))
         front = naive.render(X[-2], 0)  # the pose partly outside the front view
-        assert front[:, -1].any() and front.sum() < naive.render(TRUE_POSE, 0).sum()
+        assert front[:, -1].any()
+        assert front.sum() < naive.render(TRUE_POSE, 0).sum()
 
 
 @pytest.mark.parametrize("backend", BACKENDS)
@@ -110,7 +114,8 @@ def test_conformance_cases_reach_every_numpy_path():
 def test_patch_covers_the_documented_pixels(backend, side):
     """A lone vertex projecting to (100.3, 50.7) covers cx-(s-1)//2 .. cx+s//2 around (100, 51)."""
     cam = Camera.look_at("point", (0, 0, -1000), (0, 0, 0), 500.0, 200, 120)
-    assert cam.K[0, 2] == 99.5 and cam.K[1, 2] == 59.5
+    assert cam.K[0, 2] == 99.5
+    assert cam.K[1, 2] == 59.5
     # f * patch_mm * scale / z = side - 0.5, so the patch side is exactly `side`
     ev = backend(patch_scale=(side - 0.5) / (500.0 * 2.0 / 1000))
     ev.setup(PointBody(ev.patch_scale), [cam], empty_masks([cam]))
@@ -124,7 +129,7 @@ def test_patch_covers_the_documented_pixels(backend, side):
     image = ev.render(x + np.r_[202.0, 0, 0], 0)
     assert image.sum() == side * (side // 2)
     if side > 1:
-        assert image[:, :side // 2].all(axis=1).sum() == side
+        assert image[:, : side // 2].all(axis=1).sum() == side
 
 
 @pytest.mark.parametrize("backend", BACKENDS)
@@ -135,7 +140,8 @@ def test_back_faces_are_culled(backend):
     with backend() as ev:
         ev.setup(body, [front, back], empty_masks([front, back]))
         model_px, _ = ev.counts(np.zeros((1, 3)))
-        assert model_px[0, 0] > 2000 and model_px[0, 1] == 0
+        assert model_px[0, 0] > 2000
+        assert model_px[0, 1] == 0
 
 
 @pytest.mark.parametrize("backend", BACKENDS)
@@ -149,7 +155,9 @@ def test_fitness_decreases_as_the_pose_approaches_the_truth(backend, body):
     with backend() as ev:
         ev.setup(body, cameras, fg)
         f = ev(X)
-    assert np.all(np.diff(f) < 0) and f[-1] == 0.0 and f[0] > 0.5
+    assert np.all(np.diff(f) < 0)
+    assert f[-1] == 0.0
+    assert f[0] > 0.5
 
 
 @pytest.mark.parametrize("backend", BACKENDS)
@@ -185,9 +193,9 @@ def test_projection_coefficients_project_and_cull_as_the_camera_does():
     side from the camera-frame depth of the joint's rest position."""
     body, cameras, X = BlobBody(), RIGS["front-side-near"] + RIGS["high-inside-small"], test_poses()
     coefficients, side = view_geometry(body, cameras, X, 1.0)
-    coefficients = coefficients.astype(np.float64)                        # (n, C, J, 16)
+    coefficients = coefficients.astype(np.float64)  # (n, C, J, 16)
     E = np.stack([cam.extrinsic for cam in cameras])
-    M = E[None, :, None] @ body.transforms(X)[:, None]                    # (n, C, J, 4, 4)
+    M = E[None, :, None] @ body.transforms(X)[:, None]  # (n, C, J, 4, 4)
     K = np.stack([cam.K for cam in cameras])
     pivots = np.c_[body.joint_rest_positions, np.ones(len(body.joint_rest_positions))]
     depth = np.einsum("ncjk,jk->ncj", M[..., 2, :], pivots)
@@ -198,14 +206,13 @@ def test_projection_coefficients_project_and_cull_as_the_camera_does():
     v = rng.uniform(-300, 300, 3)
     normal = rng.normal(size=3)
     normal /= np.linalg.norm(normal)
-    p = M[..., :3, :3] @ v + M[..., :3, 3]                                # (n, C, J, 3)
+    p = M[..., :3, :3] @ v + M[..., :3, 3]  # (n, C, J, 3)
     rotated = M[..., :3, :3] @ normal
     A = coefficients[..., :12].reshape(M.shape[:3] + (3, 4))
     projected = A @ np.r_[v, 1.0]
     in_front = p[..., 2] > 100
     for row in (0, 1):
         expected = np.einsum("ck,ncjk->ncj", K[:, row], p) / p[..., 2]
-        np.testing.assert_allclose((projected[..., row] / projected[..., 2])[in_front],
-                                   expected[in_front], atol=1e-3)
+        np.testing.assert_allclose((projected[..., row] / projected[..., 2])[in_front], expected[in_front], atol=1e-3)
     culling = normal @ v + np.einsum("ncjk,k->ncj", coefficients[..., 12:15], normal)
     np.testing.assert_allclose(culling, np.einsum("ncjk,ncjk->ncj", rotated, p), atol=1e-2)

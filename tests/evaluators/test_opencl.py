@@ -1,4 +1,5 @@
 """OpenCL evaluators: device selection, clear errors, the program cache, the multi-device split."""
+
 import functools
 import os
 import subprocess
@@ -20,27 +21,30 @@ except ConfigError:
 
 
 def run_python(code: str, **env) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                          env={**os.environ, **env}, timeout=120)
+    return subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, env={**os.environ, **env}, timeout=120
+    )
 
 
 def test_no_platform_is_a_config_error_that_says_what_to_install():
     # an ICD vendor folder with no driver in it hides every platform, PoCL included
-    done = run_python("from mmocap import registry\n"
-                      "registry.make_evaluator('opencl')", OCL_ICD_VENDORS="/nonexistent")
+    done = run_python("from mmocap import registry\nregistry.make_evaluator('opencl')", OCL_ICD_VENDORS="/nonexistent")
     assert done.returncode != 0
     assert "ConfigError: evaluator 'opencl' is unavailable: no OpenCL platform found" in done.stderr
     assert "pocl-binary-distribution" in done.stderr
 
 
-@pytest.mark.parametrize("kwargs, message", [
-    ({"device": 99}, r"device index 99 does not exist on platform .*\[0\]"),
-    ({"device": "first"}, r"device must be an index, got 'first'"),
-    ({"platform": 42}, r"platform index 42 does not exist; there are \d+: \[0\]"),
-    ({"platform": "no-such-vendor"}, r"no OpenCL platform matches platform='no-such-vendor'"),
-    ({"local_size": 0}, r"local_size must be in \[1, \d+\]"),
-    ({"lanes": 2}, r"lanes must be 4, 8 or 16 .*got 2"),
-])
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"device": 99}, r"device index 99 does not exist on platform .*\[0\]"),
+        ({"device": "first"}, r"device must be an index, got 'first'"),
+        ({"platform": 42}, r"platform index 42 does not exist; there are \d+: \[0\]"),
+        ({"platform": "no-such-vendor"}, r"no OpenCL platform matches platform='no-such-vendor'"),
+        ({"local_size": 0}, r"local_size must be in \[1, \d+\]"),
+        ({"lanes": 2}, r"lanes must be 4, 8 or 16 .*got 2"),
+    ],
+)
 def test_bad_device_selection_names_the_value(kwargs, message):
     with pytest.raises(ConfigError, match=message):
         opencl.OpenCLEvaluator(**kwargs)
@@ -66,7 +70,9 @@ def test_a_list_of_one_platform_measures_its_devices_and_counts_as_one_device():
         expected = np.stack(single.counts(X))
     multi.setup(body, cameras, foreground)
     np.testing.assert_array_equal(np.stack(multi.counts(X)), expected)
-    assert len(multi.devices) == 2 and multi._weights.sum() == pytest.approx(1) and multi._weights.min() > 0
+    assert len(multi.devices) == 2
+    assert multi._weights.sum() == pytest.approx(1)
+    assert multi._weights.min() > 0
     multi.close()
 
 
@@ -82,11 +88,15 @@ def test_platform_by_name_and_program_built_once_per_process():
 def test_each_process_gets_its_own_pocl_cache_dir():
     parent = os.environ["POCL_CACHE_DIR"]
     assert os.path.isdir(parent)
-    done = run_python("import os\nfrom mmocap.evaluators import opencl_devices\n"
-                      "opencl_devices.platforms()\n"
-                      "print(os.environ['POCL_CACHE_DIR'])")
+    done = run_python(
+        "import os\nfrom mmocap.evaluators import opencl_devices\n"
+        "opencl_devices.platforms()\n"
+        "print(os.environ['POCL_CACHE_DIR'])"
+    )
     child = done.stdout.strip()
-    assert done.returncode == 0 and child and child != parent
+    assert done.returncode == 0
+    assert child
+    assert child != parent
     assert not os.path.exists(child)  # removed when the child exits
 
 
@@ -117,6 +127,7 @@ def test_multidevice_split_and_work_group_sizes_give_one_devices_counts(local_si
 @pytest.mark.parametrize("block", [32, 128])
 def test_culling_cones_skip_only_back_faces_and_pass_only_front_faces(block):
     from mmocap.body.model import BodyModel
+
     vertices, _ = opencl_layout.vertex_arrays(BodyModel("S1", vertices=13695), PATCH_SCALE, block)
     cones = opencl_layout.culling_cones(vertices, block)
     rng = np.random.default_rng(0)
@@ -130,7 +141,7 @@ def test_culling_cones_skip_only_back_faces_and_pass_only_front_faces(block):
         d = cones[:, 5:8] + b
         ad = np.einsum("ka,ka->k", cones[:, :3], d)
         dlen = np.linalg.norm(d, axis=1)
-        cross = np.sqrt(np.maximum(dlen ** 2 - ad * ad, 0.0))
+        cross = np.sqrt(np.maximum(dlen**2 - ad * ad, 0.0))
         r = cones[:, 8] + opencl_layout.ROUNDING * dlen
         skipped = ad * cones[:, 3] - cross * cones[:, 4] > r
         # the kernel's float32 test, as the rule writes it
@@ -149,10 +160,12 @@ def test_culling_cones_skip_only_back_faces_and_pass_only_front_faces(block):
 
 def test_body_arrays_are_uploaded_again_only_for_another_body(monkeypatch):
     from mmocap.testing.evaluators import FRONT, PlateBody, empty_masks
+
     calls = []
     original = opencl.vertex_arrays
-    monkeypatch.setattr(opencl, "vertex_arrays",
-                        lambda body, scale, block: calls.append(body) or original(body, scale, block))
+    monkeypatch.setattr(
+        opencl, "vertex_arrays", lambda body, scale, block: calls.append(body) or original(body, scale, block)
+    )
     blob, plate = BlobBody(), PlateBody()
     ev, uploads = opencl.OpenCLEvaluator(), []
     for body in (blob, blob, plate, blob):
@@ -168,10 +181,13 @@ def test_body_arrays_are_uploaded_again_only_for_another_body(monkeypatch):
     assert uploads == [1, 0, 1, 1]
 
 
-@pytest.mark.parametrize("missing, message", [
-    ("double_fp_config", "no double precision"),
-    ("endian_little", "big-endian"),
-])
+@pytest.mark.parametrize(
+    ("missing", "message"),
+    [
+        ("double_fp_config", "no double precision"),
+        ("endian_little", "big-endian"),
+    ],
+)
 def test_a_device_without_what_the_kernel_needs_is_a_config_error(missing, message):
     real = opencl_devices.select_device(None, 0)
 
@@ -183,10 +199,12 @@ def test_a_device_without_what_the_kernel_needs_is_a_config_error(missing, messa
         opencl._DeviceQueue(Device(), opencl_devices.context([real]), None, None)
 
 
-@pytest.mark.parametrize("kind, native, lanes", [("CPU", 16, 16), ("CPU", 8, 8), ("CPU", 4, 8),
-                                                 ("GPU", 16, 4), ("GPU", 1, 4)])
+@pytest.mark.parametrize(
+    ("kind", "native", "lanes"), [("CPU", 16, 16), ("CPU", 8, 8), ("CPU", 4, 8), ("GPU", 16, 4), ("GPU", 1, 4)]
+)
 def test_a_cpu_gets_one_vector_register_of_lanes_by_default(kind, native, lanes):
     from types import SimpleNamespace
+
     cl = opencl_devices.pyopencl()
     device = SimpleNamespace(type=getattr(cl.device_type, kind), native_vector_width_float=native)
     assert opencl.default_lanes(device) == lanes
@@ -195,11 +213,11 @@ def test_a_cpu_gets_one_vector_register_of_lanes_by_default(kind, native, lanes)
 
 
 @pytest.mark.parametrize("max_layers", [1, 2, 4])
-def test_views_with_several_patch_sides_give_naive_counts_whatever_the_layer_limit(
-        monkeypatch, max_layers):
+def test_views_with_several_patch_sides_give_naive_counts_whatever_the_layer_limit(monkeypatch, max_layers):
     """Views with more distinct patch sides than layers fall back to stamping patches."""
     from mmocap.evaluators.silhouette import view_geometry
     from mmocap.testing.evaluators import naive_counts
+
     # the limit the evaluator passes at run time; the kernel stays built for MAX_LAYERS
     monkeypatch.setattr(opencl, "MAX_LAYERS", max_layers)
     distinct = []
@@ -219,12 +237,12 @@ def test_blas_runs_on_one_thread_while_a_cpu_device_is_set_up(monkeypatch):
 
     from mmocap.evaluators import silhouette
     from mmocap.testing.evaluators import FRONT, empty_masks
+
     # evaluators of other tests that were never closed do not count here
     monkeypatch.setattr(silhouette, "_BLAS", silhouette._OneBlasThread())
 
     def blas_threads():
-        return {lib["filepath"]: lib["num_threads"] for lib in threadpool_info()
-                if lib["user_api"] == "blas"}
+        return {lib["filepath"]: lib["num_threads"] for lib in threadpool_info() if lib["user_api"] == "blas"}
 
     np.linalg.eigh(np.eye(3))  # BLAS is loaded
     if not blas_threads():
@@ -244,19 +262,26 @@ def test_blas_runs_on_one_thread_while_a_cpu_device_is_set_up(monkeypatch):
         assert blas_threads() == before
 
 
-@pytest.mark.parametrize("make", [lambda: opencl.OpenCLEvaluator(patch_scale=1.5),
-                                  lambda: opencl.OpenCLEvaluator(patch_scale=1.5, local_size=32),
-                                  lambda: opencl.MultiDeviceEvaluator(patch_scale=1.5)],
-                         ids=["one-work-item", "work-groups-of-32", "multidevice"])
+@pytest.mark.parametrize(
+    "make",
+    [
+        lambda: opencl.OpenCLEvaluator(patch_scale=1.5),
+        lambda: opencl.OpenCLEvaluator(patch_scale=1.5, local_size=32),
+        lambda: opencl.MultiDeviceEvaluator(patch_scale=1.5),
+    ],
+    ids=["one-work-item", "work-groups-of-32", "multidevice"],
+)
 def test_a_body_with_a_kinematic_chain_gets_its_transforms_on_the_device_bit_for_bit(make):
     import pyopencl as cl
 
     from mmocap import registry
     from mmocap.testing.scene import Scene
+
     scene = Scene(13695, cameras=3)
     rng = np.random.default_rng(7)
-    X = scene.body.clip(scene.pose + rng.normal(0, 0.3, (9, 51)) * scene.body.mask
-                        + np.r_[rng.normal(0, 80, 3), np.zeros(48)])
+    X = scene.body.clip(
+        scene.pose + rng.normal(0, 0.3, (9, 51)) * scene.body.mask + np.r_[rng.normal(0, 80, 3), np.zeros(48)]
+    )
     ev = make()
     ev.setup(scene.body, scene.cameras, scene.foreground)
     assert ev._chain is scene.body.chain
@@ -275,6 +300,7 @@ def test_a_body_with_a_kinematic_chain_gets_its_transforms_on_the_device_bit_for
 
 class OffBy(opencl.OpenCLEvaluator):
     """A device that counts ``extra`` model pixels too many in every view."""
+
     extra = 1
 
     def _counts(self, X):
@@ -288,6 +314,7 @@ class FarOff(OffBy):
 
 def test_the_self_check_runs_an_exact_device_and_records_it():
     from mmocap import provenance
+
     ev = opencl.OpenCLEvaluator(lanes=4)
     assert ev.check == "exact"
     assert provenance.facts()["opencl_checks"][ev.where] == "exact"
@@ -296,8 +323,12 @@ def test_the_self_check_runs_an_exact_device_and_records_it():
 
 def test_an_inexact_device_runs_only_within_the_tolerance_and_when_asked():
     from mmocap import provenance
-    with pytest.raises(ConfigError, match=r"counts a test scene differently from numpy \(model pixels "
-                                          r".*within the 1 % of accept_inexact: set accept_inexact=true"):
+
+    with pytest.raises(
+        ConfigError,
+        match=r"counts a test scene differently from numpy \(model pixels "
+        r".*within the 1 % of accept_inexact: set accept_inexact=true",
+    ):
         OffBy()
     ev = OffBy(accept_inexact=True)
     assert ev.check == "within tolerance (largest difference 1 px)"
@@ -308,12 +339,16 @@ def test_an_inexact_device_runs_only_within_the_tolerance_and_when_asked():
 
 def test_a_mask_larger_than_local_memory_says_what_to_change(monkeypatch):
     from mmocap.camera import Camera
+
     ev = opencl.OpenCLEvaluator()
     monkeypatch.setattr(ev._device_queues[0], "local_bytes", 32768)  # a GPU's 32 KB
     hd = Camera.look_at("hd", (0, 500, 3000), (0, 400, 0), 1500.0, 1920, 1080)
-    with pytest.raises(ConfigError, match=r"a 1920x1080 px mask needs 276484 bytes of OpenCL local memory; "
-                                          r".* has 32768: use smaller masks, a device with more local "
-                                          r"memory \(platform, device\) or evaluator=numpy"):
+    with pytest.raises(
+        ConfigError,
+        match=r"a 1920x1080 px mask needs 276484 bytes of OpenCL local memory; "
+        r".* has 32768: use smaller masks, a device with more local "
+        r"memory \(platform, device\) or evaluator=numpy",
+    ):
         ev.setup(BlobBody(), [hd], [np.zeros((1080, 1920), bool)])
 
 

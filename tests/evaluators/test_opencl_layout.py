@@ -1,5 +1,6 @@
 """The OpenCL kernel's constants have one owner, opencl_layout, and reach the kernel only
 through -D build options; the kernel is read as package data."""
+
 import re
 from importlib import resources
 
@@ -9,8 +10,7 @@ import pytest
 from mmocap.evaluators import opencl_devices, opencl_layout
 from mmocap.evaluators.opencl import OpenCLEvaluator
 
-needs_opencl = pytest.mark.skipif(OpenCLEvaluator.unavailable() is not None,
-                                  reason="no usable OpenCL device here")
+needs_opencl = pytest.mark.skipif(OpenCLEvaluator.unavailable() is not None, reason="no usable OpenCL device here")
 
 
 def required_constants(source: str) -> set[str]:
@@ -25,8 +25,7 @@ def test_build_options_pass_exactly_the_constants_the_kernel_requires():
         passed = dict(o[2:].split("=", 1) for o in options if o.startswith("-D"))
         assert set(passed) == required_constants(source)
         assert passed["COUNT_WORDS"] == str(opencl_layout.count_words(local_size))
-        assert (passed["LOCAL_SIZE"], passed["LANES"], passed["BLOCK"]) == (str(local_size), str(lanes),
-                                                                          str(block))
+        assert (passed["LOCAL_SIZE"], passed["LANES"], passed["BLOCK"]) == (str(local_size), str(lanes), str(block))
     for name in required_constants(source):  # the kernel defines none of them itself
         assert not re.search(rf"^\s*#define\s+{name}\b", source, re.MULTILINE), name
     assert {"PAD", "MAX_LAYERS", "MAX_JOINTS", "PITCH_WORDS", "BLOCK"} <= required_constants(source)
@@ -38,8 +37,7 @@ def test_the_kernel_is_package_data():
 
 
 @needs_opencl
-@pytest.mark.parametrize("left_out", ["PAD", "MAX_LAYERS", "MAX_JOINTS", "PITCH_WORDS", "BLOCK",
-                                      "NEAR_MM"])
+@pytest.mark.parametrize("left_out", ["PAD", "MAX_LAYERS", "MAX_JOINTS", "PITCH_WORDS", "BLOCK", "NEAR_MM"])
 def test_a_missing_constant_fails_the_build(left_out):
     cl = opencl_devices.pyopencl()
     ctx = opencl_devices.context([opencl_devices.select_device(None, 0)])
@@ -56,12 +54,15 @@ def test_rows_are_pitch_words_apart():
     rows = packed[:40].reshape(5, 8)
     bits = np.unpackbits(rows.view(np.uint8), axis=1, bitorder="little")
     np.testing.assert_array_equal(bits[:, :70], mask)
-    assert not bits[:, 70:].any() and not packed[40:].any()
+    assert not bits[:, 70:].any()
+    assert not packed[40:].any()
 
 
-@pytest.mark.parametrize("vertices, block", [(1, 32), (300, 32), (3000, 32), (6000, 64), (13695, 128),
-                                             (27393, 128), (10 ** 6, 128)])
+@pytest.mark.parametrize(
+    ("vertices", "block"), [(1, 32), (300, 32), (3000, 32), (6000, 64), (13695, 128), (27393, 128), (10**6, 128)]
+)
 def test_culling_blocks_are_about_a_hundredth_of_the_body_within_limits(vertices, block):
     assert opencl_layout.block_size(vertices) == block
     # every size in between is a power of two, so a multiple of every lane count (4, 8, 16)
-    assert opencl_layout.SMALLEST_BLOCK % 16 == 0 and opencl_layout.LARGEST_BLOCK % 16 == 0
+    assert opencl_layout.SMALLEST_BLOCK % 16 == 0
+    assert opencl_layout.LARGEST_BLOCK % 16 == 0

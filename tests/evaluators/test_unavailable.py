@@ -1,6 +1,7 @@
 """mmocap without pyopencl, or without any OpenCL platform: it imports, ``mmocap list``
 says why the OpenCL evaluators are unavailable and what to install, asking for one is a
 one-line error, and the default (evaluator=auto) runs on numpy."""
+
 import json
 import os
 import subprocess
@@ -35,13 +36,14 @@ def environment(missing: str, tmp_path) -> dict:
 
 
 def run(args: list[str], env: dict, cwd) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, *args], env=env, cwd=cwd, capture_output=True,
-                          text=True, timeout=600)
+    return subprocess.run([sys.executable, *args], env=env, cwd=cwd, capture_output=True, text=True, timeout=600)
 
 
 def test_importing_mmocap_and_the_opencl_evaluators_does_not_import_pyopencl(tmp_path):
-    code = ("import sys\nimport mmocap.cli, mmocap.registry, mmocap.evaluators.opencl, "
-            "mmocap.evaluators.auto\nprint('pyopencl' in sys.modules)")
+    code = (
+        "import sys\nimport mmocap.cli, mmocap.registry, mmocap.evaluators.opencl, "
+        "mmocap.evaluators.auto\nprint('pyopencl' in sys.modules)"
+    )
     done = run(["-c", code], dict(os.environ), tmp_path)
     assert done.returncode == 0, done.stderr
     assert done.stdout.strip() == "False"
@@ -56,7 +58,8 @@ def test_list_says_why_opencl_is_unavailable_and_what_to_install(tmp_path, missi
     for name in ("opencl", "multidevice"):
         [at] = [i for i, line in enumerate(lines) if line.split()[:1] == [name]]
         reason = lines[at + 1].strip()
-        assert reason.startswith(f"unavailable: {why}") and install in reason
+        assert reason.startswith(f"unavailable: {why}")
+        assert install in reason
     for name in ("auto", "numpy", "naive", "cmaes"):
         [at] = [i for i, line in enumerate(lines) if line.split()[:1] == [name]]
         assert at + 1 == len(lines) or "unavailable" not in lines[at + 1]
@@ -67,8 +70,11 @@ def test_asking_for_opencl_is_a_one_line_error(tiny_sequence, tmp_path, missing)
     root = tmp_path / "data"
     root.mkdir()
     (root / "S1_walking").symlink_to(tiny_sequence)
-    done = run(["-m", "mmocap", "evaluator=opencl", *overrides(root), f"hydra.run.dir={tmp_path / 'run'}"],
-               environment(missing, tmp_path), tmp_path)
+    done = run(
+        ["-m", "mmocap", "evaluator=opencl", *overrides(root), f"hydra.run.dir={tmp_path / 'run'}"],
+        environment(missing, tmp_path),
+        tmp_path,
+    )
     why, install = MISSING[missing]
     assert done.returncode == 2
     [line] = done.stderr.strip().splitlines()
@@ -81,11 +87,15 @@ def test_the_default_runs_on_numpy_without_pyopencl(tiny_sequence, tmp_path):
     root.mkdir()
     (root / "S1_walking").symlink_to(tiny_sequence)
     run_dir = tmp_path / "run"
-    done = run(["-m", "mmocap", *overrides(root, **{"tracking.frames": 1}), "overlays=0",
-                f"hydra.run.dir={run_dir}"], environment("no-pyopencl", tmp_path), tmp_path)
+    done = run(
+        ["-m", "mmocap", *overrides(root, **{"tracking.frames": 1}), "overlays=0", f"hydra.run.dir={run_dir}"],
+        environment("no-pyopencl", tmp_path),
+        tmp_path,
+    )
     assert done.returncode == 0, done.stderr
     assert "evaluator=auto chose numpy: OpenCL is unavailable: pyopencl cannot be imported" in (
-        done.stdout + done.stderr)
+        done.stdout + done.stderr
+    )
     summary = json.loads((run_dir / "summary.json").read_text())
     assert (summary["evaluator_choice"], summary["backend"]) == ("auto", "numpy")
 
@@ -107,13 +117,19 @@ class PlainPlugin:
 
 def fake_entry_points(monkeypatch):
     def entry(name, cls):
-        return SimpleNamespace(name=name, value=f"plugins:{cls.__name__}",
-                               dist=SimpleNamespace(name="plugins"), load=lambda: cls)
+        return SimpleNamespace(
+            name=name, value=f"plugins:{cls.__name__}", dist=SimpleNamespace(name="plugins"), load=lambda: cls
+        )
 
     real = registry.available
-    monkeypatch.setattr(registry, "available", lambda kind: {
-        **real(kind), **({"warp": entry("warp", Plugin), "plain": entry("plain", PlainPlugin)}
-                         if kind == "evaluator" else {})})
+    monkeypatch.setattr(
+        registry,
+        "available",
+        lambda kind: {
+            **real(kind),
+            **({"warp": entry("warp", Plugin), "plain": entry("plain", PlainPlugin)} if kind == "evaluator" else {}),
+        },
+    )
 
 
 def test_a_plugin_says_why_it_is_unavailable(monkeypatch):
@@ -134,7 +150,9 @@ def test_bench_backends_are_the_registered_ones_that_can_run(monkeypatch):
 
     fake_entry_points(monkeypatch)
     names = backends()
-    assert names[0] == "naive" and {"numpy", "plain"} <= set(names)
-    assert "auto" not in names and "warp" not in names
+    assert names[0] == "naive"
+    assert {"numpy", "plain"} <= set(names)
+    assert "auto" not in names
+    assert "warp" not in names
     for name in names:
         assert registry.unavailable("evaluator", name) is None

@@ -20,6 +20,7 @@ candidate hash, which is exact on purpose, holds for the BLAS it was recorded wi
 poses over many frames are not golden (see ``tests/test_pipeline.py``, which checks them
 statistically).
 """
+
 import hashlib
 import json
 import os
@@ -38,8 +39,11 @@ DATA = Path(__file__).with_name("data")
 REGENERATE = os.environ.get("MMOCAP_REGEN_GOLDEN") == "1"
 EVALUATORS = ["numpy", "naive", "opencl"]  # numpy first: it writes the file when regenerating
 #: the built-in optimisers: mmocap's own entry points, not those of installed plugins
-OPTIMIZERS = sorted(ep.name for ep in entry_points(group=registry.GROUPS["optimizer"])
-                    if ep.dist is not None and ep.dist.name == "mmocap")
+OPTIMIZERS = sorted(
+    ep.name
+    for ep in entry_points(group=registry.GROUPS["optimizer"])
+    if ep.dist is not None and ep.dist.name == "mmocap"
+)
 #: ask/tell rounds of each optimiser's recorded trajectory
 GENERATIONS = 5
 DIM = 12
@@ -58,9 +62,14 @@ def golden(name: str, value):
 
 def space() -> SearchSpace:
     """12 coordinates in three partitions, an uneven start inside the box [-1, 1]."""
-    return SearchSpace(x0=np.linspace(-0.2, 0.3, DIM), lower=np.full(DIM, -1.0), upper=np.full(DIM, 1.0),
-                       radius=np.full(DIM, 0.5), budget=600,
-                       partitions=(np.arange(0, 3), np.arange(3, 7), np.arange(7, 12)))
+    return SearchSpace(
+        x0=np.linspace(-0.2, 0.3, DIM),
+        lower=np.full(DIM, -1.0),
+        upper=np.full(DIM, 1.0),
+        radius=np.full(DIM, 0.5),
+        budget=600,
+        partitions=(np.arange(0, 3), np.arange(3, 7), np.arange(7, 12)),
+    )
 
 
 def objective(X: np.ndarray) -> np.ndarray:
@@ -111,8 +120,12 @@ def test_best_after_a_few_generations_at_a_fixed_seed(name):
         X = optimizer.ask()
         optimizer.tell(X, objective(X))
     result = optimizer.result
-    found = {"generations": GENERATIONS, "evaluations": result.evaluations,
-             "fbest": result.fbest, "xbest": result.xbest.tolist()}
+    found = {
+        "generations": GENERATIONS,
+        "evaluations": result.evaluations,
+        "fbest": result.fbest,
+        "xbest": result.xbest.tolist(),
+    }
     expected = golden(f"trajectory_{name}", found)
     assert (found["generations"], found["evaluations"]) == (expected["generations"], expected["evaluations"])
     np.testing.assert_allclose(found["fbest"], expected["fbest"], rtol=1e-9, atol=0)

@@ -25,7 +25,7 @@ def ellipsoid01(X):
 
 def ellipsoid01_head(X):
     """ellipsoid01 of the first X.shape[1] coordinates (the others at their optimum)."""
-    rest = np.broadcast_to(CENTRE[X.shape[1]:], (len(X), D - X.shape[1]))
+    rest = np.broadcast_to(CENTRE[X.shape[1] :], (len(X), D - X.shape[1]))
     return ellipsoid01(np.hstack([X, rest]))
 
 
@@ -48,12 +48,15 @@ def test_beta_gives_the_target_survival_rate_in_every_layer():
     assert opt.betas[-1] > 5 * opt.betas[0] > 0
 
 
-@pytest.mark.parametrize("f, beta, delta, weights", [
-    ([0.3, 0.3, 0.3, 0.3], 0.0, 1.0, [0.25] * 4),  # flat: uniform
-    ([1.0, 1.0, 2.0, 1.0], 0.0, 1.0, [0.25] * 4),  # no particle with f < 1: uniform
-    ([1.0, 1.0, 0.2, 1.0], 0.0, 0.25, [0, 0, 1, 0]),  # f >= 1 has weight 0; target unreachable
-    ([0.1, 0.1, 0.1, 0.5], np.inf, 0.75, [1 / 3] * 3 + [0]),  # ties of the best survive
-])
+@pytest.mark.parametrize(
+    ("f", "beta", "delta", "weights"),
+    [
+        ([0.3, 0.3, 0.3, 0.3], 0.0, 1.0, [0.25] * 4),  # flat: uniform
+        ([1.0, 1.0, 2.0, 1.0], 0.0, 1.0, [0.25] * 4),  # no particle with f < 1: uniform
+        ([1.0, 1.0, 0.2, 1.0], 0.0, 0.25, [0, 0, 1, 0]),  # f >= 1 has weight 0; target unreachable
+        ([0.1, 0.1, 0.1, 0.5], np.inf, 0.75, [1 / 3] * 3 + [0]),  # ties of the best survive
+    ],
+)
 def test_anneal_edge_cases(f, beta, delta, weights):
     b, d, w = anneal(np.array(f), 0.5)
     assert (b, d) == (beta, pytest.approx(delta))
@@ -125,9 +128,10 @@ def test_psapf_diffuses_only_the_current_partition():
 
 def test_psapf_beats_apf_on_a_separable_problem_with_partitions():
     space = box(partitions=PARTS)
-    apf, psapf = ([minimise(cls(init_spread=0.2), ellipsoid01, space, seed)[2].fbest
-                   for seed in range(3)]
-                  for cls in (AnnealedParticleFilter, PartitionedAnnealedParticleFilter))
+    apf, psapf = (
+        [minimise(cls(init_spread=0.2), ellipsoid01, space, seed)[2].fbest for seed in range(3)]
+        for cls in (AnnealedParticleFilter, PartitionedAnnealedParticleFilter)
+    )
     assert np.median(psapf) < 0.6 * np.median(apf)
     # APF ignores the partitions
     opt = AnnealedParticleFilter()
@@ -135,12 +139,12 @@ def test_psapf_beats_apf_on_a_separable_problem_with_partitions():
     assert {k for k, _, _ in opt.schedule} == {0}
 
 
-@pytest.mark.parametrize("budget, sizes", [(60, [6] * 10), (257, [26] * 7 + [25] * 3),
-                                           (1500, [150] * 10)])
+@pytest.mark.parametrize(("budget", "sizes"), [(60, [6] * 10), (257, [26] * 7 + [25] * 3), (1500, [150] * 10)])
 def test_apf_budget_is_exact(budget, sizes):
     asked, _, r = minimise(AnnealedParticleFilter(), ellipsoid01, box(budget=budget), seed=1)
     assert [len(X) for X in asked] == sizes
-    assert r.evaluations == budget and r.stop_reasons == {"budget": budget}
+    assert r.evaluations == budget
+    assert r.stop_reasons == {"budget": budget}
     assert r.fbest == min(f.min() for f in map(ellipsoid01, asked))
 
 
@@ -157,12 +161,14 @@ def test_psapf_budget_split_over_partitions_and_layers():
 
 
 def test_points_stay_in_an_asymmetric_box():
-    space = SearchSpace(x0=np.full(D, 0.9), lower=-np.ones(D), upper=np.ones(D),
-                        radius=np.full(D, 2.0), budget=600, partitions=PARTS)
+    space = SearchSpace(
+        x0=np.full(D, 0.9), lower=-np.ones(D), upper=np.ones(D), radius=np.full(D, 2.0), budget=600, partitions=PARTS
+    )
     for cls in (AnnealedParticleFilter, PartitionedAnnealedParticleFilter):
         asked, _, r = minimise(cls(init_spread=0.5), ellipsoid01, space, seed=2)
         X = np.concatenate(asked)
-        assert np.all((X >= -1) & (X <= 1)) and np.any(X == 1)
+        assert np.all((X >= -1) & (X <= 1))
+        assert np.any(X == 1)
         assert len(X) == r.evaluations == 600
 
 
@@ -174,11 +180,22 @@ def test_same_seed_same_search_other_seed_other_search(cls):
     assert not np.array_equal(a, c)
 
 
-@pytest.mark.parametrize("param, value", [
-    ("layers", 0), ("layers", 2.5), ("layers", True), ("survival_rate", 0.0),
-    ("survival_rate", 1.0), ("survival_rate", 1.5), ("survival_rate", "0.5"),
-    ("init_spread", 0.0), ("init_spread", -0.1), ("diffusion", 0.0), ("diffusion", np.inf),
-])
+@pytest.mark.parametrize(
+    ("param", "value"),
+    [
+        ("layers", 0),
+        ("layers", 2.5),
+        ("layers", True),
+        ("survival_rate", 0.0),
+        ("survival_rate", 1.0),
+        ("survival_rate", 1.5),
+        ("survival_rate", "0.5"),
+        ("init_spread", 0.0),
+        ("init_spread", -0.1),
+        ("diffusion", 0.0),
+        ("diffusion", np.inf),
+    ],
+)
 def test_bad_parameters_are_config_errors(param, value):
     for cls in (AnnealedParticleFilter, PartitionedAnnealedParticleFilter):
         with pytest.raises(ConfigError, match=f"optimizer.{param}"):
@@ -200,6 +217,7 @@ def test_the_fewest_particles_per_layer_waste_few_evaluations_on_copies(monkeypa
     """With 2 particles per layer resampling often draws one particle for both slots, their
     covariance is zero and the layer evaluates copies; at the fewest now allowed, at most a
     quarter as many (measured: 45 % and 10 % on this function, 43 % and none on the demo)."""
+
     def copies(particles: int) -> float:
         repeated = total = 0
         for seed in range(10):
@@ -210,11 +228,13 @@ def test_the_fewest_particles_per_layer_waste_few_evaluations_on_copies(monkeypa
 
     allowed = copies(apf_module.MIN_PARTICLES)
     monkeypatch.setattr(apf_module, "MIN_PARTICLES", 2)
-    assert allowed <= copies(2) / 4 and copies(2) > 0.3
+    assert allowed <= copies(2) / 4
+    assert copies(2) > 0.3
 
 
-@pytest.mark.parametrize("parts", [(np.arange(0, 3), np.arange(2, 4)),
-                                   (np.arange(0, 3), np.arange(3, 3), np.arange(3, 4))])
+@pytest.mark.parametrize(
+    "parts", [(np.arange(0, 3), np.arange(2, 4)), (np.arange(0, 3), np.arange(3, 3), np.arange(3, 4))]
+)
 def test_partitions_must_be_non_empty_and_cover_each_coordinate_once(parts):
     space = box(dim=4, budget=300, partitions=parts)
     with pytest.raises(ConfigError, match="partitions"):

@@ -25,13 +25,13 @@ def test_strategy_parameters_follow_table_2_for_39_dof():
     assert p.d_sigma == pytest.approx(1 + p.c_sigma)  # sqrt((mu_eff-1)/(D+1)) - 1 < 0
     assert p.c_c == pytest.approx(4 / 43)
     assert p.mu_cov == pytest.approx(mu_eff)
-    c_cov = (2 / (mu_eff * (d + math.sqrt(2)) ** 2)
-             + (1 - 1 / mu_eff) * min(1, (2 * mu_eff - 1) / (41**2 + mu_eff)))
+    c_cov = 2 / (mu_eff * (d + math.sqrt(2)) ** 2) + (1 - 1 / mu_eff) * min(1, (2 * mu_eff - 1) / (41**2 + mu_eff))
     assert p.c_cov == pytest.approx(c_cov)
 
     opt = CMAES()
     opt.setup(box(d, 0.0, 1.0, 0.5, 100), np.random.default_rng(0))
-    assert opt.params.lam == 14 and opt.ask().shape == (14, 39)
+    assert opt.params.lam == 14
+    assert opt.ask().shape == (14, 39)
     assert strategy_parameters(28).lam == 13
     assert strategy_parameters(39, popsize=20).mu == 10
 
@@ -65,7 +65,7 @@ def test_rosenbrock_10d_reaches_the_global_optimum_in_most_runs():
         np.testing.assert_allclose(r.xbest, np.ones(10), atol=1e-4)
 
 
-@pytest.mark.parametrize("budget, last", [(100, 2), (95, 11), (98, 14), (14, 14), (15, 1)])
+@pytest.mark.parametrize(("budget", "last"), [(100, 2), (95, 11), (98, 14), (14, 14), (15, 1)])
 def test_budget_is_never_exceeded(budget, last):
     opt = CMAES()
     run = minimise(opt, sphere, box(39, 3.0, 10.0, 1.0, budget), 1)
@@ -90,11 +90,11 @@ def test_budget_smaller_than_one_generation_is_a_config_error(budget):
 @pytest.mark.parametrize("bounds", BOUND_HANDLING)
 def test_asked_points_stay_in_bounds_and_optimum_on_bound_is_found(bounds):
     # The unconstrained optimum (2, ..., 2) lies outside the box.
-    space = SearchSpace(x0=np.full(5, 0.9), lower=-np.ones(5), upper=np.ones(5),
-                        radius=np.full(5, 2.0), budget=3000)
+    space = SearchSpace(x0=np.full(5, 0.9), lower=-np.ones(5), upper=np.ones(5), radius=np.full(5, 2.0), budget=3000)
     run = minimise(CMAES(bounds=bounds), lambda X: np.sum((X - 2.0) ** 2, axis=1), space, 3)
     X = np.concatenate(run.asked)
-    assert np.all(X >= space.lower) and np.all(X <= space.upper)
+    assert np.all(X >= space.lower)
+    assert np.all(X <= space.upper)
     assert run.result.fbest == pytest.approx(5.0, abs=1e-8)
     np.testing.assert_allclose(run.result.xbest, 1.0, atol=1e-8)
     # clipping puts many samples exactly on the bound; the transformation only approaches it
@@ -108,9 +108,9 @@ def test_box_transform_maps_onto_the_box_smoothly_and_inverts():
     np.testing.assert_array_equal(X.min(axis=0), [-1.0, 0.0])
     np.testing.assert_array_equal(X.max(axis=0), [1.0, 3.0])
     slope = np.abs(np.diff(X, axis=0) / np.diff(Y, axis=0))
-    assert slope.max() <= 1 + 1e-6   # continuous, never steeper than the identity
+    assert slope.max() <= 1 + 1e-6  # continuous, never steeper than the identity
     inside = np.array([[-0.2, 1.5], [0.7, 2.0]])
-    np.testing.assert_array_equal(box_map(inside), inside)   # the identity inside the margins
+    np.testing.assert_array_equal(box_map(inside), inside)  # the identity inside the margins
     points = np.linspace([-1.0, 0.0], [1.0, 3.0], 101)
     np.testing.assert_allclose(box_map(box_map.inverse(points)), points, atol=1e-12)
 
@@ -130,8 +130,7 @@ def test_box_transform_maps_each_point_alike_whatever_else_is_in_the_call():
 
 
 def test_transform_needs_finite_bounds():
-    space = SearchSpace(x0=np.zeros(3), lower=np.full(3, -np.inf), upper=np.ones(3),
-                        radius=np.ones(3), budget=100)
+    space = SearchSpace(x0=np.zeros(3), lower=np.full(3, -np.inf), upper=np.ones(3), radius=np.ones(3), budget=100)
     with pytest.raises(ConfigError, match="finite search bounds; use optimizer.bounds=clip"):
         CMAES().setup(space, np.random.default_rng(0))
     CMAES(bounds="clip").setup(space, np.random.default_rng(0))
@@ -161,12 +160,20 @@ def test_optimum_on_the_bounds_within_a_small_factor_of_pycma():
         ours, clipped, reference = [], [], []
         for seed in range(3):
             ours.append(_evaluations_to_target(CMAES(sigma0=0.5), f, space, 1e-8, seed))
-            clipped.append(_evaluations_to_target(CMAES(sigma0=0.5, bounds="clip"), f, space,
-                                                  1e-8, seed))
+            clipped.append(_evaluations_to_target(CMAES(sigma0=0.5, bounds="clip"), f, space, 1e-8, seed))
             rng = np.random.default_rng(seed)
-            es = cma.CMAEvolutionStrategy(np.full(dim, start), 0.5, {
-                "bounds": [-1.0, 1.0], "ftarget": 1e-8, "maxfevals": 10**5, "verbose": -9,
-                "seed": np.nan, "randn": lambda *shape, rng=rng: rng.standard_normal(shape)})
+            es = cma.CMAEvolutionStrategy(
+                np.full(dim, start),
+                0.5,
+                {
+                    "bounds": [-1.0, 1.0],
+                    "ftarget": 1e-8,
+                    "maxfevals": 10**5,
+                    "verbose": -9,
+                    "seed": np.nan,
+                    "randn": lambda *shape, rng=rng: rng.standard_normal(shape),
+                },
+            )
             es.optimize(lambda x: float(f(np.atleast_2d(x))[0]))
             assert es.result.fbest <= 1e-8
             reference.append(es.result.evaluations)
@@ -209,26 +216,29 @@ def test_tell_checks_its_input():
     opt = CMAES()
     opt.setup(box(5, 0.0, 1.0, 0.5, 100), np.random.default_rng(0))
     X = opt.ask()
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match="exactly the .* array that ask"):
         opt.tell(X[:-1], sphere(X[:-1]))
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match="exactly the .* array that ask"):
         opt.tell(X + 1e-3, sphere(X))
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match="needs fitness of shape"):
         opt.tell(X, sphere(X)[:-1])
     opt.tell(X, sphere(X))
     with pytest.raises(RuntimeError):
         opt.tell(X, sphere(X))
 
 
-@pytest.mark.parametrize("kwargs, name, value", [
-    ({"sigma0": -1}, "optimizer.sigma0", "-1"),
-    ({"sigma0": 0.0}, "optimizer.sigma0", "0.0"),
-    ({"sigma0": float("nan")}, "optimizer.sigma0", "nan"),
-    ({"popsize": 1}, "optimizer.popsize", "1"),
-    ({"popsize": 4.5}, "optimizer.popsize", "4.5"),
-    ({"tolx": -1e-3}, "optimizer.tolx", "-0.001"),
-    ({"tolfun": -1}, "optimizer.tolfun", "-1"),
-])
+@pytest.mark.parametrize(
+    ("kwargs", "name", "value"),
+    [
+        ({"sigma0": -1}, "optimizer.sigma0", "-1"),
+        ({"sigma0": 0.0}, "optimizer.sigma0", "0.0"),
+        ({"sigma0": float("nan")}, "optimizer.sigma0", "nan"),
+        ({"popsize": 1}, "optimizer.popsize", "1"),
+        ({"popsize": 4.5}, "optimizer.popsize", "4.5"),
+        ({"tolx": -1e-3}, "optimizer.tolx", "-0.001"),
+        ({"tolfun": -1}, "optimizer.tolfun", "-1"),
+    ],
+)
 def test_bad_constructor_values_raise_config_error(kwargs, name, value):
     with pytest.raises(ConfigError, match=rf"{name}.*{value}"):
         CMAES(**kwargs)
@@ -240,8 +250,13 @@ def test_zero_budget_raises_config_error():
 
 
 def test_sigma0_is_the_first_step_as_a_fraction_of_the_radius():
-    space = SearchSpace(x0=np.zeros(6), lower=np.full(6, -100.0), upper=np.full(6, 100.0),
-                        radius=np.array([1, 1, 1, 10, 10, 10.0]), budget=10_000)
+    space = SearchSpace(
+        x0=np.zeros(6),
+        lower=np.full(6, -100.0),
+        upper=np.full(6, 100.0),
+        radius=np.array([1, 1, 1, 10, 10, 10.0]),
+        budget=10_000,
+    )
     spreads = []
     for sigma0 in (1.0, 0.1):
         opt = CMAES(popsize=4000, sigma0=sigma0)
@@ -265,9 +280,16 @@ def test_ellipsoid_evaluations_within_a_small_factor_of_pycma():
             opt.tell(X, ellipsoid(X))
         ours.append(opt.result.evaluations)
         rng = np.random.default_rng(seed)
-        es = cma.CMAEvolutionStrategy(np.full(dim, 3.0), 1.0, {
-            "ftarget": target, "verbose": -9, "seed": np.nan,
-            "randn": lambda *shape, rng=rng: rng.standard_normal(shape)})
+        es = cma.CMAEvolutionStrategy(
+            np.full(dim, 3.0),
+            1.0,
+            {
+                "ftarget": target,
+                "verbose": -9,
+                "seed": np.nan,
+                "randn": lambda *shape, rng=rng: rng.standard_normal(shape),
+            },
+        )
 
         es.optimize(lambda x: float(ellipsoid(np.atleast_2d(x))[0]))
         reference.append(es.result.evaluations)

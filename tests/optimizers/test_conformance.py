@@ -1,4 +1,5 @@
 """The optimiser conformance suite over every installed optimiser, built-in or plugin."""
+
 import pytest
 
 from mmocap import registry

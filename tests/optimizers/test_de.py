@@ -48,7 +48,7 @@ def test_default_setting_beats_random_search_and_f0(name):
     assert de < 0.8 * f(np.zeros((1, D)))[0]
 
 
-@pytest.mark.parametrize("f, random_factor, f0_factor", [(sphere, 50, 20), (ellipsoid_1e3, 30, 10)])
+@pytest.mark.parametrize(("f", "random_factor", "f0_factor"), [(sphere, 50, 20), (ellipsoid_1e3, 30, 10)])
 def test_larger_population_converges_far_from_the_start(f, random_factor, f0_factor):
     # N = 40 from x0 = 3 (f = 351 / 3.5e4) in a box of +-5, seed 0: sphere 1.8 (random
     # search 169, F ~ 0 56), ellipsoid 222 (random 1.2e4, F ~ 0 4.0e3).
@@ -66,8 +66,8 @@ def test_assortative_mating():
     cands = [1, 2, 3, 4, 5]
     for _ in range(50):
         keys = rng.random(6)
-        assert assortative_mating(cands, Z, ref, 1.0, keys) == 1    # nearest of all
-        assert assortative_mating(cands, Z, ref, -1.0, keys) == 5   # farthest of all
+        assert assortative_mating(cands, Z, ref, 1.0, keys) == 1  # nearest of all
+        assert assortative_mating(cands, Z, ref, -1.0, keys) == 5  # farthest of all
         # |alpha| = 0.5: nearest (farthest) of 3 random candidates, never the 2 farthest
         # (nearest)
         assert assortative_mating(cands, Z, ref, 0.5, keys) in (1, 2, 3)
@@ -92,7 +92,7 @@ def test_mates_follow_the_roles(kw):
     opt, X, f = started(**kw)
     order = np.argsort(f)
     best = lambda k: set(order[:k].tolist())  # noqa: E731
-    worst = set(order[10 - opt.n_correcting:].tolist())
+    worst = set(order[10 - opt.n_correcting :].tolist())
     everyone = set(range(10))
     for _ in range(30):
         idx, alpha = opt.mates()
@@ -119,12 +119,15 @@ def test_trials_are_eq_15_donors_of_role_vectors_with_cr_1():
     U = opt.ask()  # bounds of +-100: nothing is clipped
     order = np.argsort(f)
     for i, u in enumerate(U):
-        found = [(p, l, c) for p, l, c in itertools.permutations(range(10), 3)
-                 if np.allclose(u, X[p] + 0.5 * (X[l] - X[c]))]
+        found = [
+            (p, l, c) for p, l, c in itertools.permutations(range(10), 3) if np.allclose(u, X[p] + 0.5 * (X[l] - X[c]))
+        ]
         assert len(found) == 1
         p, l, c = found[0]
         assert i not in (p, l, c)
-        assert p in order[:5] and l in order[:5] and c in order[5:]
+        assert p in order[:5]
+        assert l in order[:5]
+        assert c in order[5:]
 
 
 def test_crossover_with_cr_0_changes_one_coordinate():
@@ -148,7 +151,6 @@ def test_selection_keeps_the_better_of_receiver_and_trial_in_a_truncated_generat
     np.testing.assert_array_equal(opt._alpha[won], trial_alpha[won])
     np.testing.assert_array_equal(opt._alpha[~won], old_alpha[~won])
     assert opt.stop() == {"budget": 15}
-
 
 
 def spread_trace(f, checkpoints, seed=0, **kw):
@@ -214,12 +216,14 @@ def test_end_of_search_logs_the_spread(caplog):
     with caplog.at_level(logging.DEBUG, logger="mmocap.optimizers.de"):
         minimise(opt, sphere, box(D, 0.0, 1.0, 1.0, 95), 0)
     messages = [r.getMessage() for r in caplog.records if r.name == "mmocap.optimizers.de"]
-    assert messages == [f"de: population spread after 95 evaluations: mean {opt.spread().mean():.3g}, "
-                        f"min {opt.spread().min():.3g}, max {opt.spread().max():.3g} search radii "
-                        f"over {D} coordinates"]
+    assert messages == [
+        f"de: population spread after 95 evaluations: mean {opt.spread().mean():.3g}, "
+        f"min {opt.spread().min():.3g}, max {opt.spread().max():.3g} search radii "
+        f"over {D} coordinates"
+    ]
 
 
-@pytest.mark.parametrize("budget, last", [(10, 10), (11, 1), (95, 5), (100, 10), (1500, 10)])
+@pytest.mark.parametrize(("budget", "last"), [(10, 10), (11, 1), (95, 5), (100, 10), (1500, 10)])
 def test_budget_is_hit_exactly(budget, last):
     opt = DifferentialEvolution()
     run = minimise(opt, lambda X: sphere(X, SHIFT), box(D, 0.0, 1.0, 1.0, budget), 1)
@@ -239,27 +243,35 @@ def test_budget_smaller_than_the_population_is_a_config_error():
 
 
 def test_asked_points_stay_in_bounds_and_optimum_on_bound_is_found():
-    space = SearchSpace(x0=np.full(5, 0.9), lower=-np.ones(5), upper=np.ones(5),
-                        radius=np.full(5, 2.0), budget=2000)
+    space = SearchSpace(x0=np.full(5, 0.9), lower=-np.ones(5), upper=np.ones(5), radius=np.full(5, 2.0), budget=2000)
     run = minimise(DifferentialEvolution(), lambda X: np.sum((X - 2.0) ** 2, axis=1), space, 3)
     asked = run.asked
     r = run.result
     X = np.concatenate(asked)
-    assert np.all(X >= space.lower) and np.all(X <= space.upper)
+    assert np.all(X >= space.lower)
+    assert np.all(X <= space.upper)
     assert r.fbest == pytest.approx(5.0, abs=1e-6)
 
 
-
-@pytest.mark.parametrize("kw, name", [
-    (dict(popsize=3), "popsize"), (dict(popsize=10.5), "popsize"),
-    (dict(n_placing=11), "n_placing"), (dict(n_placing=0), "n_placing"),
-    (dict(n_leading=11), "n_leading"), (dict(n_correcting=0), "n_correcting"),
-    (dict(popsize=6, n_correcting=7), "n_correcting"),
-    (dict(cr=-0.1), "cr"), (dict(cr=1.5), "cr"), (dict(f=0.0), "f"), (dict(f=-0.5), "f"),
-    (dict(f=float("nan")), "f"), (dict(init_spread=0.0), "init_spread"),
-    (dict(include_x0="yes"), "include_x0"),
-
-])
+@pytest.mark.parametrize(
+    ("kw", "name"),
+    [
+        (dict(popsize=3), "popsize"),
+        (dict(popsize=10.5), "popsize"),
+        (dict(n_placing=11), "n_placing"),
+        (dict(n_placing=0), "n_placing"),
+        (dict(n_leading=11), "n_leading"),
+        (dict(n_correcting=0), "n_correcting"),
+        (dict(popsize=6, n_correcting=7), "n_correcting"),
+        (dict(cr=-0.1), "cr"),
+        (dict(cr=1.5), "cr"),
+        (dict(f=0.0), "f"),
+        (dict(f=-0.5), "f"),
+        (dict(f=float("nan")), "f"),
+        (dict(init_spread=0.0), "init_spread"),
+        (dict(include_x0="yes"), "include_x0"),
+    ],
+)
 def test_bad_parameters_are_config_errors(kw, name):
     with pytest.raises(ConfigError, match=rf"optimizer\.{name}\b"):
         DifferentialEvolution(**kw)

@@ -22,7 +22,6 @@ from mmocap.testing.objectives import (
 PAPER = dict(v_max=None, init_spread=1.0)  # Table 3 with the paper's random start
 
 
-
 def test_defaults_follow_table_3_and_the_yaml():
     opt = ParticleSwarm()
     assert (opt.popsize, opt.phi1, opt.phi2, opt.w_max, opt.w_min) == (10, 2.0, 2.0, 2.0, 0.1)
@@ -42,13 +41,12 @@ def test_default_setting_beats_random_search_and_no_attraction(name):
     space = box(D, 0.0, 1.0, 1.0, 1500)
     pso = np.mean([minimise(ParticleSwarm(), f, space, s).result.fbest for s in range(3)])
     rand = np.mean([random_search(f, space, s) for s in range(3)])
-    drift = np.mean([minimise(ParticleSwarm(phi1=0.0, phi2=0.0), f, space, s).result.fbest
-                     for s in range(3)])
+    drift = np.mean([minimise(ParticleSwarm(phi1=0.0, phi2=0.0), f, space, s).result.fbest for s in range(3)])
     assert pso < rand / 100
     assert pso < drift / 20
 
 
-@pytest.mark.parametrize("f, popsize, factor", [(sphere, 10, 20), (ellipsoid_1e3, 40, 10)])
+@pytest.mark.parametrize(("f", "popsize", "factor"), [(sphere, 10, 20), (ellipsoid_1e3, 40, 10)])
 def test_paper_setting_converges_far_from_the_start(f, popsize, factor):
     # Table 3 with random positions in the whole box, from x0 = 3 (f = 351 / 3.5e4) in a box
     # of +-5, seed 0: sphere 3.7 (random search 169, phi = 0: 212), ellipsoid with N = 40:
@@ -62,10 +60,11 @@ def test_paper_setting_converges_far_from_the_start(f, popsize, factor):
 
 def test_inertia_schedule_is_eq_19():
     w = inertia_schedule(2.0, 0.1, 149)  # 1500 evaluations, N = 10: 149 moves
-    g_max = 148                          # inertia changes
+    g_max = 148  # inertia changes
     c = np.arange(149) * math.log(10 * 2.0) / g_max
     np.testing.assert_allclose(w, 2.0 / np.exp(c), rtol=1e-12)
-    assert w[0] == 2.0 and w[-1] == pytest.approx(0.1, rel=1e-12)
+    assert w[0] == 2.0
+    assert w[-1] == pytest.approx(0.1, rel=1e-12)
     np.testing.assert_allclose(w[1:] / w[:-1], math.exp(-math.log(20) / g_max), rtol=1e-12)
     np.testing.assert_allclose(inertia_schedule(0.9, 0.4, 3), [0.9, 0.6, 0.4], rtol=1e-12)
     np.testing.assert_array_equal(inertia_schedule(2.0, 0.1, 1), [2.0])
@@ -93,7 +92,8 @@ def test_velocity_update_is_eq_18():
     X0 = opt.ask()
     opt.tell(X0, sphere(X0))
     V0 = opt._V.copy()
-    assert np.all(np.abs(V0) <= 0.1) and np.abs(V0).max() > 0.09  # uniform in +-init_spread
+    assert np.all(np.abs(V0) <= 0.1)
+    assert np.abs(V0).max() > 0.09
     X1 = opt.ask()
     np.testing.assert_allclose(X1, X0 + 2.0 * V0, rtol=0, atol=1e-12)
     # Attraction only (w -> 0 not possible, so subtract the inertia term): every coordinate
@@ -105,9 +105,10 @@ def test_velocity_update_is_eq_18():
     opt.tell(X0, f0)
     V0 = opt._V.copy()
     X1 = opt.ask()
-    step = X1 - X0 - 2.0 * V0        # phi1 r1 (p - x) + phi2 r2 (b - x), with p = x here
+    step = X1 - X0 - 2.0 * V0  # phi1 r1 (p - x) + phi2 r2 (b - x), with p = x here
     gap = X0[np.argmin(f0)] - X0
-    assert np.all(step * gap >= -1e-12) and np.all(np.abs(step) <= 2.0 * np.abs(gap) + 1e-12)
+    assert np.all(step * gap >= -1e-12)
+    assert np.all(np.abs(step) <= 2.0 * np.abs(gap) + 1e-12)
 
 
 def test_v_max_clamps_every_velocity_component():
@@ -121,15 +122,15 @@ def test_v_max_clamps_every_velocity_component():
 
 
 def test_coordinates_leaving_the_box_stop_on_the_bound_with_zero_velocity():
-    space = SearchSpace(x0=np.full(5, 0.9), lower=-np.ones(5), upper=np.ones(5),
-                        radius=np.full(5, 2.0), budget=2000)
+    space = SearchSpace(x0=np.full(5, 0.9), lower=-np.ones(5), upper=np.ones(5), radius=np.full(5, 2.0), budget=2000)
     opt = ParticleSwarm(**PAPER)
     opt.setup(space, np.random.default_rng(3))
     f = lambda X: np.sum((X - 2.0) ** 2, axis=1)  # noqa: E731
     on_bound = 0
     while not opt.stop():
         X = opt.ask()
-        assert np.all(X >= space.lower) and np.all(X <= space.upper)
+        assert np.all(X >= space.lower)
+        assert np.all(X <= space.upper)
         opt.tell(X, f(X))
         if opt.moves:
             at = np.isclose(X, 1.0, rtol=0, atol=1e-12) | np.isclose(X, -1.0, rtol=0, atol=1e-12)
@@ -154,8 +155,7 @@ def test_truncated_generation_moves_only_its_particles():
     assert not np.array_equal(opt._Z[:5], Z[:5])
 
 
-
-@pytest.mark.parametrize("budget, last", [(10, 10), (11, 1), (95, 5), (100, 10), (1500, 10)])
+@pytest.mark.parametrize(("budget", "last"), [(10, 10), (11, 1), (95, 5), (100, 10), (1500, 10)])
 def test_budget_is_hit_exactly(budget, last):
     opt = ParticleSwarm()
     run = minimise(opt, lambda X: sphere(X, SHIFT), box(D, 0.0, 1.0, 1.0, budget), 1)
@@ -175,16 +175,23 @@ def test_budget_smaller_than_the_swarm_is_a_config_error():
         ParticleSwarm().setup(box(D, 0.0, 1.0, 1.0, 9), np.random.default_rng(0))
 
 
-
-@pytest.mark.parametrize("kw, name", [
-    (dict(popsize=1), "popsize"), (dict(popsize=2.5), "popsize"),
-    (dict(phi1=-1.0), "phi1"), (dict(phi2=float("inf")), "phi2"),
-    (dict(w_max=0.0), "w_max"), (dict(w_min=0.0), "w_min"),
-    (dict(w_min=2.5), "w_min"), (dict(w_max=0.5, w_min=0.6), "w_min"),
-    (dict(v_max=0.0), "v_max"), (dict(v_max="fast"), "v_max"),
-    (dict(init_spread=-1.0), "init_spread"), (dict(include_x0=1), "include_x0"),
-
-])
+@pytest.mark.parametrize(
+    ("kw", "name"),
+    [
+        (dict(popsize=1), "popsize"),
+        (dict(popsize=2.5), "popsize"),
+        (dict(phi1=-1.0), "phi1"),
+        (dict(phi2=float("inf")), "phi2"),
+        (dict(w_max=0.0), "w_max"),
+        (dict(w_min=0.0), "w_min"),
+        (dict(w_min=2.5), "w_min"),
+        (dict(w_max=0.5, w_min=0.6), "w_min"),
+        (dict(v_max=0.0), "v_max"),
+        (dict(v_max="fast"), "v_max"),
+        (dict(init_spread=-1.0), "init_spread"),
+        (dict(include_x0=1), "include_x0"),
+    ],
+)
 def test_bad_parameters_are_config_errors(kw, name):
     with pytest.raises(ConfigError, match=rf"optimizer\.{name}\b"):
         ParticleSwarm(**kw)

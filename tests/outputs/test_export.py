@@ -1,6 +1,7 @@
 """Motion-file exports of a finished run, each read back by an independent reader: TRC by a
 plain parser written here, C3D by ezc3d, BVH by bvhio (its own forward kinematics), CSV by
 pandas and by mmocap's ground-truth reader."""
+
 from __future__ import annotations
 
 import errno
@@ -60,9 +61,12 @@ def write_run(folder, poses, *, fps: float | None = FPS, body_facts: dict | None
     for frame, pose in enumerate(poses):
         log.write(frame, 1.0, 0.5, 60, 0.01, pose)
     log.close()
-    summary = {**json.loads(SUMMARY_EXAMPLE.read_text()),
-               "config": OmegaConf.to_container(compose(["body.vertices=1000"]), resolve=True),
-               "fps": fps, "body": body_facts}
+    summary = {
+        **json.loads(SUMMARY_EXAMPLE.read_text()),
+        "config": OmegaConf.to_container(compose(["body.vertices=1000"]), resolve=True),
+        "fps": fps,
+        "body": body_facts,
+    }
     for key in ("fps", "body"):
         if summary[key] is None:
             del summary[key]
@@ -81,10 +85,19 @@ def parse_trc(path):
     """(header dict, marker names, (F, M, 3) values, frame numbers, times), read as its
     specification lays it out (tabs; values from line 7; NaN tokens)."""
     lines = path.read_text().split("\n")
-    assert lines[0].split("\t")[0] == "PathFileType" and lines[0].split("\t")[1] == "4"
+    assert lines[0].split("\t")[0] == "PathFileType"
+    assert lines[0].split("\t")[1] == "4"
     keys, values = lines[1].split("\t"), lines[2].split("\t")
-    assert keys == ["DataRate", "CameraRate", "NumFrames", "NumMarkers", "Units", "OrigDataRate",
-                    "OrigDataStartFrame", "OrigNumFrames"]
+    assert keys == [
+        "DataRate",
+        "CameraRate",
+        "NumFrames",
+        "NumMarkers",
+        "Units",
+        "OrigDataRate",
+        "OrigDataStartFrame",
+        "OrigNumFrames",
+    ]
     header = dict(zip(keys, values))
     name_cells = lines[3].split("\t")
     assert name_cells[:2] == ["Frame#", "Time"]
@@ -94,23 +107,33 @@ def parse_trc(path):
     assert lines[4].split("\t") == ["", ""] + [f"{a}{i}" for i in range(1, m + 1) for a in "XYZ"] + [""]
     assert lines[5] == ""
     rows = [line.split("\t") for line in lines[6:] if line]
-    assert lines[-1] == "" and all(len(r) == 2 + 3 * m for r in rows)  # no trailing tab
+    assert lines[-1] == ""
+    assert all(len(r) == 2 + 3 * m for r in rows)
     data = np.array([[float(v) for v in r[2:]] for r in rows]).reshape(len(rows), m, 3)
     return header, names, data, [int(r[0]) for r in rows], [float(r[1]) for r in rows]
 
 
-def test_trc_has_openSim_header_names_and_the_model_points(exported, body, poses):
+def test_trc_has_opensim_header_names_and_the_model_points(exported, body, poses):
     run, _ = exported
     header, names, data, frames, times = parse_trc(run / "export" / "motion.trc")
-    assert header == {"DataRate": "50", "CameraRate": "50", "NumFrames": "4", "NumMarkers": "31",
-                      "Units": "mm", "OrigDataRate": "50", "OrigDataStartFrame": "1", "OrigNumFrames": "4"}
+    assert header == {
+        "DataRate": "50",
+        "CameraRate": "50",
+        "NumFrames": "4",
+        "NumMarkers": "31",
+        "Units": "mm",
+        "OrigDataRate": "50",
+        "OrigDataStartFrame": "1",
+        "OrigNumFrames": "4",
+    }
     assert names == [*body.marker_names, *skeleton.JOINTS]
-    assert frames == [1, 2, 3, 4] and times == pytest.approx([0.0, 0.02, 0.04, 0.06])
+    assert frames == [1, 2, 3, 4]
+    assert times == pytest.approx([0.0, 0.02, 0.04, 0.06])
     np.testing.assert_allclose(data[:, :15], body.markers(poses), atol=1e-3, rtol=0)
     np.testing.assert_allclose(data[:, 15:], body.joint_positions(poses), atol=1e-3, rtol=0)
 
 
-def test_trc_writes_a_missing_value_as_NaN(tmp_path):
+def test_trc_writes_a_missing_value_as_nan(tmp_path):
     points = np.arange(2 * 2 * 3, dtype=float).reshape(2, 2, 3)
     points[1, 1] = np.nan  # the last marker of the last frame: its row must keep every field
     write_trc(tmp_path / "m.trc", points, ["a", "b"], 100.0)
@@ -123,8 +146,10 @@ def test_c3d_read_back_with_ezc3d(exported, body, poses):
     c = ezc3d.c3d(str(run / "export" / "motion.c3d"))
     point = c["parameters"]["POINT"]
     assert point["LABELS"]["value"] == [*body.marker_names, *skeleton.JOINTS]
-    assert point["UNITS"]["value"] == ["mm"] and point["RATE"]["value"][0] == FPS
-    assert c["header"]["points"]["first_frame"] == 0 and c["header"]["points"]["last_frame"] == 3  # 0-based
+    assert point["UNITS"]["value"] == ["mm"]
+    assert point["RATE"]["value"][0] == FPS
+    assert c["header"]["points"]["first_frame"] == 0
+    assert c["header"]["points"]["last_frame"] == 3
     got = c["data"]["points"][:3].transpose(2, 1, 0)  # (frames, points, xyz)
     expected = np.concatenate([body.markers(poses), body.joint_positions(poses)], axis=1)
     np.testing.assert_allclose(got, expected, atol=1e-3, rtol=0)
@@ -143,8 +168,10 @@ def test_bvh_read_with_bvhio_gives_the_joint_centres(exported, body, poses):
     run, _ = exported
     path = str(run / "export" / "motion.bvh")
     structure = bvhio.readAsBvh(path)
-    assert structure.FrameCount == 4 and structure.FrameTime == pytest.approx(1 / FPS, abs=1e-8)
-    assert structure.Root.Name == "Root" and len(structure.Root.Channels) == 6
+    assert structure.FrameCount == 4
+    assert structure.FrameTime == pytest.approx(1 / FPS, abs=1e-8)
+    assert structure.Root.Name == "Root"
+    assert len(structure.Root.Channels) == 6
     root = bvhio.readAsHierarchy(path)
     expected = body.joint_positions(poses) / 1000.0  # BVH in metres
     for frame in range(len(poses)):
@@ -155,15 +182,17 @@ def test_bvh_read_with_bvhio_gives_the_joint_centres(exported, body, poses):
         np.testing.assert_allclose(got, expected[frame], atol=1e-4, rtol=0)  # 0.1 mm
     root.loadRestPose(recursive=True)
     rest = {joint.Name: np.array(joint.PositionWorld) for joint, _, _ in root.layout()}
-    np.testing.assert_allclose([rest[n] for n in skeleton.JOINTS], body.joint_rest_positions / 1000.0,
-                               atol=1e-5)  # offsets written to the micrometre
+    np.testing.assert_allclose(
+        [rest[n] for n in skeleton.JOINTS], body.joint_rest_positions / 1000.0, atol=1e-5
+    )  # offsets written to the micrometre
 
 
 def test_csv_tables_hold_the_points_and_wrapped_angles(exported, body, poses):
     run, paths = exported
     folder = run / "export"
-    assert paths == [folder / n for n in ("markers_mm.csv", "joints_mm.csv", "pose.csv", "motion.trc",
-                                          "motion.c3d", "motion.bvh")]
+    assert paths == [
+        folder / n for n in ("markers_mm.csv", "joints_mm.csv", "pose.csv", "motion.trc", "motion.c3d", "motion.bvh")
+    ]
     # the markers read back as a sequence's ground truth
     markers = read_markers(folder / "markers_mm.csv", len(poses), list(body.marker_names))
     np.testing.assert_allclose(markers, body.markers(poses), atol=1e-3, rtol=0)
@@ -175,9 +204,11 @@ def test_csv_tables_hold_the_points_and_wrapped_angles(exported, body, poses):
 
     pose = pd.read_csv(folder / "pose.csv")
     assert list(pose.columns) == ["frame", "time_s", *skeleton.parameter_names()]
-    assert list(pose["frame"]) == [0, 1, 2, 3] and list(pose["time_s"]) == pytest.approx([0, 0.02, 0.04, 0.06])
+    assert list(pose["frame"]) == [0, 1, 2, 3]
+    assert list(pose["time_s"]) == pytest.approx([0, 0.02, 0.04, 0.06])
     angles = pose.to_numpy()[:, 5:]
-    assert (angles > -math.pi).all() and (angles <= math.pi).all()
+    assert (angles > -math.pi).all()
+    assert (angles <= math.pi).all()
     assert pose["Root.ry"][2] == pytest.approx(ROOT_YAW - 2 * math.pi, abs=1e-6)
     np.testing.assert_allclose(pose.to_numpy()[:, 2:5], poses[:, :3], atol=1e-6)  # translations kept
     np.testing.assert_allclose(np.cos(angles), np.cos(poses[:, 3:]), atol=1e-5)
@@ -296,13 +327,28 @@ def test_bad_export_input_is_one_clear_line(case, tmp_path, poses, capsys, monke
 def test_a_tracking_run_writes_its_exports(tiny_sequence, tmp_path):
     from mmocap.pipeline import run
 
-    cfg = compose(["dataset=folder", f"dataset.root={tiny_sequence}", "evaluator=numpy", "body.vertices=1000",
-                   "tracking.evaluations=30", "tracking.frames=1", "overlays=0", "progress=false",
-                   "foreground_cache=null", "export=[csv,bvh]"])
+    cfg = compose(
+        [
+            "dataset=folder",
+            f"dataset.root={tiny_sequence}",
+            "evaluator=numpy",
+            "body.vertices=1000",
+            "tracking.evaluations=30",
+            "tracking.frames=1",
+            "overlays=0",
+            "progress=false",
+            "foreground_cache=null",
+            "export=[csv,bvh]",
+        ]
+    )
     summary = run(cfg, tmp_path)
     assert summary["fps"] == json.loads((tiny_sequence / "sequence.json").read_text())["fps"]
     assert sorted(p.name for p in (tmp_path / "export").iterdir()) == [
-        "joints_mm.csv", "markers_mm.csv", "motion.bvh", "pose.csv"]
+        "joints_mm.csv",
+        "markers_mm.csv",
+        "motion.bvh",
+        "pose.csv",
+    ]
     # the same files as an export of the finished run
     again = export_run(tmp_path, ["csv", "bvh"], out_dir=tmp_path / "again")
     for path in again:

@@ -1,4 +1,5 @@
 """The plots of a run (mmocap.outputs.plots) fit their saved image, with whole-frame ticks."""
+
 import numpy as np
 
 from mmocap.outputs import plots

@@ -1,4 +1,5 @@
 """A run's pictures: a video per camera comparing foreground and model, and the skeleton."""
+
 import functools
 import json
 
@@ -28,8 +29,7 @@ def scene(tiny_sequence, tmp_path_factory):
     frame 1's moved by :data:`SHIFT_MM`, frame 2 without ground truth."""
     sequence = Sequence.open(tiny_sequence)
     body = BodyModel("S1", vertices=1000)
-    foreground = Foreground(sequence, functools.partial(GaussianBackground),
-                            cache_dir=tmp_path_factory.mktemp("cache"))
+    foreground = Foreground(sequence, functools.partial(GaussianBackground), cache_dir=tmp_path_factory.mktemp("cache"))
     poses = np.load(tiny_sequence / "poses.npy")
     poses[1, 0] += SHIFT_MM
     results = [FrameResult(k, pose, 0.25 + k / 10, 100, 0.1) for k, pose in enumerate(poses)]
@@ -54,13 +54,25 @@ def test_a_camera_frame_tints_foreground_model_and_overlap_where_they_are(scene)
     # the pixels the skeleton, markers, text and legend leave alone: white over white, black over black
     nothing = np.zeros((240, 320), bool)
     joints = body.joint_positions(results[1].pose[None])[0]
-    over_white, over_black = (comparison_overlay(np.full((240, 320, 3), value, np.uint8), foreground.cameras[c],
-                                                 nothing, nothing, joints, truth[frame],
-                                                 frame_caption("C2", results[1], body, truth))
-                              for value in (255, 0))
+    over_white, over_black = (
+        comparison_overlay(
+            np.full((240, 320, 3), value, np.uint8),
+            foreground.cameras[c],
+            nothing,
+            nothing,
+            joints,
+            truth[frame],
+            frame_caption("C2", results[1], body, truth),
+        )
+        for value in (255, 0)
+    )
     undrawn = ((over_white.astype(int) - over_black) == 255).all(axis=-1)
-    regions = {"foreground only": mask & ~model, "model only": model & ~mask, "both": mask & model,
-               "neither": ~mask & ~model}
+    regions = {
+        "foreground only": mask & ~model,
+        "model only": model & ~mask,
+        "both": mask & model,
+        "neither": ~mask & ~model,
+    }
     for name, where in regions.items():
         expected = image if name == "neither" else (image + np.array(COMPARISON_COLOURS[name])) / 2
         matching = (np.abs(drawn - expected) <= 1).all(axis=-1)
@@ -73,7 +85,8 @@ def test_the_caption_gives_camera_frame_fitness_and_marker_error(scene):
     camera, fitness, error = frame_caption("C2", results[1], body, truth)
     assert (camera, fitness) == ("C2  frame 1", "fitness 0.3500")
     # every marker moves with the root: the error is the shift
-    assert error.startswith("marker error ") and abs(float(error.split()[2]) - SHIFT_MM) < 1.0
+    assert error.startswith("marker error ")
+    assert abs(float(error.split()[2]) - SHIFT_MM) < 1.0
     assert frame_caption("C2", results[2], body, truth)[2] == "no ground truth"
 
 
@@ -90,9 +103,19 @@ def test_the_run_videos_hold_every_result_of_every_camera(scene, tmp_path):
 @pytest.fixture(scope="module")
 def run_folder(tiny_sequence, tmp_path_factory):
     out = tmp_path_factory.mktemp("videos") / "run"
-    code = run_cli("track", "dataset=folder", f"dataset.root={tiny_sequence}", "evaluator=numpy",
-                   "body.vertices=1000", "tracking.evaluations=60", "overlays=0", "progress=false",
-                   "foreground_cache=null", "video=true", f"hydra.run.dir={out}")
+    code = run_cli(
+        "track",
+        "dataset=folder",
+        f"dataset.root={tiny_sequence}",
+        "evaluator=numpy",
+        "body.vertices=1000",
+        "tracking.evaluations=60",
+        "overlays=0",
+        "progress=false",
+        "foreground_cache=null",
+        "video=true",
+        f"hydra.run.dir={out}",
+    )
     assert code == 0
     return out
 
@@ -124,14 +147,27 @@ def test_a_rerun_without_video_removes_the_old_ones_and_a_stopped_runs_temporari
     (run_folder / "records").rename(run_folder / "old-records")  # the run is not skipped
     # what a run stopped while writing leaves: the encoder's file and atomic_path's temporary
     videos = run_folder / "videos"
-    temporaries = [videos / ".C1.mp4.0123456789ab.mp4", videos / ".C2.mp4.0123456789ab.tmp",
-                   run_folder / ".skeleton.mp4.0123456789ab.mp4"]
+    temporaries = [
+        videos / ".C1.mp4.0123456789ab.mp4",
+        videos / ".C2.mp4.0123456789ab.tmp",
+        run_folder / ".skeleton.mp4.0123456789ab.mp4",
+    ]
     for path in temporaries:
         path.write_bytes(b"partial")
-    code = run_cli("track", "dataset=folder", f"dataset.root={tiny_sequence}", "evaluator=numpy",
-                   "body.vertices=1000", "tracking.evaluations=60", "overlays=0", "progress=false",
-                   "foreground_cache=null", f"hydra.run.dir={run_folder}")
+    code = run_cli(
+        "track",
+        "dataset=folder",
+        f"dataset.root={tiny_sequence}",
+        "evaluator=numpy",
+        "body.vertices=1000",
+        "tracking.evaluations=60",
+        "overlays=0",
+        "progress=false",
+        "foreground_cache=null",
+        f"hydra.run.dir={run_folder}",
+    )
     assert code == 0
     assert not list(videos.iterdir())
-    assert not (run_folder / "skeleton.png").exists() and not (run_folder / "skeleton.mp4").exists()
+    assert not (run_folder / "skeleton.png").exists()
+    assert not (run_folder / "skeleton.mp4").exists()
     assert not any(path.exists() for path in temporaries)

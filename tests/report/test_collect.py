@@ -1,4 +1,5 @@
 """``mmocap collect``: a store's runs.csv and frames.csv."""
+
 import pandas as pd
 import pytest
 

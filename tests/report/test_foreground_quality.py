@@ -1,5 +1,6 @@
 """`mmocap foreground-quality`: its options are checked before any work, and a true
 silhouette must match its image (the scores are checked in tests/stages/test_foreground.py)."""
+
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -23,9 +24,14 @@ class AllForeground:
 
 def fake_sequence(truth_shape):
     """One camera C1, one 4x6 frame, a true silhouette of ``truth_shape``."""
-    return SimpleNamespace(n_frames=1, root=Path("seq"), cameras=[SimpleNamespace(name="C1")],
-                           background=lambda cam: [], images=lambda frame: [np.zeros((4, 6), np.uint8)],
-                           silhouette=lambda frame, cam: np.ones(truth_shape, bool))
+    return SimpleNamespace(
+        n_frames=1,
+        root=Path("seq"),
+        cameras=[SimpleNamespace(name="C1")],
+        background=lambda cam: [],
+        images=lambda frame: [np.zeros((4, 6), np.uint8)],
+        silhouette=lambda frame, cam: np.ones(truth_shape, bool),
+    )
 
 
 def test_counts_pool_over_frames():
@@ -37,13 +43,16 @@ def test_a_silhouette_of_another_size_names_the_camera_and_frame():
         evaluate(fake_sequence((2, 3)), AllForeground)
 
 
-@pytest.mark.parametrize("options, message", [
-    (["--methods", ""], "--methods '' has an empty name"),
-    (["--methods", "horprasert,,knn"], "--methods 'horprasert,,knn' has an empty name"),
-    (["--csv", "{tmp}"], "--csv {tmp} is a folder"),
-    (["--md", "{tmp}"], "--md {tmp} is a folder"),
-    (["--csv", "{tmp}/notes/q.csv"], "cannot write {tmp}/notes: {tmp}/notes is a file"),
-])
+@pytest.mark.parametrize(
+    ("options", "message"),
+    [
+        (["--methods", ""], "--methods '' has an empty name"),
+        (["--methods", "horprasert,,knn"], "--methods 'horprasert,,knn' has an empty name"),
+        (["--csv", "{tmp}"], "--csv {tmp} is a folder"),
+        (["--md", "{tmp}"], "--md {tmp} is a folder"),
+        (["--csv", "{tmp}/notes/q.csv"], "cannot write {tmp}/notes: {tmp}/notes is a file"),
+    ],
+)
 def test_bad_options_fail_before_any_work(tmp_path, capsys, options, message):
     (tmp_path / "notes").write_text("")
     options = [o.format(tmp=tmp_path) for o in options]

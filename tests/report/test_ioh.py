@@ -1,6 +1,7 @@
 """Convergence traces of real tiny runs, exported in the IOHprofiler format: the files are read
 back by a plain parser written here and compared with the runs' own numbers, and with what the
 ``ioh`` package's Analyzer logger writes for the same traces."""
+
 from __future__ import annotations
 
 import csv
@@ -18,9 +19,11 @@ from tests.helpers import Outcome, assert_clean_error, run_cli
 
 FRAMES, BUDGET = 2, 30
 #: run folder -> (overrides, algorithm, dimension)
-RUNS = {"0": (["seed=0"], "cmaes-holistic", 39),
-        "1": (["seed=1", "body.dof=28"], "cmaes-holistic", 28),
-        "2": (["seed=0", "optimizer=pso"], "pso-holistic", 39)}
+RUNS = {
+    "0": (["seed=0"], "cmaes-holistic", 39),
+    "1": (["seed=1", "body.dof=28"], "cmaes-holistic", 28),
+    "2": (["seed=0", "optimizer=pso"], "pso-holistic", 39),
+}
 
 
 @pytest.fixture(scope="module")
@@ -30,9 +33,24 @@ def sweep(tiny_sequence, tmp_path_factory):
 
     folder = tmp_path_factory.mktemp("sweep")
     for name, (overrides, _, _) in RUNS.items():
-        run(compose(["dataset=folder", f"dataset.root={tiny_sequence}", "evaluator=numpy", "body.vertices=1000",
-                     f"tracking.evaluations={BUDGET}", f"tracking.frames={FRAMES}", "recovery.enabled=false",
-                     "overlays=0", "progress=false", "foreground_cache=null", *overrides]), folder / name)
+        run(
+            compose(
+                [
+                    "dataset=folder",
+                    f"dataset.root={tiny_sequence}",
+                    "evaluator=numpy",
+                    "body.vertices=1000",
+                    f"tracking.evaluations={BUDGET}",
+                    f"tracking.frames={FRAMES}",
+                    "recovery.enabled=false",
+                    "overlays=0",
+                    "progress=false",
+                    "foreground_cache=null",
+                    *overrides,
+                ]
+            ),
+            folder / name,
+        )
     return folder
 
 
@@ -78,8 +96,10 @@ def read_export(folder) -> dict[str, tuple[dict, dict[int, list[np.ndarray]]]]:
     found = {}
     for path in sorted(folder.rglob("*.json")):
         meta = json.loads(path.read_text())
-        found[str(path.relative_to(folder))] = (meta, {s["dimension"]: parse_dat(path.parent / s["path"])
-                                                       for s in meta["scenarios"]})
+        found[str(path.relative_to(folder))] = (
+            meta,
+            {s["dimension"]: parse_dat(path.parent / s["path"]) for s in meta["scenarios"]},
+        )
     return found
 
 
@@ -89,19 +109,24 @@ def test_a_run_writes_each_frames_trace_ending_at_its_evaluations_and_fitness(sw
         assert sorted(traces) == sorted(frames) == list(range(FRAMES))
         for frame, trace in traces.items():
             evaluations, fitness = np.array(trace).T
-            assert evaluations[0] == 1 and np.all(np.diff(evaluations) > 0) and np.all(np.diff(fitness) <= 0)
+            assert evaluations[0] == 1
+            assert np.all(np.diff(evaluations) > 0)
+            assert np.all(np.diff(fitness) <= 0)
             assert evaluations[-1] == frames[frame][0] == BUDGET
             assert fitness[-1] == pytest.approx(frames[frame][1], abs=5e-7)  # frames.csv keeps 6 decimals
 
 
 def test_the_export_holds_every_frame_of_every_run_under_its_algorithm_function_and_dimension(sweep, exported):
     files = read_export(exported)
-    assert sorted(files) == ["cmaes-holistic/IOHprofiler_f1_S1_walking.json",
-                             "pso-holistic/IOHprofiler_f1_S1_walking.json"]
+    assert sorted(files) == [
+        "cmaes-holistic/IOHprofiler_f1_S1_walking.json",
+        "pso-holistic/IOHprofiler_f1_S1_walking.json",
+    ]
     for name, (_, algorithm, dimension) in RUNS.items():
         meta, dat = files[f"{algorithm}/IOHprofiler_f1_S1_walking.json"]
         assert (meta["function_id"], meta["function_name"], meta["maximization"]) == (1, "S1_walking", False)
-        assert meta["algorithm"]["name"] == algorithm and meta["attributes"] == ["evaluations", "raw_y"]
+        assert meta["algorithm"]["name"] == algorithm
+        assert meta["attributes"] == ["evaluations", "raw_y"]
         assert f"{BUDGET} evaluations per frame" in meta["algorithm"]["info"]
         scenario = next(s for s in meta["scenarios"] if s["dimension"] == dimension)
         assert scenario["path"] == f"data_f1_S1_walking/IOHprofiler_f1_DIM{dimension}.dat"
@@ -109,7 +134,8 @@ def test_the_export_holds_every_frame_of_every_run_under_its_algorithm_function_
         traces, frames = parse_traces(sweep / name / TRACES), frames_table(sweep / name)
         for frame, entry, rows in zip(range(FRAMES), scenario["runs"], dat[dimension]):
             np.testing.assert_array_equal(rows, np.array(traces[frame]))
-            assert entry["instance"] == frame + 1 and entry["evals"] == frames[frame][0]
+            assert entry["instance"] == frame + 1
+            assert entry["evals"] == frames[frame][0]
             assert entry["best"]["y"] == rows[-1, 1] == pytest.approx(frames[frame][1], abs=5e-7)
             assert entry["best"]["evals"] == rows[np.argmax(rows[:, 1] == rows[-1, 1]), 0]
     assert [s["dimension"] for s in files["cmaes-holistic/IOHprofiler_f1_S1_walking.json"][0]["scenarios"]] == [28, 39]
@@ -132,8 +158,14 @@ def test_the_export_matches_what_iohs_analyzer_logger_writes_for_the_same_traces
                 for frame, trace in run.traces.items():
                     best = trace[np.searchsorted(trace[:, 0], np.arange(1, trace[-1, 0] + 1), side="right") - 1, 1]
                     values = iter(best)
-                    problem = ioh.wrap_problem(lambda x, values=values: float(next(values)), name=run.function,
-                                               dimension=dimension, instance=frame + 1, lb=-1.0, ub=1.0)
+                    problem = ioh.wrap_problem(
+                        lambda x, values=values: float(next(values)),
+                        name=run.function,
+                        dimension=dimension,
+                        instance=frame + 1,
+                        lb=-1.0,
+                        ub=1.0,
+                    )
                     problem.attach_logger(logger)
                     for _ in best:
                         problem(np.zeros(dimension))
@@ -147,13 +179,16 @@ def test_the_export_matches_what_iohs_analyzer_logger_writes_for_the_same_traces
         assert meta["algorithm"]["name"] == reference["algorithm"]["name"]
         for key in ("function_name", "maximization", "attributes"):
             assert meta[key] == reference[key]
-        assert [without_ids(s["path"]) for s in meta["scenarios"]] == [without_ids(s["path"]) for s in
-                                                                        reference["scenarios"]]
+        assert [without_ids(s["path"]) for s in meta["scenarios"]] == [
+            without_ids(s["path"]) for s in reference["scenarios"]
+        ]
         for scenario, expected in zip(meta["scenarios"], reference["scenarios"]):
-            assert [(r["instance"], r["evals"], r["best"]["evals"]) for r in scenario["runs"]] == \
-                   [(r["instance"], r["evals"], r["best"]["evals"]) for r in expected["runs"]]
-            np.testing.assert_allclose([r["best"]["y"] for r in scenario["runs"]],
-                                       [r["best"]["y"] for r in expected["runs"]], atol=1e-12)
+            assert [(r["instance"], r["evals"], r["best"]["evals"]) for r in scenario["runs"]] == [
+                (r["instance"], r["evals"], r["best"]["evals"]) for r in expected["runs"]
+            ]
+            np.testing.assert_allclose(
+                [r["best"]["y"] for r in scenario["runs"]], [r["best"]["y"] for r in expected["runs"]], atol=1e-12
+            )
         for dimension, runs_dat in dat.items():
             assert len(runs_dat) == len(reference_dat[dimension])
             for rows, expected in zip(runs_dat, reference_dat[dimension]):
@@ -172,7 +207,9 @@ def test_the_command_writes_into_the_folder_and_replaces_an_earlier_export(sweep
     assert "1 run(s), 2 frame(s), 1 algorithm(s), 1 meta-data file(s)" in capsys.readouterr().out
     assert sorted(str(p.relative_to(out)) for p in out.rglob("*") if p.is_file()) == [
         "cmaes-holistic/IOHprofiler_f1_S1_walking.json",
-        "cmaes-holistic/data_f1_S1_walking/IOHprofiler_f1_DIM39.dat", "notes.txt"]
+        "cmaes-holistic/data_f1_S1_walking/IOHprofiler_f1_DIM39.dat",
+        "notes.txt",
+    ]
     assert not (out / "de-holistic").exists()
 
 
@@ -195,8 +232,10 @@ BAD_RUNS = {
     "bad-row": (lambda run: replace_line(run / TRACES, 2, "0,1"), [TRACES, "line 2"]),
     "not-from-1": (lambda run: replace_line(run / TRACES, 2, "0,2,0.5"), [TRACES, "line 2", "not 1"]),
     "fitness-rises": (lambda run: replace_line(run / TRACES, 3, "0,29,0.99"), [TRACES, "line 3", "must not"]),
-    "frame-missing": (lambda run: (run / TRACES).write_text("frame,evaluations,best_fitness\n0,1,0.5\n"),
-                      [TRACES, "missing [1]"]),
+    "frame-missing": (
+        lambda run: (run / TRACES).write_text("frame,evaluations,best_fitness\n0,1,0.5\n"),
+        [TRACES, "missing [1]"],
+    ),
     "no-dof": (lambda run: drop_key(run / "summary.json", "dof"), ["summary.json", "dof"]),
     "summary-not-json": (lambda run: (run / "summary.json").write_text("{"), ["summary.json", "not valid JSON"]),
 }

@@ -1,6 +1,7 @@
 """The papers' tables and figures from small hand-made runs/frames tables (the contract's
 columns), with errors and fitness chosen so that every rank is known in advance, and so that
 the two rank the algorithms differently."""
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -14,12 +15,22 @@ from tests.helpers import run_cli
 SEQUENCES = ["S1_walking", "S1_boxing"]
 SEEDS = [0, 1]
 # base error (mm) per algorithm: the order every block ranks them in, but one (see below)
-ALGORITHMS = {("cmaes", "hierarchical"): 10.0, ("cmaes", "holistic"): 12.0, ("de", "holistic"): 15.0,
-              ("apf", "holistic"): 30.0, ("psapf", "holistic"): 35.0}
+ALGORITHMS = {
+    ("cmaes", "hierarchical"): 10.0,
+    ("cmaes", "holistic"): 12.0,
+    ("de", "holistic"): 15.0,
+    ("apf", "holistic"): 30.0,
+    ("psapf", "holistic"): 35.0,
+}
 SWAPPED_BLOCK = ("S1_boxing", 1)  # there holistic CMA-ES beats hierarchical CMA-ES
 # base mean best fitness per algorithm: every block ranks them in this order, not the errors'
-FITNESS = {("de", "holistic"): 0.10, ("cmaes", "holistic"): 0.12, ("cmaes", "hierarchical"): 0.14,
-           ("psapf", "holistic"): 0.20, ("apf", "holistic"): 0.25}
+FITNESS = {
+    ("de", "holistic"): 0.10,
+    ("cmaes", "holistic"): 0.12,
+    ("cmaes", "hierarchical"): 0.14,
+    ("psapf", "holistic"): 0.20,
+    ("apf", "holistic"): 0.25,
+}
 
 
 def run_error(optimizer, strategy, dof, evaluations, sequence, seed):
@@ -32,15 +43,20 @@ def run_error(optimizer, strategy, dof, evaluations, sequence, seed):
 
 def run_fitness(optimizer, strategy, dof, evaluations, seed, fitness=FITNESS):
     """Base fitness, -0.01 at 28 DOF (unlike the error), -0.02 at 450 evaluations, +0.001 per seed."""
-    return fitness[optimizer, strategy] - (0.01 if dof == 28 else 0.0) - (0.02 if evaluations == 450 else 0.0) \
+    return (
+        fitness[optimizer, strategy]
+        - (0.01 if dof == 28 else 0.0)
+        - (0.02 if evaluations == 450 else 0.0)
         + 0.001 * seed
+    )
 
 
-def make_sweep(vertices=(3000,), backends=("numpy",), algorithms=ALGORITHMS, dofs=(39, 28), settings=None,
-               fitness=FITNESS):
+def make_sweep(
+    vertices=(3000,), backends=("numpy",), algorithms=ALGORITHMS, dofs=(39, 28), settings=None, fitness=FITNESS
+):
     """Runs and frames tables; ``settings``: the preset every run names (None: no such column)."""
     runs, frames = [], []
-    for (optimizer, strategy) in algorithms:
+    for optimizer, strategy in algorithms:
         for dof in dofs:
             for evaluations in (150, 450):
                 for v in vertices:
@@ -52,16 +68,31 @@ def make_sweep(vertices=(3000,), backends=("numpy",), algorithms=ALGORITHMS, dof
                                 best = run_fitness(optimizer, strategy, dof, evaluations, seed, fitness)
                                 run_id = f"{settings or 'r'}{len(runs):03d}"
                                 per_frame = error + np.array([-1.0, 0.0, 1.0])
-                                runs.append(dict(
-                                    run_id=run_id, subject=sequence[:2], action=sequence[3:],
-                                    sequence=sequence, seed=seed, optimizer=optimizer, strategy=strategy,
-                                    algorithm=f"{optimizer}-{strategy}", dof=dof, evaluations=evaluations,
-                                    vertices=v, backend=backend, frames=3, mean_marker_error_mm=error,
-                                    mean_best_fitness=best,
-                                    seconds_per_frame=evaluations * v / 1e6 * (0.1 if backend == "opencl" else 1.0),
-                                    evaluation_seconds_per_frame=np.nan))
-                                frames += [dict(run_id=run_id, frame=f, marker_error_mm=e, fitness=best)
-                                           for f, e in enumerate(per_frame)]
+                                runs.append(
+                                    dict(
+                                        run_id=run_id,
+                                        subject=sequence[:2],
+                                        action=sequence[3:],
+                                        sequence=sequence,
+                                        seed=seed,
+                                        optimizer=optimizer,
+                                        strategy=strategy,
+                                        algorithm=f"{optimizer}-{strategy}",
+                                        dof=dof,
+                                        evaluations=evaluations,
+                                        vertices=v,
+                                        backend=backend,
+                                        frames=3,
+                                        mean_marker_error_mm=error,
+                                        mean_best_fitness=best,
+                                        seconds_per_frame=evaluations * v / 1e6 * (0.1 if backend == "opencl" else 1.0),
+                                        evaluation_seconds_per_frame=np.nan,
+                                    )
+                                )
+                                frames += [
+                                    dict(run_id=run_id, frame=f, marker_error_mm=e, fitness=best)
+                                    for f, e in enumerate(per_frame)
+                                ]
     runs = pd.DataFrame(runs)
     return (runs if settings is None else runs.assign(settings=settings)), pd.DataFrame(frames)
 
@@ -87,17 +118,25 @@ def test_table4_ranks_by_fitness_as_the_paper(sweep, tmp_path):
     assert (tables / "table4.csv").read_text().startswith("# mmocap ")  # provenance
     assert (tables / "table4.tex").read_text().startswith("% mmocap ")
     markdown = (tables / "table4.md").read_text()
-    assert "ranked by mean best fitness" in markdown.splitlines()[0] and markdown.splitlines()[2].startswith("_mmocap ")
+    assert "ranked by mean best fitness" in markdown.splitlines()[0]
+    assert markdown.splitlines()[2].startswith("_mmocap ")
     data = read(tables / "table4_data.csv")
-    assert set(data.ranked_by) == {"mean_best_fitness"} and data.settings.isna().all()
+    assert set(data.ranked_by) == {"mean_best_fitness"}
+    assert data.settings.isna().all()
     # every block: DE, CMAES, H-CMAES, PSAPF, APF (the errors rank H-CMAES first, DE third)
     for evaluations in (150, 450):
         ranks = data[data.evaluations == evaluations].set_index("algorithm")["rank"]
-        assert ranks.to_dict() == {f"{a}(39,{evaluations})": float(r) for r, a in
-                                   enumerate(["DE", "CMAES", "H-CMAES", "PSAPF", "APF"], 1)}
+        assert ranks.to_dict() == {
+            f"{a}(39,{evaluations})": float(r) for r, a in enumerate(["DE", "CMAES", "H-CMAES", "PSAPF", "APF"], 1)
+        }
     display = read(tables / "table4.csv")
     assert display["Algorithm (150 ev.)"].tolist()[:5] == [
-        "DE(39,150)", "CMAES(39,150)", "H-CMAES(39,150)", "PSAPF(39,150)", "APF(39,150)"]
+        "DE(39,150)",
+        "CMAES(39,150)",
+        "H-CMAES(39,150)",
+        "PSAPF(39,150)",
+        "APF(39,150)",
+    ]
 
 
 def test_table4_ranks_the_marker_error_second(sweep, tmp_path):
@@ -107,12 +146,19 @@ def test_table4_ranks_the_marker_error_second(sweep, tmp_path):
     assert "ranked by mean marker error (mm)" in (tables / "table4_marker_error.md").read_text().splitlines()[0]
     data = read(out / "tables" / "table4_marker_error_data.csv")
     assert set(data.ranked_by) == {"mean_marker_error_mm"}
-    assert set(data.dof) == {39} and set(data.evaluations) == {150, 450}
+    assert set(data.dof) == {39}
+    assert set(data.evaluations) == {150, 450}
     at150 = data[data.evaluations == 150].set_index("algorithm")
     # 4 blocks; H-CMAES first in 3, second in 1; CMAES the reverse; then DE, APF, PSAPF
-    assert at150["rank"].to_dict() == {"H-CMAES(39,150)": 1.25, "CMAES(39,150)": 1.75,
-                                       "DE(39,150)": 3.0, "APF(39,150)": 4.0, "PSAPF(39,150)": 5.0}
-    assert (at150.control == "H-CMAES(39,150)").all() and (at150.n_blocks == 4).all()
+    assert at150["rank"].to_dict() == {
+        "H-CMAES(39,150)": 1.25,
+        "CMAES(39,150)": 1.75,
+        "DE(39,150)": 3.0,
+        "APF(39,150)": 4.0,
+        "PSAPF(39,150)": 5.0,
+    }
+    assert (at150.control == "H-CMAES(39,150)").all()
+    assert (at150.n_blocks == 4).all()
     # chi2_F = 12N/(k(k+1)) (sum R^2 - k(k+1)^2/4) = 48/30 (54.625 - 45)
     assert at150.friedman_chi2.iloc[0] == pytest.approx(48 / 30 * 9.625)
     se = np.sqrt(5 * 6 / (6 * 4))
@@ -134,11 +180,13 @@ def test_table5_uses_28_dof_and_block_sequence_averages_seeds(sweep, tmp_path):
     out = tmp_path / "out"
     assert run_cli("paper", *["table5", str(sweep), "--out", str(out), "--block", "sequence"]) == 0
     data = read(out / "tables" / "table5_marker_error_data.csv")
-    assert set(data.dof) == {28} and (data.n_blocks == 2).all()
+    assert set(data.dof) == {28}
+    assert (data.n_blocks == 2).all()
     at450 = data[data.evaluations == 450].set_index("algorithm")["rank"]
     # the seeds' means: H-CMAES 9.05 mm and CMAES 11.05 in S1_walking, but 10.55 and 9.55 in
     # S1_boxing (seed 1 swapped them): each first in one of the two blocks
-    assert at450["H-CMAES(28,450)"] == 1.5 and at450["CMAES(28,450)"] == 1.5
+    assert at450["H-CMAES(28,450)"] == 1.5
+    assert at450["CMAES(28,450)"] == 1.5
 
 
 def test_tables6_and_7_group_hierarchical_and_holistic(sweep, tmp_path):
@@ -173,25 +221,39 @@ def test_each_settings_preset_is_ranked_apart_and_labelled(tmp_path):
     pd.concat([tuned_runs, paper_runs, unnamed_runs]).to_csv(folder / "runs.csv", index=False)
     written, _ = paper.make(["table4"], folder, tmp_path / "out")
     tables = tmp_path / "out" / "tables"
-    stems = ["table4_paper", "table4_paper_marker_error", "table4_tuned", "table4_tuned_marker_error",
-             "table4", "table4_marker_error"]  # the paper's first, the runs that name no preset last
+    stems = [
+        "table4_paper",
+        "table4_paper_marker_error",
+        "table4_tuned",
+        "table4_tuned_marker_error",
+        "table4",
+        "table4_marker_error",
+    ]  # the paper's first, the runs that name no preset last
     assert [p.name for p in written if p.suffix == ".md"] == [f"{stem}.md" for stem in stems]
     assert "Yeguas Table 4 (settings=paper): " in (tables / "table4_paper.md").read_text()
     assert "Yeguas Table 4 (settings=tuned): " in (tables / "table4_tuned_marker_error.md").read_text()
     first = {stem: read(tables / f"{stem}.csv")["Algorithm (150 ev.)"].iloc[0] for stem in stems}
-    assert first == {"table4_paper": "DE(39,150)", "table4_tuned": "APF(39,150)", "table4": "DE(39,150)",
-                     **{f"{stem}_marker_error": "H-CMAES(39,150)" for stem in ("table4_paper", "table4_tuned",
-                                                                                "table4")}}
+    assert first == {
+        "table4_paper": "DE(39,150)",
+        "table4_tuned": "APF(39,150)",
+        "table4": "DE(39,150)",
+        **{f"{stem}_marker_error": "H-CMAES(39,150)" for stem in ("table4_paper", "table4_tuned", "table4")},
+    }
     data = read(tables / "table4_tuned_data.csv")
-    assert set(data.settings) == {"tuned"} and (data.n_blocks == 4).all()  # the other presets' runs left out
+    assert set(data.settings) == {"tuned"}
+    assert (data.n_blocks == 4).all()
 
 
 def test_each_realism_and_preset_is_ranked_apart_realistic_first(tmp_path):
     # exact data ranks APF first by fitness, realistic data DE
     exact_fitness = {**FITNESS, ("apf", "holistic"): 0.05}
-    sweeps = [make_sweep(settings=settings, fitness=exact_fitness if realism == "exact" else FITNESS)[0]
-              .assign(realism=realism, run_id=lambda r, tag=f"{realism}-{settings}": tag + r.run_id)
-              for realism in ("exact", "realistic") for settings in ("tuned", "paper")]
+    sweeps = [
+        make_sweep(settings=settings, fitness=exact_fitness if realism == "exact" else FITNESS)[0].assign(
+            realism=realism, run_id=lambda r, tag=f"{realism}-{settings}": tag + r.run_id
+        )
+        for realism in ("exact", "realistic")
+        for settings in ("tuned", "paper")
+    ]
     folder = tmp_path / "sweep"
     folder.mkdir()
     pd.concat(sweeps).to_csv(folder / "runs.csv", index=False)
@@ -201,10 +263,16 @@ def test_each_realism_and_preset_is_ranked_apart_realistic_first(tmp_path):
     tables = tmp_path / "out" / "tables"
     assert "Yeguas Table 4 (realism=exact, settings=tuned): " in (tables / "table4_exact_tuned.md").read_text()
     first = {stem: read(tables / f"{stem}.csv")["Algorithm (150 ev.)"].iloc[0] for stem in stems}
-    assert first == {"table4_realistic_paper": "DE(39,150)", "table4_realistic_tuned": "DE(39,150)",
-                     "table4_exact_paper": "APF(39,150)", "table4_exact_tuned": "APF(39,150)"}
+    assert first == {
+        "table4_realistic_paper": "DE(39,150)",
+        "table4_realistic_tuned": "DE(39,150)",
+        "table4_exact_paper": "APF(39,150)",
+        "table4_exact_tuned": "APF(39,150)",
+    }
     data = read(tables / "table4_exact_paper_data.csv")
-    assert set(data.realism) == {"exact"} and set(data.settings) == {"paper"} and (data.n_blocks == 4).all()
+    assert set(data.realism) == {"exact"}
+    assert set(data.settings) == {"paper"}
+    assert (data.n_blocks == 4).all()
 
 
 def test_cano_table3_values_and_ranks(tmp_path):
@@ -229,20 +297,25 @@ def test_cano_table3_needs_one_algorithm(sweep, tmp_path):
 
 
 def test_fig4_front_and_table(tmp_path):
-    runs, _ = make_sweep(vertices=(3000, 2000), backends=("numpy", "opencl"),
-                         algorithms={("cmaes", "holistic"): 12.0}, dofs=(39,))
+    runs, _ = make_sweep(
+        vertices=(3000, 2000), backends=("numpy", "opencl"), algorithms={("cmaes", "holistic"): 12.0}, dofs=(39,)
+    )
     folder = tmp_path / "fig4"
     folder.mkdir()
     runs.to_csv(folder / "runs.csv", index=False)
     written, _ = paper.make(["fig4"], folder, tmp_path / "out")
     png = tmp_path / "out" / "figures" / "fig4.png"
-    assert png in written and Image.open(png).size[0] > 500
+    assert png in written
+    assert Image.open(png).size[0] > 500
     assert Image.open(png).info["Description"].startswith("mmocap ")
     table = read(tmp_path / "out" / "tables" / "fig4.csv")
     front = table[table.pareto]
     # opencl 3000 v is the fastest at each budget and 2000 v is 5 mm worse: it is dominated
     assert sorted(zip(front.backend, front.vertices, front.evaluations)) == [
-        ("opencl", 2000, 150), ("opencl", 3000, 150), ("opencl", 3000, 450)]
+        ("opencl", 2000, 150),
+        ("opencl", 3000, 150),
+        ("opencl", 3000, 450),
+    ]
 
 
 def test_figures_7_and_10(sweep, tmp_path):
@@ -252,7 +325,8 @@ def test_figures_7_and_10(sweep, tmp_path):
         path = tmp_path / "out" / "figures" / f"{name}.png"
         assert path in written
         image = np.asarray(Image.open(path).convert("L"))
-        assert image.shape[0] > 300 and image.std() > 10  # something drawn
+        assert image.shape[0] > 300
+        assert image.std() > 10
 
 
 def test_figures_and_cano_table3_are_made_per_variant(tmp_path):
@@ -261,9 +335,14 @@ def test_figures_and_cano_table3_are_made_per_variant(tmp_path):
     for realism, shift in (("exact", -4.0), ("realistic", 0.0)):
         runs, frames = make_sweep(vertices=(3000, 2000), algorithms={("cmaes", "holistic"): 12.0}, dofs=(39,))
         tag = realism[0]
-        variants.append((runs.assign(realism=realism, run_id=tag + runs.run_id,
-                                     mean_marker_error_mm=runs.mean_marker_error_mm + shift),
-                         frames.assign(run_id=tag + frames.run_id, marker_error_mm=frames.marker_error_mm + shift)))
+        variants.append(
+            (
+                runs.assign(
+                    realism=realism, run_id=tag + runs.run_id, mean_marker_error_mm=runs.mean_marker_error_mm + shift
+                ),
+                frames.assign(run_id=tag + frames.run_id, marker_error_mm=frames.marker_error_mm + shift),
+            )
+        )
     folder = tmp_path / "sweep"
     folder.mkdir()
     pd.concat([r for r, _ in variants]).to_csv(folder / "runs.csv", index=False)
@@ -272,8 +351,12 @@ def test_figures_and_cano_table3_are_made_per_variant(tmp_path):
     assert not skipped
     names = {p.name for p in written}
     for realism in ("realistic", "exact"):
-        assert {f"cano_table3_{realism}.md", f"fig4_{realism}.png", f"fig7_{realism}.png",
-                f"fig10_{realism}.png"} <= names
+        assert {
+            f"cano_table3_{realism}.md",
+            f"fig4_{realism}.png",
+            f"fig7_{realism}.png",
+            f"fig10_{realism}.png",
+        } <= names
     tables = tmp_path / "out" / "tables"
     cano = {r: read(tables / f"cano_table3_{r}.csv").set_index("Sequence") for r in ("realistic", "exact")}
     assert cano["realistic"].loc["S1_walking", "3000 v, 150 ev."] == pytest.approx(12.05)
@@ -281,8 +364,9 @@ def test_figures_and_cano_table3_are_made_per_variant(tmp_path):
     assert "(realism=exact)" in (tables / "cano_table3_exact.md").read_text()
     front = read(tables / "fig4_exact.csv")
     assert front.runs.sum() == len(variants[0][0])  # the exact runs alone
-    assert front.mean_marker_error_mm.min() == pytest.approx(variants[0][0].mean_marker_error_mm.groupby(
-        [variants[0][0].vertices, variants[0][0].evaluations]).mean().min())
+    assert front.mean_marker_error_mm.min() == pytest.approx(
+        variants[0][0].mean_marker_error_mm.groupby([variants[0][0].vertices, variants[0][0].evaluations]).mean().min()
+    )
 
 
 def test_fig10_needs_the_frames(sweep, tmp_path):
@@ -308,24 +392,34 @@ def test_all_makes_what_it_can_and_names_the_rest(sweep, tmp_path, capsys):
         assert (tmp_path / "out" / "tables" / f"{name}_marker_error.md").is_file()
 
 
-@pytest.mark.parametrize("damage, message", [
-    (lambda runs: runs.drop(columns="dof"), "missing column(s) 'dof'"),
-    (lambda runs: runs[runs.dof == 28], "no runs with dof = 39 for table4"),
-    (lambda runs: runs[runs.optimizer == "cmaes"],
-     "table4 at 39 DOF and 150 evaluations: the Friedman test needs at least 3 values of 'algorithm', "
-     "got 2: CMAES(39,150), H-CMAES(39,150)"),
-    (lambda runs: runs.assign(mean_marker_error_mm=runs.mean_marker_error_mm.where(runs.index != 0, np.nan)),
-     "table4_marker_error at 39 DOF and 150 evaluations: column 'mean_marker_error_mm' holds 1 NaN or infinite"),
-    (lambda runs: runs.assign(mean_best_fitness=runs.mean_best_fitness.where(runs.index != 0, np.nan)),
-     "table4 at 39 DOF and 150 evaluations: column 'mean_best_fitness' holds 1 NaN or infinite"),
-    (lambda runs: runs.drop(columns="mean_best_fitness"), "missing column(s) 'mean_best_fitness'"),
-])
+@pytest.mark.parametrize(
+    ("damage", "message"),
+    [
+        (lambda runs: runs.drop(columns="dof"), "missing column(s) 'dof'"),
+        (lambda runs: runs[runs.dof == 28], "no runs with dof = 39 for table4"),
+        (
+            lambda runs: runs[runs.optimizer == "cmaes"],
+            "table4 at 39 DOF and 150 evaluations: the Friedman test needs at least 3 values of 'algorithm', "
+            "got 2: CMAES(39,150), H-CMAES(39,150)",
+        ),
+        (
+            lambda runs: runs.assign(mean_marker_error_mm=runs.mean_marker_error_mm.where(runs.index != 0, np.nan)),
+            "table4_marker_error at 39 DOF and 150 evaluations: column 'mean_marker_error_mm' holds 1 NaN or infinite",
+        ),
+        (
+            lambda runs: runs.assign(mean_best_fitness=runs.mean_best_fitness.where(runs.index != 0, np.nan)),
+            "table4 at 39 DOF and 150 evaluations: column 'mean_best_fitness' holds 1 NaN or infinite",
+        ),
+        (lambda runs: runs.drop(columns="mean_best_fitness"), "missing column(s) 'mean_best_fitness'"),
+    ],
+)
 def test_bad_runs_exit_2_with_one_line(sweep, tmp_path, capsys, damage, message):
     runs = damage(read(sweep / "runs.csv"))
     runs.to_csv(sweep / "runs.csv", index=False)
     assert run_cli("paper", *["table4", str(sweep), "--out", str(tmp_path / "out")]) == 2
     err = capsys.readouterr().err
-    assert err.startswith(f"mmocap: error: {sweep / 'runs.csv'}") and message in err
+    assert err.startswith(f"mmocap: error: {sweep / 'runs.csv'}")
+    assert message in err
     assert err.count("\n") == 1
 
 
@@ -338,14 +432,19 @@ def test_runs_csv_columns_are_checked_for_what_each_table_uses(sweep, tmp_path):
     runs = read(sweep / "runs.csv")
     runs.loc[3, "evaluations"] = np.nan  # a groupby would drop this run silently
     runs.to_csv(sweep / "runs.csv", index=False)
-    with pytest.raises(DataError, match=r"runs.csv: column 'evaluations' has 1 empty cell\(s\), the first in "
-                                        r"data row 4"):
+    with pytest.raises(
+        DataError,
+        match=r"runs.csv: column 'evaluations' has 1 empty cell\(s\), the first in "
+        r"data row 4",
+    ):
         paper.make(["table4"], sweep, tmp_path)
     runs = runs.astype({"evaluations": object})
     runs.loc[3, "evaluations"] = "150 ev."
     runs.to_csv(sweep / "runs.csv", index=False)
-    with pytest.raises(DataError, match="column 'evaluations' must hold whole numbers; 1 cell.s. do not, "
-                                        "the first '150 ev.' in data row 4"):
+    with pytest.raises(
+        DataError,
+        match="column 'evaluations' must hold whole numbers; 1 cell.s. do not, the first '150 ev.' in data row 4",
+    ):
         paper.make(["table4"], sweep, tmp_path)
 
 
@@ -362,7 +461,8 @@ def test_frames_without_ground_truth_are_left_out_with_a_warning(sweep, tmp_path
     frames.to_csv(sweep / "frames.csv", index=False)
     with pytest.warns(MmocapWarning, match=r"frames.csv: 2 of \d+ frame\(s\), of 1 run\(s\), have no marker error"):
         data = paper.frame_errors(read(sweep / "runs.csv"), frames, str(sweep / "runs.csv"))
-    assert len(data) == len(frames) - 2 and data["marker_error_mm"].notna().all()
+    assert len(data) == len(frames) - 2
+    assert data["marker_error_mm"].notna().all()
     frames.loc[0, "marker_error_mm"] = np.inf
     with pytest.raises(DataError, match=r"frames.csv: column 'marker_error_mm' holds 1 infinite value"):
         paper.frame_errors(read(sweep / "runs.csv"), frames, str(sweep / "runs.csv"))

@@ -1,5 +1,6 @@
 """`mmocap stats`: its options are checked before the test runs (the test itself is checked
 in tests/analysis/test_statistics.py)."""
+
 import pandas as pd
 import pytest
 
@@ -32,7 +33,8 @@ def test_nothing_is_computed_or_printed_when_the_output_cannot_be_written(result
     (tmp_path / "notes").write_text("")
     assert run_cli("stats", results, "--block", "sequence", "--out", tmp_path / "notes" / "t4") == 2
     out = capsys.readouterr()
-    assert out.out == "" and out.err.startswith(f"mmocap: error: cannot write {tmp_path / 'notes'}")
+    assert out.out == ""
+    assert out.err.startswith(f"mmocap: error: cannot write {tmp_path / 'notes'}")
 
 
 @pytest.mark.parametrize("alpha", ["0", "1", "-0.1", "nan"])

@@ -20,13 +20,15 @@ def summary_text(**changes) -> str:
 def test_collect_sorts_runs_by_error(tmp_path, capsys):
     for name, err in (("a", 30.0), ("b", 12.5)):
         (tmp_path / name).mkdir()
-        (tmp_path / name / "summary.json").write_text(summary_text(
-            optimizer=name, strategy="holistic", mean_marker_error_mm=err))
+        (tmp_path / name / "summary.json").write_text(
+            summary_text(optimizer=name, strategy="holistic", mean_marker_error_mm=err)
+        )
     table = collect(tmp_path)
     assert list(table["optimizer"]) == ["b", "a"]
     assert run_cli("summaries", *[str(tmp_path), "--csv", str(tmp_path / "t.csv")]) == 0
     out = capsys.readouterr().out
-    assert "| b " in out and out.index("| b ") < out.index("| a ")
+    assert "| b " in out
+    assert out.index("| b ") < out.index("| a ")
     assert (tmp_path / "t.csv").read_text().startswith("optimizer,")
 
 
@@ -45,12 +47,18 @@ def test_a_run_without_ground_truth_is_listed_last_with_a_warning(tmp_path):
     assert list(table["optimizer"]) == ["c", "b", "a"]
 
 
-@pytest.mark.parametrize("text, message", [
-    (summary_text(optimizer="x", mean_marker_error_mm="low"), "mean_marker_error_mm is 'low', not a number or null"),
-    (summary_text(optimizer="x", max_marker_error_mm=[1]), "max_marker_error_mm is [1], not a number or null"),
-    ("[1]", "is not a run summary"),
-    ('{"optimizer": ', "is not valid JSON"),
-])
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        (
+            summary_text(optimizer="x", mean_marker_error_mm="low"),
+            "mean_marker_error_mm is 'low', not a number or null",
+        ),
+        (summary_text(optimizer="x", max_marker_error_mm=[1]), "max_marker_error_mm is [1], not a number or null"),
+        ("[1]", "is not a run summary"),
+        ('{"optimizer": ', "is not valid JSON"),
+    ],
+)
 def test_a_broken_summary_names_its_file(tmp_path, text, message):
     (tmp_path / "r").mkdir()
     (tmp_path / "r" / "summary.json").write_text(text)

@@ -1,4 +1,5 @@
 """Stage "accuracy": the marker error, and the per-frame table written as a run goes."""
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -28,7 +29,8 @@ def log_two_frames(path):
 def test_rows_go_to_a_partial_file_renamed_when_complete(tmp_path):
     path = tmp_path / "frames.csv"
     log = log_two_frames(path)
-    assert log.partial.name == "frames.csv.partial" and not path.exists()
+    assert log.partial.name == "frames.csv.partial"
+    assert not path.exists()
     assert len(log.partial.read_text().splitlines()) == 3  # flushed row by row: a crash keeps them
     log.close()
     log.close()  # closing again does nothing
@@ -36,14 +38,16 @@ def test_rows_go_to_a_partial_file_renamed_when_complete(tmp_path):
     assert not log.partial.exists()
     assert list(table.columns[:5]) == ["frame", "marker_error_mm", "fitness", "evaluations", "seconds"]
     assert list(table.columns[5:]) == parameter_names()
-    assert table["marker_error_mm"].tolist() == [10.0, 11.0] and table.iloc[1, 5] == pytest.approx(0.1)
+    assert table["marker_error_mm"].tolist() == [10.0, 11.0]
+    assert table.iloc[1, 5] == pytest.approx(0.1)
 
 
 def test_a_stopped_run_leaves_only_the_partial_file(tmp_path):
     path = tmp_path / "frames.csv"
     log = log_two_frames(path)
     log.close(complete=False)
-    assert not path.exists() and len(pd.read_csv(log.partial)) == 2
+    assert not path.exists()
+    assert len(pd.read_csv(log.partial)) == 2
 
 
 def test_a_log_that_cannot_be_written_names_its_file(tmp_path):

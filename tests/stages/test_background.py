@@ -1,4 +1,5 @@
 """Background models: Gaussian, Horprasert, OpenCV MOG2 and KNN, and the shared clean-up."""
+
 import cv2
 import numpy as np
 import pytest
@@ -44,7 +45,8 @@ def test_rectangle_person_is_found(channels):
     truth = np.zeros((H, W), bool)
     truth[PERSON] = True
     mask = model.apply(noisy(image, rng))
-    assert mask.shape == (H, W) and mask.dtype == bool
+    assert mask.shape == (H, W)
+    assert mask.dtype == bool
     assert iou(mask, truth) > 0.9
     # the empty scene gives (almost) nothing
     assert model.apply(noisy(background, rng)).sum() < 0.01 * H * W
@@ -57,11 +59,12 @@ def test_std_is_floored_and_small_specks_are_removed():
     np.testing.assert_array_equal(model.std, 3.0)
     np.testing.assert_array_equal(model.mean, 100.0)
     image = flat.copy()
-    image[10:13, 10:13] = 200    # 9 px: removed
+    image[10:13, 10:13] = 200  # 9 px: removed
     image[50:60, 50:60, 1] = 113  # 100 px, |13| / 3 > 4: kept
-    image[80:90, 80:90] = 112    # |12| / 3 = 4 is not above the threshold
+    image[80:90, 80:90] = 112  # |12| / 3 = 4 is not above the threshold
     mask = model.apply(image)
-    assert mask.sum() == 100 and mask[50:60, 50:60].all()
+    assert mask.sum() == 100
+    assert mask[50:60, 50:60].all()
 
 
 def test_errors_name_the_problem():
@@ -78,8 +81,14 @@ def test_errors_name_the_problem():
         model.apply(frame[:, :, 0])
     with pytest.raises(RuntimeError, match="before fit"):
         GaussianBackground().apply(frame)
-    for kwargs in ({"threshold": 0}, {"min_sigma": -1.0}, {"open_px": -1}, {"close_px": 2.5},
-                   {"min_area_px": "50"}, {"threshold": float("nan")}):
+    for kwargs in (
+        {"threshold": 0},
+        {"min_sigma": -1.0},
+        {"open_px": -1},
+        {"close_px": 2.5},
+        {"min_area_px": "50"},
+        {"threshold": float("nan")},
+    ):
         with pytest.raises(ConfigError, match=next(iter(kwargs))):
             GaussianBackground(**kwargs)
 
@@ -103,7 +112,7 @@ def soft_light(image, factor):
     """``image`` under a soft-edged pool of light: a Gaussian blob (sigma 15 px) centred on
     REGION whose centre multiplies the light by ``factor``; also returns the (H, W) light."""
     rows, cols = np.mgrid[:H, :W]
-    light = 1 + (factor - 1) * np.exp(-((rows - 40) ** 2 + (cols - 45) ** 2) / (2 * 15.0 ** 2))
+    light = 1 + (factor - 1) * np.exp(-((rows - 40) ** 2 + (cols - 45) ** 2) / (2 * 15.0**2))
     return image * (light[..., None] if image.ndim == 3 else light), light
 
 
@@ -122,35 +131,36 @@ def test_horprasert_tells_shadow_and_highlight_from_foreground(channels):
     shaded, light = soft_light(background, 0.65)  # a shadow: the same texture, darker
     assert label_fractions(model, shaded, rng, light < 0.9)[SHADOW] > 0.95
     assert not model.apply(noisy(shaded, rng)).any()
-    lit, light = soft_light(background, 1.25)     # a highlight: brighter
+    lit, light = soft_light(background, 1.25)  # a highlight: brighter
     assert label_fractions(model, lit, rng, light > 1.1)[HIGHLIGHT] > 0.95
     assert not model.apply(noisy(lit, rng)).any()
-    person = background.copy()                   # about as bright, another pattern or colour
+    person = background.copy()  # about as bright, another pattern or colour
     other = scene(np.random.default_rng(99), channels)
     person[REGION] = (other[..., ::-1] if channels == 3 else 0.8 * other)[REGION]
     assert labels_in_region(model, person, rng)[FOREGROUND] > 0.8
     assert iou(model.apply(noisy(person, rng)), REGION_TRUTH) > 0.9
     dark = background.copy()
-    dark[REGION] *= 0.3                          # darker than any shadow: foreground
+    dark[REGION] *= 0.3  # darker than any shadow: foreground
     assert labels_in_region(model, dark, rng)[FOREGROUND] > 0.95
 
 
 @pytest.mark.parametrize("channels", [3, 1])
 def test_horprasert_thresholds_come_from_the_background_frames(channels):
-    model, background, rng = fitted(HorprasertBackground(detection_rate=0.999, close_px=0,
-                                                         min_area_px=0), channels)
-    assert model.tau_alpha_low < 0 < model.tau_alpha_high and model.tau_cd > 0
+    model, background, rng = fitted(HorprasertBackground(detection_rate=0.999, close_px=0, min_area_px=0), channels)
+    assert model.tau_alpha_low < 0 < model.tau_alpha_high
+    assert model.tau_cd > 0
     # on new frames of the empty scene about 1 - detection_rate of the pixels are foreground
     raw = np.mean([model.classify(noisy(background, rng)) == FOREGROUND for _ in range(3)])
     assert raw < 0.005
     strict, *_ = fitted(HorprasertBackground(detection_rate=0.9), channels)
-    assert strict.tau_cd < model.tau_cd and strict.tau_alpha_high < model.tau_alpha_high
+    assert strict.tau_cd < model.tau_cd
+    assert strict.tau_alpha_high < model.tau_alpha_high
 
 
 def test_horprasert_greyscale_without_window_uses_brightness_only():
     model, background, rng = fitted(HorprasertBackground(grey_window_px=1), 1)
     _, cd = model.distortions(noisy(background, rng))
-    np.testing.assert_allclose(cd, 0, atol=0.1)    # one channel: CD is undefined (always 0)
+    np.testing.assert_allclose(cd, 0, atol=0.1)  # one channel: CD is undefined (always 0)
     shaded, light = soft_light(background, 0.65)
     assert label_fractions(model, shaded, rng, light < 0.9)[SHADOW] > 0.95
 
@@ -158,35 +168,36 @@ def test_horprasert_greyscale_without_window_uses_brightness_only():
 @pytest.mark.parametrize("method", ["mog2", "knn"])
 @pytest.mark.parametrize("channels", [3, 1])
 def test_opencv_subtractors_find_the_person_and_do_not_learn_it(method, channels):
-    model, background, rng = fitted(OpenCVBackground(method=method, threshold=16.0 if method == "mog2"
-                                                     else 400.0), channels)
+    model, background, rng = fitted(
+        OpenCVBackground(method=method, threshold=16.0 if method == "mog2" else 400.0), channels
+    )
     image = background.copy()
     image[PERSON] = 0.35 * scene(rng, channels)[PERSON]
     truth = np.zeros((H, W), bool)
     truth[PERSON] = True
     first = model.apply(noisy(image, rng))
     assert iou(first, truth) > 0.9
-    for _ in range(5):                           # applied without learning
+    for _ in range(5):  # applied without learning
         model.apply(image.astype(np.uint8))
     assert iou(model.apply(noisy(image, rng)), truth) > 0.9
 
 
 def test_cleanup_keeps_the_largest_component_and_drops_small_ones():
     mask = np.zeros((H, W), bool)
-    mask[10:40, 10:40] = True        # 900 px
-    mask[60:75, 100:115] = True      # 225 px
-    mask[100:103, 5:8] = True        # 9 px
+    mask[10:40, 10:40] = True  # 900 px
+    mask[60:75, 100:115] = True  # 225 px
+    mask[100:103, 5:8] = True  # 9 px
     assert Cleanup(close_px=0, min_area_px=20)(mask).sum() == 900 + 225
     largest = Cleanup(close_px=0, min_area_px=0, largest_only=True)(mask)
-    assert largest.sum() == 900 and largest[10:40, 10:40].all()
+    assert largest.sum() == 900
+    assert largest[10:40, 10:40].all()
     assert not Cleanup(largest_only=True)(np.zeros((H, W), bool)).any()
     holed = mask.copy()
     holed[20, 20] = False
     assert Cleanup(close_px=3, min_area_px=0)(holed)[20, 20]
 
 
-@pytest.mark.parametrize("make", [HorprasertBackground, GaussianBackground,
-                                  lambda: OpenCVBackground(method="knn")])
+@pytest.mark.parametrize("make", [HorprasertBackground, GaussianBackground, lambda: OpenCVBackground(method="knn")])
 def test_short_or_inconsistent_background_sets_name_the_camera(make):
     rng = np.random.default_rng(5)
     frame = noisy(scene(rng, 3), rng)
@@ -199,14 +210,22 @@ def test_short_or_inconsistent_background_sets_name_the_camera(make):
         make().fit([frame[..., None]] * 4, name="C3")
 
 
-@pytest.mark.parametrize("make, kwargs", [
-    (HorprasertBackground, {"detection_rate": 1.5}), (HorprasertBackground, {"detection_rate": 0}),
-    (HorprasertBackground, {"min_sigma": -1.0}), (HorprasertBackground, {"shadow_min_alpha": 1.2}),
-    (HorprasertBackground, {"highlight_max_alpha": 0.9}), (HorprasertBackground, {"grey_window_px": 4}),
-    (HorprasertBackground, {"open_px": -1}), (HorprasertBackground, {"largest_only": "yes"}),
-    (OpenCVBackground, {"method": "vibe"}), (OpenCVBackground, {"threshold": -3.0}),
-    (OpenCVBackground, {"detect_shadows": 1}),
-])
+@pytest.mark.parametrize(
+    ("make", "kwargs"),
+    [
+        (HorprasertBackground, {"detection_rate": 1.5}),
+        (HorprasertBackground, {"detection_rate": 0}),
+        (HorprasertBackground, {"min_sigma": -1.0}),
+        (HorprasertBackground, {"shadow_min_alpha": 1.2}),
+        (HorprasertBackground, {"highlight_max_alpha": 0.9}),
+        (HorprasertBackground, {"grey_window_px": 4}),
+        (HorprasertBackground, {"open_px": -1}),
+        (HorprasertBackground, {"largest_only": "yes"}),
+        (OpenCVBackground, {"method": "vibe"}),
+        (OpenCVBackground, {"threshold": -3.0}),
+        (OpenCVBackground, {"detect_shadows": 1}),
+    ],
+)
 def test_bad_config_values_name_the_parameter(make, kwargs):
     with pytest.raises(ConfigError, match=f"background.{next(iter(kwargs))}"):
         make(**kwargs)
@@ -216,7 +235,7 @@ def test_horprasert_greyscale_absorbs_a_penumbra_across_the_window():
     model, background, rng = fitted(HorprasertBackground(close_px=0, min_area_px=0), 1)
     light = np.full((H, W), 0.6)
     light[:, :40] = 1.0
-    light[:, 40:80] = np.linspace(1.0, 0.6, 40)       # brightness falls 1 % per pixel
+    light[:, 40:80] = np.linspace(1.0, 0.6, 40)  # brightness falls 1 % per pixel
     labels = model.classify(noisy(background * light, rng))
     assert np.mean(labels[:, 50:] == SHADOW) > 0.95
     assert np.mean(labels == FOREGROUND) < 0.005

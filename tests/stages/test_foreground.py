@@ -1,4 +1,5 @@
 """Foreground stage: packed masks, the per-frame cache, undistortion, the OpenCL upload."""
+
 import functools
 import os
 import pickle
@@ -57,7 +58,8 @@ def reset_counter():
 def test_packed_rows_are_the_bit_layout_and_unpack(width):
     mask = np.random.default_rng(width).random((5, width)) < 0.4
     packed = pack_rows(mask)
-    assert packed.dtype == np.dtype("<u4") and packed.shape == (5, (width + 31) // 32)
+    assert packed.dtype == np.dtype("<u4")
+    assert packed.shape == (5, (width + 31) // 32)
     np.testing.assert_array_equal(packed, reference_bits(mask))
     np.testing.assert_array_equal(unpack_rows(packed, width), mask)
 
@@ -65,9 +67,12 @@ def test_packed_rows_are_the_bit_layout_and_unpack(width):
 def test_foreground_mask_carries_its_bits_and_area():
     plain = np.random.default_rng(1).random((24, 70)) < 0.3
     mask = ForegroundMask(plain)
-    assert mask.shape == (24, 70) and mask.dtype == bool and mask.area == plain.sum()
+    assert mask.shape == (24, 70)
+    assert mask.dtype == bool
+    assert mask.area == plain.sum()
     np.testing.assert_array_equal(mask.packed, reference_bits(plain))
-    assert mask[2:].packed is None and (~mask).area is None      # derived arrays are plain
+    assert mask[2:].packed is None
+    assert (~mask).area is None
     again = pickle.loads(pickle.dumps(mask))
     np.testing.assert_array_equal(again.packed, mask.packed)
     assert again.area == mask.area
@@ -83,9 +88,10 @@ def test_opencl_uploads_the_packed_rows_as_they_are():
     size = 48 * 8 + 5  # rows of 3 words widened to 8, then 5 spare words
     packed = opencl_layout.pack_bits(mask, size, mask.packed)
     np.testing.assert_array_equal(packed, opencl_layout.pack_bits(np.asarray(mask), size))
-    rows = packed[:48 * 8].reshape(48, 8)
+    rows = packed[: 48 * 8].reshape(48, 8)
     np.testing.assert_array_equal(rows[:, :3], reference_bits(mask))
-    assert not rows[:, 3:].any() and not packed[48 * 8:].any()
+    assert not rows[:, 3:].any()
+    assert not packed[48 * 8 :].any()
 
 
 def test_opencl_counts_the_same_from_foreground_masks():
@@ -104,7 +110,7 @@ def test_opencl_counts_the_same_from_foreground_masks():
     expected = ev.counts(X)
     foreground = [ForegroundMask(m) for m in plain]
     ev.setup(BlobBody(), RIGS[rig], foreground)
-    assert all(p is m.packed for p, m in zip(ev._packed, foreground))    # used as they are
+    assert all(p is m.packed for p, m in zip(ev._packed, foreground))  # used as they are
     for got, want in zip(ev.counts(X), expected):
         np.testing.assert_array_equal(got, want)
     ev.close()
@@ -116,7 +122,8 @@ def test_masks_are_undistorted_foreground_with_areas(sequence):
     masks = fg.masks(1)
     raw = fg.detect(1)
     for cam, mask, detected in zip(sequence.cameras, masks, raw):
-        assert isinstance(mask, ForegroundMask) and mask.shape == (cam.height, cam.width)
+        assert isinstance(mask, ForegroundMask)
+        assert mask.shape == (cam.height, cam.width)
         assert mask.area == np.count_nonzero(mask) > 0.005 * mask.size
         np.testing.assert_array_equal(mask, cam.undistort_mask(detected))
         np.testing.assert_array_equal(mask.packed, pack_rows(mask))
@@ -130,9 +137,10 @@ def test_cache_hit_miss_and_invalidation(sequence, tmp_path):
     first = Foreground(sequence, make, cache_dir=cache)
     computed = [first.masks(f) for f in range(sequence.n_frames)]
     cams = len(sequence.cameras)
-    assert CountingHorprasert.applied == sequence.n_frames * cams and first.cache.misses == 4
+    assert CountingHorprasert.applied == sequence.n_frames * cams
+    assert first.cache.misses == 4
     files = sorted(p.name for p in first.cache.folder.iterdir())
-    assert files == [f"{f:06d}.npz" for f in range(sequence.n_frames)]     # no temporary left
+    assert files == [f"{f:06d}.npz" for f in range(sequence.n_frames)]  # no temporary left
 
     # hit: a new run reads every frame back, fits no model and segments nothing
     second = Foreground(sequence, make, cache_dir=cache)
@@ -142,11 +150,11 @@ def test_cache_hit_miss_and_invalidation(sequence, tmp_path):
             np.testing.assert_array_equal(a.packed, b.packed)
             assert a.area == b.area
     assert CountingHorprasert.applied == sequence.n_frames * cams
-    assert second.cache.hits == sequence.n_frames and second._models is None
+    assert second.cache.hits == sequence.n_frames
+    assert second._models is None
 
     # another background configuration: another folder, computed again
-    other = Foreground(sequence, functools.partial(CountingHorprasert, detection_rate=0.99),
-                       cache_dir=cache)
+    other = Foreground(sequence, functools.partial(CountingHorprasert, detection_rate=0.99), cache_dir=cache)
     assert other.cache.folder != first.cache.folder
     other.masks(0)
     assert CountingHorprasert.applied == (sequence.n_frames + 1) * cams
@@ -174,8 +182,7 @@ def test_a_damaged_cache_file_is_recomputed_and_replaced(sequence, tmp_path):
     assert Foreground(sequence, CountingHorprasert, cache_dir=tmp_path).cache.load(2) is not None
 
 
-def test_default_cache_is_in_outputs_and_follows_the_background_frames(sequence, tmp_path,
-                                                                        monkeypatch):
+def test_default_cache_is_in_outputs_and_follows_the_background_frames(sequence, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     fg = Foreground(sequence, HorprasertBackground)
     fg.masks(0)
@@ -201,8 +208,17 @@ def test_unwritable_cache_folder_only_turns_the_cache_off(sequence, tmp_path, ca
 
 def test_undistorted_masks_match_a_distortion_free_rendering(tmp_path):
     """The same scene rendered through the lens and through ideal pin-holes."""
-    kwargs = dict(subject="S1", action="walking", frames=1, cameras=("C1", "BW1"), width=320,
-                  height=240, background_frames=4, seed=3, progress=False)
+    kwargs = dict(
+        subject="S1",
+        action="walking",
+        frames=1,
+        cameras=("C1", "BW1"),
+        width=320,
+        height=240,
+        background_frames=4,
+        seed=3,
+        progress=False,
+    )
     lens = Sequence.open(generate(tmp_path / "lens", distortion=1.0, **kwargs))
     ideal = Sequence.open(generate(tmp_path / "ideal", distortion=0.0, **kwargs))
     lens_fg = Foreground(lens, HorprasertBackground, cache_dir=None)
@@ -226,10 +242,17 @@ def test_tracking_through_the_lens_matches_a_distortion_free_rendering(tmp_path,
     monkeypatch.chdir(tmp_path)
     errors = {}
     for distortion in (1.0, 0.0):
-        cfg = mmocap_config.compose([
-            "+experiment=demo", f"dataset.root={tmp_path / f'data{distortion}'}",
-            f"dataset.distortion={distortion}", "dataset.frames=10",
-            "dataset.all_cameras=${dataset.cameras}", "overlays=0", "progress=false"])
+        cfg = mmocap_config.compose(
+            [
+                "+experiment=demo",
+                f"dataset.root={tmp_path / f'data{distortion}'}",
+                f"dataset.distortion={distortion}",
+                "dataset.frames=10",
+                "dataset.all_cameras=${dataset.cameras}",
+                "overlays=0",
+                "progress=false",
+            ]
+        )
         errors[distortion] = run(cfg, tmp_path / f"run{distortion}")["mean_marker_error_mm"]
     assert errors[0.0] < 25
     assert abs(errors[1.0] - errors[0.0]) < 3, errors
@@ -245,15 +268,14 @@ def test_quality_table_scores_each_method_per_camera(sequence):
     from mmocap.stages.background import GaussianBackground
 
     truth = np.zeros((4, 5), bool)
-    truth[1:3, 1:4] = True                     # 6 px
+    truth[1:3, 1:4] = True  # 6 px
     mask = np.zeros((4, 5), bool)
-    mask[1:3, 2:5] = True                      # 6 px, 4 of them on the truth
+    mask[1:3, 2:5] = True  # 6 px, 4 of them on the truth
     np.testing.assert_array_equal(confusion(mask, truth), [4, 2, 2])
     np.testing.assert_allclose(scores(np.array([4, 2, 2])), [4 / 6, 4 / 6, 4 / 8])
     assert np.isnan(scores(np.zeros(3))).all()
 
-    table = quality_table(sequence, {"horprasert": HorprasertBackground,
-                                     "gaussian": GaussianBackground}, frames=[0, 3])
+    table = quality_table(sequence, {"horprasert": HorprasertBackground, "gaussian": GaussianBackground}, frames=[0, 3])
     names = [cam.name for cam in sequence.cameras]
     assert list(table["camera"]) == [*names, "all"] * 2
     assert list(table["method"]) == ["horprasert"] * 4 + ["gaussian"] * 4
@@ -270,25 +292,46 @@ def test_quality_command_writes_the_tables(tiny_sequence, tmp_path, capsys):
 
     shutil.copytree(tiny_sequence, tmp_path / "data" / "S1_walking")
     cameras = "[" + ",".join(TINY["cameras"]) + "]"
-    overrides = [f"dataset.root={tmp_path / 'data'}", f"dataset.frames={TINY['frames']}",
-                 f"dataset.cameras={cameras}", f"dataset.all_cameras={cameras}",
-                 f"dataset.width={TINY['width']}", f"dataset.height={TINY['height']}",
-                 f"dataset.background_frames={TINY['background_frames']}",
-                 f"dataset.seed={TINY['seed']}", "progress=false"]
+    overrides = [
+        f"dataset.root={tmp_path / 'data'}",
+        f"dataset.frames={TINY['frames']}",
+        f"dataset.cameras={cameras}",
+        f"dataset.all_cameras={cameras}",
+        f"dataset.width={TINY['width']}",
+        f"dataset.height={TINY['height']}",
+        f"dataset.background_frames={TINY['background_frames']}",
+        f"dataset.seed={TINY['seed']}",
+        "progress=false",
+    ]
     csv, md = tmp_path / "t" / "fg.csv", tmp_path / "t" / "fg.md"
     # options and overrides intermixed
-    assert run_cli("foreground-quality", *overrides[:3], "--methods", "horprasert,mog2", "--csv", csv,
-                   *overrides[3:], "--md", md) == 0
+    assert (
+        run_cli(
+            "foreground-quality",
+            *overrides[:3],
+            "--methods",
+            "horprasert,mog2",
+            "--csv",
+            csv,
+            *overrides[3:],
+            "--md",
+            md,
+        )
+        == 0
+    )
     table = pd.read_csv(csv)
     assert list(table.columns) == ["method", "camera", "precision", "recall", "iou"]
     assert len(table) == 2 * (len(TINY["cameras"]) + 1)
     assert md.read_text() == capsys.readouterr().out
     assert "S1 walking (4 frames)" in md.read_text()
-    for args in (["--methods", "horprasert", "background.detection_rate=2"],   # out of range
-                 ["background.detection_rate=0.99"]):                          # not in mog2
+    for args in (
+        ["--methods", "horprasert", "background.detection_rate=2"],  # out of range
+        ["background.detection_rate=0.99"],
+    ):  # not in mog2
         assert run_cli("foreground-quality", *overrides, "--csv", csv, "--md", md, *args) == 2
         err = capsys.readouterr().err
-        assert err.startswith("mmocap: error:") and "background.detection_rate" in err
+        assert err.startswith("mmocap: error:")
+        assert "background.detection_rate" in err
 
 
 class _Cam:
@@ -309,7 +352,8 @@ def test_coverage_flags_a_camera_only_after_frames_in_a_row():
     person, empty = _mask(0.05), _mask(0.0)
     for frame, b in enumerate([empty, empty, person, empty, empty]):  # streaks of 2 only
         kept, masks = check.select(frame, cams, [person, b], last_frame=9)
-        assert [c.name for c in kept] == ["A", "B"] and len(masks) == 2
+        assert [c.name for c in kept] == ["A", "B"]
+        assert len(masks) == 2
     with pytest.raises(DataError, match=r"camera B: foreground covers 0.00% .* frames 3-5"):
         check.select(5, cams, [person, empty], last_frame=9)
 
@@ -319,7 +363,8 @@ def test_coverage_drop_keeps_tracking_with_the_other_cameras_until_none_is_left(
     cams = [_Cam("A"), _Cam("B")]
     with pytest.warns(MmocapWarning, match="camera B: foreground covers 90.00%.*dropped"):
         kept, masks = check.select(0, cams, [_mask(0.05), _mask(0.9)], last_frame=5)
-    assert [c.name for c in kept] == ["A"] and masks[0].mean() == pytest.approx(0.05)
+    assert [c.name for c in kept] == ["A"]
+    assert masks[0].mean() == pytest.approx(0.05)
     kept, _ = check.select(1, cams, [_mask(0.05), _mask(0.05)], last_frame=5)
     assert [c.name for c in kept] == ["A"]  # a dropped camera stays dropped
     with pytest.warns(MmocapWarning), pytest.raises(DataError, match="no camera left"):
@@ -333,10 +378,15 @@ def test_coverage_flags_a_camera_faulty_over_the_whole_of_a_short_run():
         check.select(1, [_Cam("A")], [_mask(0.0)], last_frame=1)
 
 
-@pytest.mark.parametrize("kwargs, key", [({"action": "warn"}, "coverage.action"),
-                                         ({"min_fraction": -0.1}, "coverage.min_fraction"),
-                                         ({"min_fraction": 0.6, "max_fraction": 0.5}, "coverage.max_fraction"),
-                                         ({"frames": 0}, "coverage.frames")])
+@pytest.mark.parametrize(
+    ("kwargs", "key"),
+    [
+        ({"action": "warn"}, "coverage.action"),
+        ({"min_fraction": -0.1}, "coverage.min_fraction"),
+        ({"min_fraction": 0.6, "max_fraction": 0.5}, "coverage.max_fraction"),
+        ({"frames": 0}, "coverage.frames"),
+    ],
+)
 def test_coverage_settings_are_checked(kwargs, key):
     with pytest.raises(ConfigError, match=key):
         ForegroundCoverage(**kwargs)

@@ -1,4 +1,5 @@
 """The automatic start: rays, visual hull and the search for the first pose and body size."""
+
 import numpy as np
 import pytest
 
@@ -35,7 +36,7 @@ def sphere_masks(cameras, centre, radius_mm) -> list[np.ndarray]:
     """(H, W) bool images of a ball: pixels whose ray passes within ``radius_mm`` of ``centre``."""
     masks = []
     for camera in cameras:
-        rows, cols = np.mgrid[0:camera.height, 0:camera.width]
+        rows, cols = np.mgrid[0 : camera.height, 0 : camera.width]
         pixels = np.stack([cols, rows, np.ones_like(cols)], axis=-1).reshape(-1, 3).astype(float)
         rays = pixels @ np.linalg.inv(camera.K).T @ camera.R
         rays /= np.linalg.norm(rays, axis=1, keepdims=True)
@@ -65,7 +66,7 @@ def test_the_visual_hull_of_a_ball_is_about_the_ball():
     distance = np.linalg.norm(hull - CENTRE, axis=1)
     assert distance.max() < 300 * 1.25  # six views carve a ball to within a quarter of its radius
     inner = visual_hull(cameras, sphere_masks(cameras, CENTRE, 300), CENTRE - 160, CENTRE + 160, voxel_mm=20)
-    assert len(inner) == 16 ** 3  # a cube inside the ball (corners at 277 mm): every voxel kept
+    assert len(inner) == 16**3  # a cube inside the ball (corners at 277 mm): every voxel kept
     assert abs(hull[:, 1].max() - hull[:, 1].min() - 600) < 60
 
 
@@ -91,10 +92,18 @@ def test_the_search_finds_the_heading_and_beats_the_rest_pose(first_frame):
     sequence, cameras, masks = first_frame
     body = BodyModel("S1", vertices=1000)
     evaluator = NumpyEvaluator(patch_scale=1.5)
-    start = AutoStart(headings=8, candidates=2, evaluations=300, limb_evaluations=150, rounds=1,
-                      girth_steps=[], height_steps_mm=[], limb_samples=50, limb_restarts=1)
-    found = start.find(body, cameras, masks, evaluator, CMAES(), Holistic(), np.random.default_rng(0),
-                       fit_girth=False)
+    start = AutoStart(
+        headings=8,
+        candidates=2,
+        evaluations=300,
+        limb_evaluations=150,
+        rounds=1,
+        girth_steps=[],
+        height_steps_mm=[],
+        limb_samples=50,
+        limb_restarts=1,
+    )
+    found = start.find(body, cameras, masks, evaluator, CMAES(), Holistic(), np.random.default_rng(0), fit_girth=False)
     heading_error = np.angle(np.exp(1j * (found.pose[ROOT_YAW] - sequence.x0[ROOT_YAW])))
     assert abs(heading_error) < np.radians(35)
     evaluator.setup(found.body, cameras, masks)
@@ -102,10 +111,12 @@ def test_the_search_finds_the_heading_and_beats_the_rest_pose(first_frame):
     placed[[0, 2]] = found.pose[[0, 2]]
     assert found.fitness < evaluator(placed[None])[0]
     assert found.fitness == pytest.approx(evaluator(found.pose[None])[0])
-    assert found.evaluations > 8 and found.seconds > 0
+    assert found.evaluations > 8
+    assert found.seconds > 0
     # the body is the visual hull's height plus the offset that scored best
     offset = found.body.subject.height_mm - found.height_mm
-    assert found.body.subject.girth == 1.0 and min(abs(offset - o) for o in start.hull_height_offsets_mm) < 1e-6
+    assert found.body.subject.girth == 1.0
+    assert min(abs(offset - o) for o in start.hull_height_offsets_mm) < 1e-6
     assert set(found.summary()) >= {"method", "seconds", "evaluations", "body_height_mm", "body_girth"}
 
 
@@ -117,23 +128,46 @@ def test_random_limb_poses_bring_back_an_arm_that_a_local_search_misses(first_fr
     body = BodyModel("S1", vertices=1000)
     arm = np.concatenate(Holistic().step_groups(body)[3])
     wrong = sequence.x0.copy()
-    wrong[arm] = np.where(sequence.x0[arm] - body.lower[arm] < body.upper[arm] - sequence.x0[arm],
-                          body.upper[arm], body.lower[arm])
+    wrong[arm] = np.where(
+        sequence.x0[arm] - body.lower[arm] < body.upper[arm] - sequence.x0[arm], body.upper[arm], body.lower[arm]
+    )
     with NumpyEvaluator(patch_scale=1.5) as evaluator:
         evaluator.setup(body, cameras, masks)
         start = float(evaluator(wrong[None])[0])
         errors = {}
         for samples in (0, 400):
-            x, fitness, used = search_each_limb(Holistic(), body, wrong, start, evaluator, CMAES(), 200,
-                                                np.random.default_rng(1), samples=samples, restarts=1)
-            assert fitness <= start and used <= 5 * (200 + samples)
+            x, fitness, used = search_each_limb(
+                Holistic(),
+                body,
+                wrong,
+                start,
+                evaluator,
+                CMAES(),
+                200,
+                np.random.default_rng(1),
+                samples=samples,
+                restarts=1,
+            )
+            assert fitness <= start
+            assert used <= 5 * (200 + samples)
             errors[samples] = np.linalg.norm(body.markers(x[None]) - body.markers(sequence.x0[None]), axis=-1).max()
-    assert errors[400] < 300 and errors[0] > 400, errors  # mm, the arm's worst marker (6 seeds: 54-239 mm)
+    assert errors[400] < 300, errors  # mm
+    assert errors[0] > 400, errors  # mm, the arm's worst marker (6 seeds: 54-239 mm)
 
 
-@pytest.mark.parametrize("key, value", [("mode", "always"), ("headings", 0), ("candidates", 13),
-                                        ("girth_steps", [2.0]), ("limb_restarts", -1), ("voxel_mm", 100),
-                                        ("rounds", 1.5), ("hull_height_offsets_mm", [])])
+@pytest.mark.parametrize(
+    ("key", "value"),
+    [
+        ("mode", "always"),
+        ("headings", 0),
+        ("candidates", 13),
+        ("girth_steps", [2.0]),
+        ("limb_restarts", -1),
+        ("voxel_mm", 100),
+        ("rounds", 1.5),
+        ("hull_height_offsets_mm", []),
+    ],
+)
 def test_a_bad_setting_names_its_key(key, value):
     with pytest.raises(ConfigError, match=f"start.{key}"):
         AutoStart(**{key: value})

@@ -1,4 +1,5 @@
 """Loss of track: a frame whose fitness jumps is searched again, and the recovery is logged."""
+
 from types import SimpleNamespace
 
 import numpy as np
@@ -40,15 +41,24 @@ class JumpingTarget:
 
     def __call__(self, X):
         d = (X - self.target()) / np.where(np.arange(X.shape[1]) < 3, 100.0, 1.0)
-        return 0.02 + np.minimum(0.98, 0.2 * np.sum(d ** 2, axis=1))
+        return 0.02 + np.minimum(0.98, 0.2 * np.sum(d**2, axis=1))
 
 
 def run(body, jump, recovery):
     x0 = body.rest_pose()
     sequence = SimpleNamespace(n_frames=6, x0=x0, root="fake")
     foreground = SimpleNamespace(cameras=[], masks=lambda frame: frame)
-    return track(sequence, body, foreground, JumpingTarget(x0, jump), CMAES(sigma0=0.1), Holistic(),
-                 evaluations=BUDGET, seed=0, recovery=recovery)
+    return track(
+        sequence,
+        body,
+        foreground,
+        JumpingTarget(x0, jump),
+        CMAES(sigma0=0.1),
+        Holistic(),
+        evaluations=BUDGET,
+        seed=0,
+        recovery=recovery,
+    )
 
 
 def test_a_jump_is_recovered_once_at_its_frame_and_logged(body):
@@ -56,7 +66,8 @@ def test_a_jump_is_recovered_once_at_its_frame_and_logged(body):
     results = run(body, JUMP_FRAME, recovery)
     assert [event.frame for event in recovery.events] == [JUMP_FRAME]
     event = recovery.events[0]
-    assert event.fitness_before > 0.1 and event.fitness_after < 0.05
+    assert event.fitness_before > 0.1
+    assert event.fitness_after < 0.05
     assert results[JUMP_FRAME].evaluations == BUDGET + event.evaluations
     assert all(r.fitness < 0.05 for r in results[JUMP_FRAME:])  # the knee followed from then on
     assert set(event.summary()) == {"frame", "fitness_before", "fitness_after", "evaluations"}
@@ -72,11 +83,14 @@ def test_without_recovery_the_track_lags_behind_for_frames(body):
 def test_a_smooth_run_is_never_searched_again(body):
     recovery = Recovery()
     results = run(body, None, recovery)
-    assert recovery.events == [] and all(r.evaluations == BUDGET for r in results)
+    assert recovery.events == []
+    assert all(r.evaluations == BUDGET for r in results)
 
 
-@pytest.mark.parametrize("key, value", [("enabled", "yes"), ("window", 0), ("jump", 1.0), ("max_fitness", 0),
-                                        ("limb_evaluations", 1), ("widen", 0.5)])
+@pytest.mark.parametrize(
+    ("key", "value"),
+    [("enabled", "yes"), ("window", 0), ("jump", 1.0), ("max_fitness", 0), ("limb_evaluations", 1), ("widen", 0.5)],
+)
 def test_a_bad_setting_names_its_key(key, value):
     with pytest.raises(ConfigError, match=f"recovery.{key}"):
         Recovery(**{key: value})

@@ -1,4 +1,5 @@
 """Holistic and hierarchical strategies: search boxes, partitions, budgets, config errors."""
+
 import numpy as np
 import pytest
 
@@ -33,8 +34,7 @@ def test_holistic_searches_every_active_dof_in_the_box(bodies):
     target = x_prev.copy()
     target[parameter_index("LKnee.rx")] += 0.3
     f = Recorder(target)
-    x, fitness, used = Holistic().estimate(body, x_prev, f, CMAES(sigma0=0.3), 1500,
-                                           np.random.default_rng(0))
+    x, fitness, used = Holistic().estimate(body, x_prev, f, CMAES(sigma0=0.3), 1500, np.random.default_rng(0))
     X = np.concatenate(f.batches)
     assert used == len(X) == 1500
     moved = np.any(X != x_prev, axis=0)
@@ -65,7 +65,8 @@ def test_hierarchical_follows_the_steps_in_order_with_the_documented_budget(bodi
     # ends at 0.0054-0.0080 rad and the worst translation at 0.65-2.4 mm
     error = np.abs(x - target)
     rotation_rms = np.sqrt(np.mean(error[3:][body.mask[3:]] ** 2))
-    assert error[:3].max() < 5 and rotation_rms < 0.015
+    assert error[:3].max() < 5
+    assert rotation_rms < 0.015
 
 
 def test_budget_split_is_proportional_to_dof(bodies):
@@ -84,17 +85,26 @@ def test_partitions_reach_the_optimiser(bodies):
 
     spy = Spy()
     body = bodies[39]
-    Holistic().estimate(body, body.rest_pose(), Recorder(body.rest_pose()), spy, 100,
-                        np.random.default_rng(0))
+    Holistic().estimate(body, body.rest_pose(), Recorder(body.rest_pose()), spy, 100, np.random.default_rng(0))
     sizes = [len(p) for p in spy.space.partitions]
     assert sizes == [6, 9, 6, 6, 6, 6]
     assert np.array_equal(np.concatenate(spy.space.partitions), np.arange(39))
 
 
 def test_custom_twelve_step_hierarchy(bodies):
-    steps = [["Root"], ["BottomSpine"], ["UpperSpine", "Neck"], ["LShoulder"], ["LElbow", "LWrist"],
-             ["RShoulder"], ["RElbow", "RWrist"], ["LHip"], ["LKnee", "LAnkle"], ["RHip"],
-             ["RKnee", "RAnkle"]]
+    steps = [
+        ["Root"],
+        ["BottomSpine"],
+        ["UpperSpine", "Neck"],
+        ["LShoulder"],
+        ["LElbow", "LWrist"],
+        ["RShoulder"],
+        ["RElbow", "RWrist"],
+        ["LHip"],
+        ["LKnee", "LAnkle"],
+        ["RHip"],
+        ["RKnee", "RAnkle"],
+    ]
     strategy = Hierarchical(steps=steps)
     assert len(strategy.step_groups(bodies[39])) == 11
 
@@ -107,23 +117,36 @@ def test_bad_steps_are_config_errors(bodies):
     with pytest.raises(ConfigError, match="missing \\['RHip', 'RKnee', 'RAnkle'\\]"):
         Hierarchical(steps=DEFAULT_STEPS[:5])
     # the wrists have no DOF in the 28-DOF model: a step of only wrists cannot be searched
-    steps = [["Root"], ["BottomSpine", "UpperSpine", "Neck"], ["LShoulder", "LElbow"],
-             ["LWrist", "RWrist"], ["RShoulder", "RElbow"], list(DEFAULT_STEPS[4]), list(DEFAULT_STEPS[5])]
+    steps = [
+        ["Root"],
+        ["BottomSpine", "UpperSpine", "Neck"],
+        ["LShoulder", "LElbow"],
+        ["LWrist", "RWrist"],
+        ["RShoulder", "RElbow"],
+        list(DEFAULT_STEPS[4]),
+        list(DEFAULT_STEPS[5]),
+    ]
     Hierarchical(steps=steps).step_groups(bodies[39])
     with pytest.raises(ConfigError, match="step 4 \\(LWrist, RWrist\\) has no degree of freedom in the 28-DOF"):
         Hierarchical(steps=steps).step_groups(bodies[28])
     # holistic search uses the steps only as partitions: the wrists' step is no partition
-    (partitions, budget), = Holistic(steps=steps).plan(bodies[28], 100)
-    assert len(partitions) == 6 and sum(len(p) for p in partitions) == 28 and budget == 100
+    ((partitions, budget),) = Holistic(steps=steps).plan(bodies[28], 100)
+    assert len(partitions) == 6
+    assert sum(len(p) for p in partitions) == 28
+    assert budget == 100
     assert set(JOINTS) == {j for s in DEFAULT_STEPS for j in s}
 
 
 def test_budget_below_one_population_is_a_config_error(bodies):
     body = bodies[39]
-    with pytest.raises(ConfigError, match=r"tracking.evaluations=5 gives step 1 \(Root\) 1 "
-                                          r"evaluations but optimizer 'cmaes' needs at least 9"):
-        Hierarchical().estimate(body, body.rest_pose(), Recorder(body.rest_pose()), CMAES(), 5,
-                                np.random.default_rng(0))
+    with pytest.raises(
+        ConfigError,
+        match=r"tracking.evaluations=5 gives step 1 \(Root\) 1 "
+        r"evaluations but optimizer 'cmaes' needs at least 9",
+    ):
+        Hierarchical().estimate(
+            body, body.rest_pose(), Recorder(body.rest_pose()), CMAES(), 5, np.random.default_rng(0)
+        )
     with pytest.raises(ConfigError, match="gives the frame 13 evaluations.*at least 14 for 39"):
         Holistic().check(body, CMAES(), 14)  # one of the 14 goes to the start pose
     Holistic().check(body, CMAES(), 15)
@@ -190,8 +213,11 @@ def test_a_trace_records_each_improvement_at_its_evaluation_within_the_batch():
     assert Trace(lambda X: X).rows().shape == (0, 2)
 
 
-@pytest.mark.parametrize("strategy, recovered", [(Holistic, False), (Hierarchical, False), (Holistic, True)],
-                         ids=["holistic", "hierarchical", "holistic-recovered"])
+@pytest.mark.parametrize(
+    ("strategy", "recovered"),
+    [(Holistic, False), (Hierarchical, False), (Holistic, True)],
+    ids=["holistic", "hierarchical", "holistic-recovered"],
+)
 def test_every_frame_carries_the_trace_of_all_its_evaluations(bodies, strategy, recovered):
     """Each frame's trace is the best fitness so far over every candidate the frame evaluated
     (a recovery's too: one after every frame but the first), in order: rising evaluations from
@@ -211,18 +237,21 @@ def test_every_frame_carries_the_trace_of_all_its_evaluations(bodies, strategy, 
     evaluator = Evaluator(target)
     sequence = SimpleNamespace(n_frames=3, x0=body.rest_pose(), root="fake")
     foreground = SimpleNamespace(cameras=[], masks=lambda frame: [])
-    results = tracking.track(sequence, body, foreground, evaluator, CMAES(), strategy(), evaluations=200, seed=0,
-                             recovery=recovery)
+    results = tracking.track(
+        sequence, body, foreground, evaluator, CMAES(), strategy(), evaluations=200, seed=0, recovery=recovery
+    )
     fitness = np.concatenate([evaluator(batch) for batch in list(evaluator.batches)])
     if recovered:
         assert [event.frame for event in recovery.events] == [1, 2]
     spent = 0
     for result in results:
         trace = result.trace
-        assert trace.shape[1] == 2 and trace[0, 0] == 1
-        assert np.all(np.diff(trace[:, 0]) > 0) and np.all(np.diff(trace[:, 1]) <= 0)
+        assert trace.shape[1] == 2
+        assert trace[0, 0] == 1
+        assert np.all(np.diff(trace[:, 0]) > 0)
+        assert np.all(np.diff(trace[:, 1]) <= 0)
         assert trace[-1, 0] == result.evaluations == (260 if recovered and result.frame else 200)
         assert trace[-1, 1] == result.fitness
-        np.testing.assert_array_equal(trace, improvements(fitness[spent:spent + result.evaluations]))
+        np.testing.assert_array_equal(trace, improvements(fitness[spent : spent + result.evaluations]))
         spent += result.evaluations
     assert spent == len(fitness)

@@ -1,4 +1,5 @@
 """The tiny synthetic sequence and its HumanEva-I export, made once for every test here."""
+
 import shutil
 from pathlib import Path
 
@@ -11,8 +12,16 @@ from tests.helpers import HE_CAMERAS, HE_FRAMES
 
 @pytest.fixture(scope="package")
 def synthetic(tmp_path_factory) -> Path:
-    return generate(tmp_path_factory.mktemp("synthetic") / "S1_walking", frames=HE_FRAMES, cameras=HE_CAMERAS,
-                    width=96, height=72, background_frames=3, seed=3, progress=False)
+    return generate(
+        tmp_path_factory.mktemp("synthetic") / "S1_walking",
+        frames=HE_FRAMES,
+        cameras=HE_CAMERAS,
+        width=96,
+        height=72,
+        background_frames=3,
+        seed=3,
+        progress=False,
+    )
 
 
 @pytest.fixture(scope="package")

@@ -12,21 +12,30 @@ from tests.helpers import mmocap as run_mmocap
 
 
 def test_exported_layout_has_the_real_names(exported):
-    for path in ("S1/Calibration_Data/C1.cal", "S1/Calibration_Data/BW1.cal",
-                 "S1/Image_Data/Walking_1_(C1).avi", "S1/Image_Data/Walking_1_(BW1).avi",
-                 "S1/Sync_Data/Walking_1_(C1).ofs", "S1/Mocap_Data/Walking_1.mat",
-                 "Background/Background_1_(C1).avi", "Background/Background_1_(BW1).avi"):
+    for path in (
+        "S1/Calibration_Data/C1.cal",
+        "S1/Calibration_Data/BW1.cal",
+        "S1/Image_Data/Walking_1_(C1).avi",
+        "S1/Image_Data/Walking_1_(BW1).avi",
+        "S1/Sync_Data/Walking_1_(C1).ofs",
+        "S1/Mocap_Data/Walking_1.mat",
+        "Background/Background_1_(C1).avi",
+        "Background/Background_1_(BW1).avi",
+    ):
         assert (exported / path).is_file(), path
 
 
-@pytest.mark.parametrize("video, frames", [("S1/Image_Data/Walking_1_(C1).avi", HE_LEAD_IN + HE_FRAMES),
-                                           ("Background/Background_1_(BW1).avi", 3)])
+@pytest.mark.parametrize(
+    ("video", "frames"),
+    [("S1/Image_Data/Walking_1_(C1).avi", HE_LEAD_IN + HE_FRAMES), ("Background/Background_1_(BW1).avi", 3)],
+)
 def test_exported_videos_are_ffv1_at_the_sequence_rate(synthetic, exported, video, frames):
     """Lossless FFV1 in AVI, as :func:`mmocap.video.write_video` writes an .avi path."""
     capture = cv2.VideoCapture(str(exported / video))
     codec = int(capture.get(cv2.CAP_PROP_FOURCC)).to_bytes(4, "little").decode().upper()
     capture.release()
-    assert codec == "FFV1" and count_frames(exported / video) == frames
+    assert codec == "FFV1"
+    assert count_frames(exported / video) == frames
     assert frame_rate(exported / video) == pytest.approx(Sequence.open(synthetic).fps)
 
 
@@ -36,7 +45,9 @@ def test_images_background_and_markers_round_trip(synthetic, tmp_path, images):
     seq = open_he(root)
     original = Sequence.open(synthetic)
     # the sequence after the lead-in copies, at the toolbox's first frame (image 6)
-    assert seq.n_frames == HE_FRAMES and seq.subject == "S1" and seq.meta["first_image"] == 6
+    assert seq.n_frames == HE_FRAMES
+    assert seq.subject == "S1"
+    assert seq.meta["first_image"] == 6
     for f in range(HE_FRAMES):
         for mine, theirs in zip(seq.images(f), original.images(f)):
             np.testing.assert_array_equal(mine, theirs)  # lossless video
@@ -53,4 +64,6 @@ def test_export_command(synthetic, tmp_path):
     assert out.returncode == 0, out.stderr
     assert len(list((tmp_path / "he/S1/Image_Data/Walking_3_(BW1)").glob("*.png"))) == HE_LEAD_IN + HE_FRAMES
     bad = mmocap(tmp_path / "nothing", tmp_path / "he2")
-    assert bad.returncode == 2 and "not a sequence folder" in bad.stderr and "Traceback" not in bad.stderr
+    assert bad.returncode == 2
+    assert "not a sequence folder" in bad.stderr
+    assert "Traceback" not in bad.stderr

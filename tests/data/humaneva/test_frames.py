@@ -1,4 +1,5 @@
 """A camera's images from a video or a folder of image files: colour, numbering, damage."""
+
 import cv2
 import numpy as np
 import pytest
@@ -31,22 +32,31 @@ def test_a_greyscale_frame_in_a_colour_camera_is_refused(tmp_path):
         source.read(2)
 
 
-@pytest.mark.parametrize("images, message", [
-    ([np.zeros((12, 16, 3), np.uint8), np.zeros((10, 16, 3), np.uint8)], r"000002.png is 16x10, its first image 16x12"),
-    ([np.zeros((12, 16, 4), np.uint8)], "has 4 channels of uint8"),
-    ([np.zeros((12, 16, 3), np.uint16)], "has 3 channels of uint16"),
-])
+@pytest.mark.parametrize(
+    ("images", "message"),
+    [
+        (
+            [np.zeros((12, 16, 3), np.uint8), np.zeros((10, 16, 3), np.uint8)],
+            r"000002.png is 16x10, its first image 16x12",
+        ),
+        ([np.zeros((12, 16, 4), np.uint8)], "has 4 channels of uint8"),
+        ([np.zeros((12, 16, 3), np.uint16)], "has 3 channels of uint16"),
+    ],
+)
 def test_bad_frames_in_an_image_folder_name_camera_and_file(tmp_path, images, message):
     folder = image_folder(tmp_path, images)
     with pytest.raises(DataError, match=f"camera C1: .*{message}"):
         FrameSource(folder, "C1", True).read(len(images))
 
 
-@pytest.mark.parametrize("names, message", [
-    (["000001.png", "000002.png", "000004.png"], r"not numbered consecutively \(missing: 3, repeated: none\)"),
-    (["000001.png", "000001.jpg", "000002.png"], r"not numbered consecutively \(missing: none, repeated: 1\)"),
-    (["000001.png", "first.png"], "without a frame number: first.png"),
-])
+@pytest.mark.parametrize(
+    ("names", "message"),
+    [
+        (["000001.png", "000002.png", "000004.png"], r"not numbered consecutively \(missing: 3, repeated: none\)"),
+        (["000001.png", "000001.jpg", "000002.png"], r"not numbered consecutively \(missing: none, repeated: 1\)"),
+        (["000001.png", "first.png"], "without a frame number: first.png"),
+    ],
+)
 def test_a_gap_in_the_image_numbers_is_refused(tmp_path, names, message):
     folder = image_folder(tmp_path, [np.zeros((12, 16, 3), np.uint8)] * len(names), names)
     with pytest.raises(DataError, match=f"camera C1: .*{message}"):
@@ -61,9 +71,15 @@ def test_an_xvid_video_with_b_frames_gives_every_image_in_any_order(tmp_path):
     base = np.random.default_rng(0).integers(0, 256, (48, 64, 3), dtype=np.uint8)
     frames = [np.ascontiguousarray(np.roll(base, 3 * k, axis=1)) for k in range(30)]
     path = tmp_path / "Walking_1_(C1).avi"
-    writer = imageio_ffmpeg.write_frames(str(path), (64, 48), fps=60, codec="mpeg4", pix_fmt_in="bgr24",
-                                         output_params=["-bf", "2", "-g", "12", "-vtag", "XVID", "-q:v", "3"],
-                                         macro_block_size=1)
+    writer = imageio_ffmpeg.write_frames(
+        str(path),
+        (64, 48),
+        fps=60,
+        codec="mpeg4",
+        pix_fmt_in="bgr24",
+        output_params=["-bf", "2", "-g", "12", "-vtag", "XVID", "-q:v", "3"],
+        macro_block_size=1,
+    )
     writer.send(None)
     for frame in frames:
         writer.send(frame)

@@ -1,4 +1,5 @@
 """The ``.mat`` marker files as HumanEva-I's, markers between mocap frames, and the marker map."""
+
 import numpy as np
 import pytest
 import scipy.io
@@ -16,8 +17,9 @@ def test_markers_at_fractional_mocap_indices_are_interpolated():
     mocap[3, 1] = np.nan
     out = sample_mocap(mocap, [1.0, 2.5, 4.0, 5.0, 5.5, 0.5])
     np.testing.assert_allclose(out[:4, 0, 0], [0.0, 1.5, 3.0, 4.0])
-    assert np.isnan(out[2, 1]).all() and not np.isnan(out[1, 1]).any()   # row 3 is missing
-    assert np.isnan(out[4:]).all()                                          # outside the recording
+    assert np.isnan(out[2, 1]).all()
+    assert not np.isnan(out[1, 1]).any()
+    assert np.isnan(out[4:]).all()  # outside the recording
 
 
 def test_mocap_file_has_the_real_structure(synthetic, exported):
@@ -28,13 +30,14 @@ def test_mocap_file_has_the_real_structure(synthetic, exported):
     names = [str(p[0, 0][0]) for p in params[0]["name"]]
     labels = [str(x[0]) for x in params[0, names.index("LABELS")]["data"][0]]
     rate = float(np.squeeze(params[0, names.index("RATE")]["data"]))
-    assert {"LFHD", "C7", "LSHO", "RANK"} <= set(labels) and rate == 120.0
+    assert {"LFHD", "C7", "LSHO", "RANK"} <= set(labels)
+    assert rate == 120.0
     # 120 Hz: the lead, stored as zeros (missing), the first frame held over the lead-in
     # images, then (frames - 1) * 2 + 1 samples
     assert mat["Markers"].shape == (HE_FIRST + 2 * (HE_FRAMES - 1) + 1, len(labels), 3)
     assert np.all(mat["Markers"][:HE_LEAD] == 0)
-    held = mat["Markers"][HE_LEAD:HE_FIRST + 1]
-    np.testing.assert_array_equal(held, np.repeat(mat["Markers"][HE_FIRST:HE_FIRST + 1], 2 * HE_LEAD_IN + 1, axis=0))
+    held = mat["Markers"][HE_LEAD : HE_FIRST + 1]
+    np.testing.assert_array_equal(held, np.repeat(mat["Markers"][HE_FIRST : HE_FIRST + 1], 2 * HE_LEAD_IN + 1, axis=0))
     truth = Sequence.open(synthetic).markers()
     ankle = labels.index("RANK")
     np.testing.assert_allclose(mat["Markers"][HE_FIRST + 1, ankle], truth[:2, MARKER_NAMES.index("r_ankle")].mean(0))

@@ -1,4 +1,5 @@
 """The ``.ofs`` arithmetic, and the toolbox's frame numbers."""
+
 import numpy as np
 
 from mmocap.data.humaneva.synchronisation import SyncOffsets, toolbox_frame_offsets

@@ -1,16 +1,28 @@
 """The recording commands end to end: a sequence written as a recording (to-recording), checked
 (check-recording) and tracked by the one documented command with no first pose and no body
 size given (dataset=recording: the automatic start)."""
+
 import json
 
 import pytest
 
 from tests.helpers import run_cli
 
-QUICK_START = ["start.headings=4", "start.candidates=1", "start.refined=1", "start.evaluations=80",
-               "start.limb_evaluations=40", "start.limb_samples=20", "start.limb_restarts=1", "start.rounds=1",
-               "start.girth_steps=[0.1]", "start.height_steps_mm=[]", "start.shape_evaluations=40",
-               "start.shape_passes=1", "start.hull_height_offsets_mm=[0]"]
+QUICK_START = [
+    "start.headings=4",
+    "start.candidates=1",
+    "start.refined=1",
+    "start.evaluations=80",
+    "start.limb_evaluations=40",
+    "start.limb_samples=20",
+    "start.limb_restarts=1",
+    "start.rounds=1",
+    "start.girth_steps=[0.1]",
+    "start.height_steps_mm=[]",
+    "start.shape_evaluations=40",
+    "start.shape_passes=1",
+    "start.hull_height_offsets_mm=[0]",
+]
 
 
 @pytest.fixture(scope="module")
@@ -34,13 +46,27 @@ def test_check_recording_reports_cameras_sync_and_the_first_frame(recording, cap
 
 def test_a_recording_is_tracked_from_nothing_by_the_documented_command(recording, tmp_path):
     out = tmp_path / "run"
-    code = run_cli("track", "dataset=recording", f"dataset.root={recording}", "dataset.offsets={C2:1}",
-                   "evaluator=numpy", "body.vertices=1000", "tracking.evaluations=60", "overlays=1",
-                   "progress=false", "foreground_cache=null", "export=[csv]", f"hydra.run.dir={out}", *QUICK_START)
+    code = run_cli(
+        "track",
+        "dataset=recording",
+        f"dataset.root={recording}",
+        "dataset.offsets={C2:1}",
+        "evaluator=numpy",
+        "body.vertices=1000",
+        "tracking.evaluations=60",
+        "overlays=1",
+        "progress=false",
+        "foreground_cache=null",
+        "export=[csv]",
+        f"hydra.run.dir={out}",
+        *QUICK_START,
+    )
     assert code == 0
     summary = json.loads((out / "summary.json").read_text())
-    assert summary["start"]["method"] == "search" and summary["start"]["seconds"] > 0
-    assert summary["subject"] == "unknown" and summary["frames"] == summary["frames_scored"] == 4
+    assert summary["start"]["method"] == "search"
+    assert summary["start"]["seconds"] > 0
+    assert summary["subject"] == "unknown"
+    assert summary["frames"] == summary["frames_scored"] == 4
     assert summary["body"]["height_mm"] == pytest.approx(summary["start"]["hull_height_mm"])  # no steps tried
     assert summary["body"]["girth"] in (1.0, 1.1)
     assert summary["mean_marker_error_mm"] > 0

@@ -1,5 +1,6 @@
 """mmocap.data.recording.reader: a sequence written as a user's recording reads back as the same
 cameras, frames and ground truth; every way a recording can be wrong is one clear error."""
+
 import shutil
 from pathlib import Path
 
@@ -20,8 +21,9 @@ def recording(tiny_sequence, tmp_path_factory) -> Path:
     """The tiny sequence as a recording: C2 started 2 frames early, the world turned by 30
     degrees, the calibration in metres, lossless videos."""
     out = tmp_path_factory.mktemp("recording") / "rec"
-    return write_recording(Sequence.open(tiny_sequence), out, offsets=OFFSETS, yaw_deg=YAW_DEG, units="m",
-                           progress=False)
+    return write_recording(
+        Sequence.open(tiny_sequence), out, offsets=OFFSETS, yaw_deg=YAW_DEG, units="m", progress=False
+    )
 
 
 @pytest.fixture
@@ -35,21 +37,23 @@ def yaw_matrix(deg: float) -> np.ndarray:
 
 
 def test_the_layout_written_holds_no_first_pose_and_no_subject(recording):
-    assert sorted(p.name for p in recording.iterdir()) == ["background", "calibration.yml", "markers_mm.csv",
-                                                            "videos"]
+    assert sorted(p.name for p in recording.iterdir()) == ["background", "calibration.yml", "markers_mm.csv", "videos"]
     assert "units: m" in (recording / "calibration.yml").read_text()
     opened = RecordingDataset(str(recording), offsets=OFFSETS).open(progress=False)
-    assert opened.x0 is None and opened.subject is None
+    assert opened.x0 is None
+    assert opened.subject is None
 
 
 def test_a_recording_reads_back_as_its_sequence_in_a_turned_world(tiny_sequence, recording):
     original = Sequence.open(tiny_sequence)
     opened = RecordingDataset(str(recording), offsets=OFFSETS).open(progress=False)
-    assert opened.n_frames == original.n_frames and opened.fps == original.fps
+    assert opened.n_frames == original.n_frames
+    assert opened.fps == original.fps
     assert opened.meta["units"] == "m"
     world = yaw_matrix(YAW_DEG)
     for mine, theirs in zip(opened.cameras, original.cameras):
-        assert mine.name == theirs.name and mine.colour == theirs.colour
+        assert mine.name == theirs.name
+        assert mine.colour == theirs.colour
         np.testing.assert_allclose(mine.R, theirs.R @ world.T, atol=1e-12)
         np.testing.assert_allclose(mine.t, theirs.t, rtol=1e-12)
         point = np.array([[100.0, 900.0, -200.0]])  # the same pixel from the turned world's point
@@ -89,10 +93,12 @@ def test_image_folders_and_a_background_range_read_as_videos_do(recording, recor
             frame = source.read(k)
             cv2.imwrite(str(folder / f"img_{k:04d}.png"), frame)
     shutil.rmtree(recording_copy / "background")
-    images = RecordingDataset(str(recording_copy), offsets=OFFSETS, fps=60.0, background=[0, 1],
-                              background_frames=2).open(progress=False)
+    images = RecordingDataset(
+        str(recording_copy), offsets=OFFSETS, fps=60.0, background=[0, 1], background_frames=2
+    ).open(progress=False)
     np.testing.assert_array_equal(images.images(3)[0], videos.images(3)[0])
-    assert images.background_frames[0] == [0, 1] and images.background_frames[1] == [2, 3]  # C2's offset
+    assert images.background_frames[0] == [0, 1]
+    assert images.background_frames[1] == [2, 3]
 
 
 @pytest.mark.parametrize("up", list(UP_AXES))
@@ -167,7 +173,7 @@ CASES = {  # how -> words the one-line error must hold
 @pytest.mark.parametrize("how", list(CASES))
 def test_a_broken_recording_is_one_clear_error(recording_copy, how):
     extra = {"offsets": OFFSETS, **_break(recording_copy, how)}
-    with pytest.raises((DataError, ConfigError)) as caught:
+    with pytest.raises((DataError, ConfigError)) as caught:  # noqa: PT012 - at opening or at the first image
         opened = RecordingDataset(str(recording_copy), **extra).open(progress=False)
         opened.images(0)
     message = str(caught.value)
@@ -176,8 +182,18 @@ def test_a_broken_recording_is_one_clear_error(recording_copy, how):
         assert word in message, message
 
 
-@pytest.mark.parametrize("key, value", [("units", "cm"), ("up", "y"), ("start", -1), ("frames", 0),
-                                        ("background", [3]), ("background", [4, 2]), ("fps", 0)])
+@pytest.mark.parametrize(
+    ("key", "value"),
+    [
+        ("units", "cm"),
+        ("up", "y"),
+        ("start", -1),
+        ("frames", 0),
+        ("background", [3]),
+        ("background", [4, 2]),
+        ("fps", 0),
+    ],
+)
 def test_a_bad_setting_names_its_key(recording, key, value):
     with pytest.raises(ConfigError, match=f"dataset.{key}"):
         RecordingDataset(str(recording), **{key: value})
