@@ -258,21 +258,7 @@ def generate(
                 shutil.rmtree(root)
             for sub in ("calibration", "background", "images", "silhouettes"):
                 (root / sub).mkdir(parents=True)
-            backgrounds = {}
-            for cam, (seen, _) in zip(cams, calibrations):
-                seen.save(root / "calibration" / f"{cam.name}.json")
-                backgrounds[cam.name] = render.make_background(cam, rng)
-                folder = root / "background" / cam.name
-                folder.mkdir()
-                for k, img in enumerate(
-                    render.noisy_background_frames(
-                        backgrounds[cam.name], cam, rng, background_frames, gains=background_gains, **sensor
-                    )
-                ):
-                    write_image(folder / f"{k:04d}.png", img)
-                (root / "images" / cam.name).mkdir()
-                (root / "silhouettes" / cam.name).mkdir()
-
+            backgrounds = _write_backgrounds(root, cams, calibrations, rng, background_gains, sensor)
             colours = realism_draws.camouflaged(colours, list(backgrounds.values()), realism.camouflage)
 
             def skinning(offset_frames: float) -> np.ndarray:
@@ -283,60 +269,104 @@ def generate(
             S = skinning(0.0)
             markers = realism_draws.posed_markers(mesh, markers_idx, marker_offsets, S)
             S_of = [S if offset == 0 else skinning(offset) for offset in offsets_frames]
-            for f in tqdm(range(frames), desc=f"render {subject} {action}", unit="frame", disable=not progress):
-                posed = {}  # cameras at the same time offset share the posed mesh
-                for cam, S_cam in zip(cams, S_of):
-                    if id(S_cam) not in posed:
-                        posed[id(S_cam)] = mesh.posed(S_cam[f])
-                    vertices = posed[id(S_cam)]
-                    shadow = render.floor_shadow(
-                        cam, vertices, mesh.faces, render.LIGHT_DIR, shadow_strength, shadow_softness
-                    )
-                    image, silhouette = render.render_view(
-                        cam,
-                        vertices,
-                        mesh.faces,
-                        colours,
-                        backgrounds[cam.name],
-                        rng,
-                        gain=frame_gains[f],
-                        shadow=shadow,
-                        **sensor,
-                    )
-                    write_image(root / "images" / cam.name / f"{f:06d}.png", image)
-                    write_image(root / "silhouettes" / cam.name / f"{f:06d}.png", silhouette.astype(np.uint8) * 255)
-
+            light = dict(gains=frame_gains, shadow_strength=shadow_strength, shadow_softness=shadow_softness)
+            frame_numbers = tqdm(range(frames), desc=f"render {subject} {action}", unit="frame", disable=not progress)
+            _write_frames(root, mesh, colours, zip(cams, S_of), backgrounds, rng, frame_numbers, light, sensor)
             write_markers(root / "markers_mm.csv", markers, MARKER_NAMES)
             np.save(root / "poses.npy", poses)
-            meta = {
-                "format": FORMAT,
-                "subject": subject,
-                "action": action,
-                "fps": fps,
-                "frames": frames,
-                "cameras": [c.name for c in cams],
-                "marker_names": list(MARKER_NAMES),
-                "dimensions": {"height_mm": dims.height_mm, "girth": dims.girth},
-                "x0": poses[0].tolist(),
-                "units": {"length": "mm", "angle": "rad"},
-                "generator": {**settings, "digest": settings_digest(settings)},
-                "realism": {
-                    "cameras": {
-                        cam.name: {
-                            **errors,
-                            "time_offset_frames": float(offset),
-                            "reprojection_px": realism_draws.reprojection_px(cam, seen, markers[0]),
-                        }
-                        for cam, (seen, errors), offset in zip(cams, calibrations, offsets_frames)
-                    },
-                },
+            cameras_drawn = {
+                cam.name: {
+                    **errors,
+                    "time_offset_frames": float(offset),
+                    "reprojection_px": realism_draws.reprojection_px(cam, seen, markers[0]),
+                }
+                for cam, (seen, errors), offset in zip(cams, calibrations, offsets_frames)
             }
+            meta = _sequence_meta(settings, dims, [c.name for c in cams], poses, cameras_drawn)
             # Written last: a folder without it is an interrupted generation and is redone.
             write_text_atomic(root / "sequence.json", json.dumps(meta, indent=1))
     except BaseException:
         shutil.rmtree(root, ignore_errors=True)  # no half-rendered sequence is left behind
         raise
     return root
+
+
+def _write_backgrounds(root: Path, cams, calibrations, rng: np.random.Generator, gains, sensor: dict) -> dict:
+    """Write each camera's calibration (the calibrated camera of ``calibrations``) and its
+    empty-scene frames (one per gain in ``gains``), and make its image and silhouette folders;
+    returns each camera's noiseless background ((H, W, 3) uint8 BGR), by name."""
+    backgrounds = {}
+    for cam, (seen, _) in zip(cams, calibrations):
+        seen.save(root / "calibration" / f"{cam.name}.json")
+        backgrounds[cam.name] = render.make_background(cam, rng)
+        folder = root / "background" / cam.name
+        folder.mkdir()
+        noisy = render.noisy_background_frames(backgrounds[cam.name], cam, rng, len(gains), gains=gains, **sensor)
+        for k, img in enumerate(noisy):
+            write_image(folder / f"{k:04d}.png", img)
+        (root / "images" / cam.name).mkdir()
+        (root / "silhouettes" / cam.name).mkdir()
+    return backgrounds
+
+
+def _write_frames(root: Path, mesh, colours, views, backgrounds: dict, rng, frame_numbers, light: dict, sensor: dict):
+    """Render and write each frame's image and true silhouette in every view.
+
+    Args:
+        root: the sequence folder, its ``images/`` and ``silhouettes/`` camera folders made.
+        mesh: the subject's skinned mesh (mm).
+        colours: (faces, 3) RGB colour of each face, in [0, 1] (:func:`face_colours`).
+        views: (camera, its (frames, 16, 4, 4) skinning transforms) per camera; cameras at the
+            same time offset share the transforms and so the posed mesh.
+        backgrounds: each camera's noiseless background ((H, W, 3) uint8 BGR), by name.
+        rng: the sequence's generator (the sensor noise).
+        frame_numbers: the frames to render, in order (a progress bar may wrap them).
+        light: ``gains`` (one per frame), ``shadow_strength`` and ``shadow_softness``.
+        sensor: ``noise_sigma`` and ``shot_noise`` (:func:`mmocap.data.render.render_view`).
+    """
+    views = list(views)
+    for f in frame_numbers:
+        posed = {}  # cameras at the same time offset share the posed mesh
+        for cam, S_cam in views:
+            if id(S_cam) not in posed:
+                posed[id(S_cam)] = mesh.posed(S_cam[f])
+            vertices = posed[id(S_cam)]
+            shadow = render.floor_shadow(
+                cam, vertices, mesh.faces, render.LIGHT_DIR, light["shadow_strength"], light["shadow_softness"]
+            )
+            image, silhouette = render.render_view(
+                cam,
+                vertices,
+                mesh.faces,
+                colours,
+                backgrounds[cam.name],
+                rng,
+                gain=light["gains"][f],
+                shadow=shadow,
+                **sensor,
+            )
+            write_image(root / "images" / cam.name / f"{f:06d}.png", image)
+            write_image(root / "silhouettes" / cam.name / f"{f:06d}.png", silhouette.astype(np.uint8) * 255)
+
+
+def _sequence_meta(settings: dict, dims, cameras: list[str], poses: np.ndarray, cameras_drawn: dict) -> dict:
+    """The contents of ``sequence.json``: what was rendered with which ``settings``, the
+    true body ``dims``, the first pose of ``poses`` ((frames, 51), mm and rad) and what the
+    realism drew per camera (``cameras_drawn``)."""
+    return {
+        "format": FORMAT,
+        "subject": settings["subject"],
+        "action": settings["action"],
+        "fps": settings["fps"],
+        "frames": settings["frames"],
+        "cameras": cameras,
+        "marker_names": list(MARKER_NAMES),
+        "dimensions": {"height_mm": dims.height_mm, "girth": dims.girth},
+        "x0": poses[0].tolist(),
+        "units": {"length": "mm", "angle": "rad"},
+        "generator": {**settings, "digest": settings_digest(settings)},
+        "realism": {"cameras": cameras_drawn},
+    }
 
 
 class SyntheticDataset:
