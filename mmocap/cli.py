@@ -196,7 +196,7 @@ SUBCOMMANDS = {
         _main_of("mmocap.data.recording.commands", "convert_main"),
         "write a sequence folder as a user's recording (OpenCV YAML calibration, MP4 videos)",
     ),
-    "export": (_main_of("mmocap.outputs.export"), "a finished run's motion as TRC, C3D, BVH and CSV files"),
+    "export": (_main_of("mmocap.writers.export"), "a finished run's motion as TRC, C3D, BVH and CSV files"),
     "collect": (_main_of("mmocap.report.collect"), "write runs.csv and frames.csv of a sweep folder"),
     "ioh": (_main_of("mmocap.report.ioh"), "the runs' per-frame convergence traces for IOHanalyzer"),
     "summaries": (_main_of("mmocap.report.summaries"), "table of the run summaries below a folder"),

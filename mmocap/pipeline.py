@@ -2,8 +2,8 @@
 
 Outputs in ``output_dir`` (their names: :mod:`mmocap.run_folder`): ``frames.csv`` (one row
 per frame, written as it goes), ``traces.csv`` (each frame's convergence:
-:mod:`mmocap.outputs.traces`), the exports, ``error_per_frame.png``, ``overlays/*.png``, the
-videos (:mod:`mmocap.outputs`) and ``summary.json``; and the run's record in
+:mod:`mmocap.writers.traces`), the exports, ``error_per_frame.png``, ``overlays/*.png``, the
+videos (:mod:`mmocap.writers`) and ``summary.json``; and the run's record in
 the results store (:mod:`mmocap.analysis.results`). A run whose record is already in the
 store, or in one of ``results.reuse``, is not run again.
 
@@ -40,16 +40,16 @@ from mmocap.analysis.results import ResultsStore, make_record, run_key, store_fo
 from mmocap.errors import ConfigError, DataError, MmocapWarning
 from mmocap.evaluators.timed import TimedEvaluator
 from mmocap.io import LockBusyError, exclusive, locked, writing
-from mmocap.outputs.export import export_motion, exported_files, read_poses
-from mmocap.outputs.overlays import write_overlays
-from mmocap.outputs.plots import plot_error_per_frame
-from mmocap.outputs.traces import write_traces
-from mmocap.outputs.videos import run_video_files, write_run_videos
 from mmocap.preflight import check_config
 from mmocap.run_folder import ERROR_PLOT, EXPORT_FOLDER, FRAMES, OVERLAYS, RUN_LOCK, RUN_OUTPUTS, TRACES, Summary
 from mmocap.stages.accuracy import FrameLog, marker_error
 from mmocap.stages.foreground import Foreground
 from mmocap.stages.tracking import track
+from mmocap.writers.export import export_motion, exported_files, read_poses
+from mmocap.writers.overlays import write_overlays
+from mmocap.writers.plots import plot_error_per_frame
+from mmocap.writers.traces import write_traces
+from mmocap.writers.videos import run_video_files, write_run_videos
 
 log = logging.getLogger(__name__)
 

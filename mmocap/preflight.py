@@ -20,9 +20,9 @@ from mmocap.body.model import check_body
 from mmocap.body.skeleton import dof_mask
 from mmocap.data.sequence import check_missing_markers
 from mmocap.errors import ConfigError
-from mmocap.outputs.export import check_formats
 from mmocap.stages.tracking import check_budget
 from mmocap.validate import check_flag, check_number
+from mmocap.writers.export import check_formats
 
 #: what a run does when another run holds its run folder (``run_dir_busy``)
 RUN_DIR_BUSY = ("refuse", "wait")

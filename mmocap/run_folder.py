@@ -6,11 +6,11 @@ This module owns the run folder's layout; every writer and reader takes the name
   without it holds an unfinished run. :func:`read_summary` is its one reader.
 - :data:`FRAMES` (``frames.csv``): one row per frame, written as it goes to
   :data:`FRAMES_PARTIAL` and renamed when the last frame is tracked.
-- :data:`TRACES` (``traces.csv``): each frame's convergence (:mod:`mmocap.outputs.traces`).
+- :data:`TRACES` (``traces.csv``): each frame's convergence (:mod:`mmocap.writers.traces`).
 - :data:`ERROR_PLOT` (``error_per_frame.png``), :data:`OVERLAYS` (``overlays/frame_*.png``),
   :data:`VIDEOS` (``videos/<camera>.mp4``) and :data:`SKELETON_FILES`: the pictures
-  (:mod:`mmocap.outputs`).
-- :data:`EXPORT_FOLDER` (``export/``): the motion files (:mod:`mmocap.outputs.export`).
+  (:mod:`mmocap.writers`).
+- :data:`EXPORT_FOLDER` (``export/``): the motion files (:mod:`mmocap.writers.export`).
 - :data:`RUN_LOCK` (``.run.lock``): held by the run writing into the folder.
 """
 

@@ -25,7 +25,7 @@ LAYERS = [
             "mmocap.data.recording.commands",
         ],
     ),
-    ("analysis and run outputs", ["mmocap.analysis", "mmocap.outputs"]),
+    ("analysis and run writers", ["mmocap.analysis", "mmocap.writers"]),
     ("stages", ["mmocap.stages"]),
     ("components", ["mmocap.evaluators", "mmocap.optimizers", "mmocap.data", "mmocap.body", "mmocap.camera"]),
     (

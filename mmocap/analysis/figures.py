@@ -1,6 +1,6 @@
 """Figures of a sweep (error box plots, error curves of several algorithms, time-vs-error
 Pareto front) and of the evaluator benchmark (frames per second); the pictures of one run are
-in :mod:`mmocap.outputs`, drawn by the same rules.
+in :mod:`mmocap.writers`, drawn by the same rules.
 
 Every ``plot_*`` function saves its figure (:func:`save_figure`) and returns it, closed: the
 saved image is the whole canvas (constrained layout, no cropping), legends lie outside the

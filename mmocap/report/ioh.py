@@ -1,6 +1,6 @@
 """Per-frame convergence traces of tracking runs, in the IOHprofiler format for IOHanalyzer.
 
-A tracking run writes ``traces.csv`` into its folder (:mod:`mmocap.outputs.traces`): for
+A tracking run writes ``traces.csv`` into its folder (:mod:`mmocap.writers.traces`): for
 every frame, the best fitness so far against the evaluations spent on the frame.
 
 ``mmocap ioh FOLDER [--out DIR]`` reads every finished run below FOLDER (a run folder or a
@@ -47,8 +47,8 @@ import numpy as np
 from mmocap.analysis.results import variant_names
 from mmocap.errors import DataError
 from mmocap.io import write_json_atomic, write_text_atomic, writing
-from mmocap.outputs.traces import read_traces
 from mmocap.run_folder import SUMMARY, TRACES, read_summary, summary_paths
+from mmocap.writers.traces import read_traces
 
 #: the ioh release whose Analyzer files these are (IOHanalyzer reads those of 0.3.3 and later)
 IOH_VERSION = "0.4.2"

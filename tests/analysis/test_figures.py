@@ -1,6 +1,6 @@
 """Figures (mmocap.analysis.figures): every plot fits its saved image, its legends hide no
 data, frame axes have whole-number ticks. The same checks serve the run's own pictures
-(tests/outputs)."""
+(tests/writers)."""
 
 import numpy as np
 import pandas as pd

@@ -1,5 +1,5 @@
 """The tracked model drawn over the camera images of a run: the overlay images
-(``overlays/frame_*.png``) and the frames of the comparison videos (:mod:`mmocap.outputs.videos`).
+(``overlays/frame_*.png``) and the frames of the comparison videos (:mod:`mmocap.writers.videos`).
 
 Every image is BGR uint8 in the ideal (undistorted) pin-hole geometry of its camera; joints
 and markers are in world mm.

@@ -5,7 +5,7 @@ With ``video=true`` a run writes, besides its other outputs:
 - ``videos/<camera>.mp4``: every tracked frame of the camera, undistorted, with the pixels
   of the foreground only, of the model only and of both in three colours (a legend in the
   bottom corner), the skeleton and the true markers, and the camera, frame, fitness and
-  marker error written on it (:func:`mmocap.outputs.overlays.comparison_overlay`);
+  marker error written on it (:func:`mmocap.writers.overlays.comparison_overlay`);
 - ``skeleton.png``: stick figures of the tracked joints at evenly spaced frames;
 - ``skeleton.mp4``: the stick figure over the whole run.
 
@@ -21,11 +21,11 @@ import cv2
 import numpy as np
 
 from mmocap.body.skeleton import PARENT_INDEX
-from mmocap.outputs.overlays import comparison_overlay
-from mmocap.outputs.skeleton import plot_skeleton_strip, write_skeleton_animation
 from mmocap.run_folder import SKELETON_FILES, VIDEOS
 from mmocap.stages.accuracy import marker_error
 from mmocap.video import write_video
+from mmocap.writers.overlays import comparison_overlay
+from mmocap.writers.skeleton import plot_skeleton_strip, write_skeleton_animation
 
 
 def camera_frames(sequence, foreground, evaluator, body, results, truth, camera_index: int):

@@ -1,8 +1,8 @@
-"""The plots of a run (mmocap.outputs.plots) fit their saved image, with whole-frame ticks."""
+"""The plots of a run (mmocap.writers.plots) fit their saved image, with whole-frame ticks."""
 
 import numpy as np
 
-from mmocap.outputs import plots
+from mmocap.writers import plots
 from tests.helpers import assert_fits, assert_whole_frame_ticks
 
 

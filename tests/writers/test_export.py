@@ -23,10 +23,10 @@ from mmocap.config import compose
 from mmocap.data.sequence import read_markers
 from mmocap.errors import ConfigError, DataError
 from mmocap.io import WriteError
-from mmocap.outputs import export
-from mmocap.outputs.export import FORMATS, export_motion, export_run, read_poses, write_c3d, write_trc
 from mmocap.preflight import check_config
 from mmocap.stages.accuracy import FrameLog
+from mmocap.writers import export
+from mmocap.writers.export import FORMATS, export_motion, export_run, read_poses, write_c3d, write_trc
 from tests.helpers import Outcome, assert_clean_error, mmocap, run_cli
 
 FPS = 50.0

@@ -10,12 +10,12 @@ import pytest
 from mmocap.body.model import BodyModel
 from mmocap.data.sequence import Sequence
 from mmocap.evaluators.numpy_backend import NumpyEvaluator
-from mmocap.outputs.overlays import COMPARISON_COLOURS, comparison_overlay
-from mmocap.outputs.videos import camera_frames, frame_caption, run_video_files, write_run_videos
 from mmocap.stages.background import GaussianBackground
 from mmocap.stages.foreground import Foreground
 from mmocap.stages.tracking import FrameResult
 from mmocap.video import VideoReader, count_frames
+from mmocap.writers.overlays import COMPARISON_COLOURS, comparison_overlay
+from mmocap.writers.videos import camera_frames, frame_caption, run_video_files, write_run_videos
 from tests.helpers import run_cli
 
 #: how far (mm, along x) the pose drawn for frame 1 is moved off the true one, so that the

@@ -1,4 +1,4 @@
-"""The 3-D skeleton pictures of a run (mmocap.outputs.skeleton): the strip and the animation."""
+"""The 3-D skeleton pictures of a run (mmocap.writers.skeleton): the strip and the animation."""
 
 import numpy as np
 import pytest
@@ -6,7 +6,7 @@ from PIL import Image, ImageSequence
 
 from mmocap.body.skeleton import PARENT_INDEX
 from mmocap.errors import ConfigError, DataError, MmocapWarning
-from mmocap.outputs import skeleton
+from mmocap.writers import skeleton
 from tests.helpers import assert_fits
 
 
