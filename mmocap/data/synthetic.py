@@ -199,7 +199,7 @@ def generate(
     the calibration written is then the calibrated cameras', the images are rendered with
     the true ones.
     """
-    check_settings(
+    settings = dict(
         subject=subject,
         action=action,
         frames=frames,
@@ -216,24 +216,8 @@ def generate(
         shadow_softness=shadow_softness,
         distortion=distortion,
     )
-    settings = dict(
-        subject=subject,
-        action=action,
-        frames=frames,
-        cameras=list(cameras),
-        width=width,
-        height=height,
-        fps=fps,
-        seed=seed,
-        background_frames=background_frames,
-        noise_sigma=noise_sigma,
-        shot_noise=shot_noise,
-        flicker=flicker,
-        shadow_strength=shadow_strength,
-        shadow_softness=shadow_softness,
-        distortion=distortion,
-        realism=realism.as_dict(),
-    )
+    check_settings(**settings)
+    settings = {**settings, "cameras": list(cameras), "realism": realism.as_dict()}
     drawn = realism_draws.draw_rng(seed, subject, action)
     dims = realism_draws.true_dimensions(subject_dimensions(subject), realism, drawn)
     rng = np.random.default_rng([seed, sum(map(ord, subject)), sum(map(ord, action))])
