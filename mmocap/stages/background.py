@@ -89,6 +89,10 @@ class BackgroundModel(ABC):
     """
 
     min_frames = 2
+    #: fit on the empty scene's frames (:mod:`mmocap.stages.foreground` reads them for it)
+    needs_plate = True
+    #: applied to the camera's images (not to given masks)
+    reads = "images"
 
     def __init__(self, open_px: int = 0, close_px: int = 3, min_area_px: int = 50, largest_only: bool = False):
         self.cleanup = Cleanup(open_px, close_px, min_area_px, largest_only)
@@ -116,6 +120,10 @@ class BackgroundModel(ABC):
         """(H, W) or (H, W, ch) image like the fitted frames -> (H, W) bool foreground."""
         self._check_image(image, name)
         return self.cleanup(self._detect(np.asarray(image)))
+
+    def find_person(self, image: np.ndarray, name: str | None = None) -> tuple[np.ndarray, None]:
+        """:meth:`apply`, as every foreground model answers: ((H, W) bool mask, no landmarks)."""
+        return self.apply(image, name), None
 
     def _check_image(self, image: np.ndarray, name: str | None) -> None:
         if self._shape is None:

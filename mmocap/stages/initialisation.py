@@ -186,6 +186,24 @@ def search_each_limb(
     return x, fitness, used
 
 
+def person_hull(cameras, masks, voxel_mm: float) -> np.ndarray:
+    """(N, 3) mm centres of the voxels of the person's visual hull in one frame: a coarse hull
+    around the point where the silhouettes' rays meet, then one of side ``voxel_mm`` (mm)
+    around it. ``masks``: (H, W) bool in the ideal geometry of ``cameras``; a DataError when no
+    volume lies inside every camera's foreground."""
+    meet = nearest_point_to_rays(*silhouette_rays(cameras, masks))
+    coarse = visual_hull(cameras, masks, meet - HULL_REACH_MM, meet + HULL_REACH_MM, COARSE_VOXEL_MM)
+    if len(coarse) == 0:
+        raise DataError(
+            "the automatic start found no volume inside every camera's foreground in the first "
+            "frame: the cameras' calibrations may not match the images, or the person is out of "
+            "view of some camera; check with `mmocap check-recording`, or give the first pose"
+        )
+    pad = COARSE_VOXEL_MM
+    hull = visual_hull(cameras, masks, coarse.min(axis=0) - pad, coarse.max(axis=0) + pad, voxel_mm)
+    return coarse if len(hull) == 0 else hull
+
+
 class AutoStart:
     """Hydra component (``start:`` in ``conf/config.yaml``): finds the first frame's pose
     when the sequence gives none (``mode=auto``), or always (``mode=search``: the sequence's
@@ -274,18 +292,7 @@ class AutoStart:
     def measure(self, cameras, masks) -> tuple[np.ndarray, float, float]:
         """The visual hull of one frame: ((3,) mm centre of the hull, its height in mm, the y
         of its lowest voxel in mm). ``masks``: (H, W) bool in the ideal geometry of ``cameras``."""
-        meet = nearest_point_to_rays(*silhouette_rays(cameras, masks))
-        coarse = visual_hull(cameras, masks, meet - HULL_REACH_MM, meet + HULL_REACH_MM, COARSE_VOXEL_MM)
-        if len(coarse) == 0:
-            raise DataError(
-                "the automatic start found no volume inside every camera's foreground in the first "
-                "frame: the cameras' calibrations may not match the images, or the person is out of "
-                "view of some camera; check with `mmocap check-recording`, or give the first pose"
-            )
-        pad = COARSE_VOXEL_MM
-        hull = visual_hull(cameras, masks, coarse.min(axis=0) - pad, coarse.max(axis=0) + pad, self.voxel_mm)
-        if len(hull) == 0:
-            hull = coarse
+        hull = person_hull(cameras, masks, self.voxel_mm)
         floor_y = float(hull[:, 1].min() - self.voxel_mm / 2)
         height = float(hull[:, 1].max() + self.voxel_mm / 2 - floor_y)
         return hull.mean(axis=0), height, floor_y

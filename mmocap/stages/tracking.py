@@ -340,4 +340,6 @@ def track(
         if on_frame is not None:
             on_frame(result)
         x_prev = x
+    if coverage is not None:
+        coverage.warn_skipped(n)
     return results

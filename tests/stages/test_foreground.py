@@ -120,7 +120,7 @@ def test_masks_are_undistorted_foreground_with_areas(sequence):
     fg = Foreground(sequence, HorprasertBackground, cache_dir=None)
     assert all(not cam.dist.any() for cam in fg.cameras)
     masks = fg.masks(1)
-    raw = fg.detect(1)
+    raw = [mask for mask, _ in fg.detect(1)]
     for cam, mask, detected in zip(sequence.cameras, masks, raw):
         assert isinstance(mask, ForegroundMask)
         assert mask.shape == (cam.height, cam.width)
@@ -349,13 +349,29 @@ def _mask(fraction: float, shape=(100, 100)) -> np.ndarray:
 def test_coverage_flags_a_camera_only_after_frames_in_a_row():
     check = ForegroundCoverage(action="stop", frames=3)
     cams = [_Cam("A"), _Cam("B")]
-    person, empty = _mask(0.05), _mask(0.0)
-    for frame, b in enumerate([empty, empty, person, empty, empty]):  # streaks of 2 only
+    person = _mask(0.05)
+    sparse = _mask(0.0005)  # below min_fraction, not empty
+    for frame, b in enumerate([sparse, sparse, person, sparse, sparse]):  # streaks of 2 only
         kept, masks = check.select(frame, cams, [person, b], last_frame=9)
         assert [c.name for c in kept] == ["A", "B"]
         assert len(masks) == 2
-    with pytest.raises(DataError, match=r"camera B: foreground covers 0.00% .* frames 3-5"):
-        check.select(5, cams, [person, empty], last_frame=9)
+    with pytest.raises(DataError, match=r"camera B: foreground covers 0.05% .* frames 3-5"):
+        check.select(5, cams, [person, sparse], last_frame=9)
+
+
+def test_an_empty_mask_leaves_its_camera_out_of_that_frame_only_and_is_reported():
+    check = ForegroundCoverage(action="stop", frames=3)
+    cams = [_Cam("A"), _Cam("B")]
+    person, empty = _mask(0.05), _mask(0.0)
+    for frame, b in enumerate([empty, person, empty, empty, person, empty]):  # streaks of 2 only
+        kept, masks = check.select(frame, cams, [person, b], last_frame=9)
+        assert [c.name for c in kept] == (["A", "B"] if b is person else ["A"])
+        assert len(masks) == len(kept)
+    assert check.skipped == {"B": [0, 2, 3, 5]}
+    with pytest.warns(MmocapWarning, match=r"camera B: nobody in its foreground in 4 of 6 frames \(0, 2-3, 5\)"):
+        check.warn_skipped(6)
+    with pytest.raises(DataError, match="no camera left.*nobody in the foreground of: A, B"):
+        check.select(6, cams, [empty, empty], last_frame=9)
 
 
 def test_coverage_drop_keeps_tracking_with_the_other_cameras_until_none_is_left():
@@ -373,9 +389,9 @@ def test_coverage_drop_keeps_tracking_with_the_other_cameras_until_none_is_left(
 
 def test_coverage_flags_a_camera_faulty_over_the_whole_of_a_short_run():
     check = ForegroundCoverage(frames=5)
-    check.select(0, [_Cam("A")], [_mask(0.0)], last_frame=1)
+    check.select(0, [_Cam("A")], [_mask(0.0005)], last_frame=1)
     with pytest.raises(DataError, match="frames 0-1"):
-        check.select(1, [_Cam("A")], [_mask(0.0)], last_frame=1)
+        check.select(1, [_Cam("A")], [_mask(0.0005)], last_frame=1)
 
 
 @pytest.mark.parametrize(

@@ -4,11 +4,17 @@
 (``dataset=recording dataset.root=DIR`` plus Hydra ``overrides`` such as
 ``dataset.offsets={C2:3}`` or ``dataset.up=+z``) and prints what it found before a long run:
 the calibration (file, format, units and how they were decided), each camera (source,
-frames, frame rate, offset, resolution, position), the frames that will be tracked, the
-background, the ground truth, and three sanity checks on the first frame:
+frames, frame rate, offset, resolution, position), the frames that will be tracked, where the
+foreground will come from and why (the recording's masks, the empty-scene plate, or person
+segmentation: :func:`mmocap.stages.foreground.choose_method`), the ground truth, and these
+sanity checks on the first frame:
 
 - the foreground of every camera (fraction of the image): a camera that sees nobody, or
   nearly only foreground, has a wrong background or is out of sync;
+- the foreground against the person's visual hull: the hull's height, which must be a
+  person's, and the share of each camera's foreground that the hull (carved from every
+  camera's) explains; foreground that no other camera confirms (compression noise, shadows, a
+  second person) leaves it low;
 - the calibration: the rays through the centres of the silhouettes must meet; the distance
   in pixels between each silhouette's centre and the projection of the point where they
   meet shows a camera whose calibration does not fit its images;
@@ -30,19 +36,25 @@ import argparse
 import warnings
 from pathlib import Path
 
+import cv2
 import numpy as np
 from hydra.errors import ConfigCompositionException
 from hydra.utils import instantiate
 
 from mmocap import config
+from mmocap.body.mesh import HEIGHT_RANGE_MM
 from mmocap.data.recording.reader import write_recording
 from mmocap.data.sequence import Sequence
-from mmocap.errors import ConfigError, MmocapWarning
+from mmocap.errors import ConfigError, DataError, MmocapWarning
+from mmocap.pipeline import open_foreground
 from mmocap.stages.foreground import Foreground
-from mmocap.stages.initialisation import nearest_point_to_rays, silhouette_rays
+from mmocap.stages.initialisation import nearest_point_to_rays, person_hull, silhouette_rays
 
 #: foreground fractions of the image outside which a camera's first frame is suspect
 FOREGROUND_RANGE = (0.001, 0.5)
+#: the share of a camera's foreground the visual hull must explain (see the module docstring);
+#: a clean foreground leaves only the voxels' rounding out
+HULL_EXPLAINED_WARN = 0.6
 #: pixels between a silhouette's centre and the projected meeting point of the rays that
 #: suggest a calibration that does not fit the images (a person's centre, not a point)
 REPROJECTION_WARN_PX = 40.0
@@ -75,8 +87,16 @@ def check_recording(root: str, overrides: list[str], out=print) -> dict:
         f"  frames tracked: {sequence.n_frames} from frame {meta['start']} ({seconds:.1f} s at {sequence.fps:g} fps; "
         f"{meta['recorded_frames']} frames recorded after the offsets)"
     )
-    for camera, source, frames in zip(sequence.cameras, sequence.background_sources, sequence.background_frames):
-        out(f"  background {camera.name}: {len(frames)} frames of {source.path}")
+    if sequence.has_background:
+        for camera, source, frames in zip(sequence.cameras, sequence.background_sources, sequence.background_frames):
+            out(f"  background {camera.name}: {len(frames)} frames of {source.path}")
+    else:
+        out("  background: no empty-scene plate (no background/ folder, dataset.background not set)")
+    if sequence.has_given_masks:
+        for camera, source in zip(sequence.cameras, sequence.mask_sources):
+            out(f"  masks {camera.name}: {source.kind} {source.path} ({source.count} masks)")
+    foreground = open_foreground(cfg, sequence, cache_dir=None)
+    out(f"  foreground: {foreground.method}")
     truth = sequence.markers()
     scored = int((~np.isnan(truth).any(axis=2)).any(axis=1).sum())
     out(
@@ -90,13 +110,13 @@ def check_recording(root: str, overrides: list[str], out=print) -> dict:
         "fps": sequence.fps,
         "frames_with_markers": scored,
     }
-    facts.update(_first_frame_checks(sequence, instantiate(cfg.background), out))
+    facts["foreground_method"] = foreground.method
+    facts.update(_first_frame_checks(foreground, float(cfg.start.voxel_mm), out))
     return facts
 
 
-def _first_frame_checks(sequence, background, out) -> dict:
-    """The foreground, calibration and up-axis checks of the module docstring on frame 0."""
-    foreground = Foreground(sequence, background, cache_dir=None)
+def _first_frame_checks(foreground: Foreground, voxel_mm: float, out) -> dict:
+    """The foreground, hull, calibration and up-axis checks of the module docstring on frame 0."""
     cameras, masks = foreground.cameras, foreground.masks(0)
     fractions = {}
     for camera, mask in zip(cameras, masks):
@@ -112,6 +132,7 @@ def _first_frame_checks(sequence, background, out) -> dict:
                 stacklevel=2,
             )
         out(f"  first frame, camera {camera.name}: foreground {100 * fraction:.2f} % of the image{note}")
+    explained = _hull_explained(cameras, masks, voxel_mm, out)
     centres, directions = silhouette_rays(cameras, masks)
     meet = nearest_point_to_rays(centres, directions)
     errors = {}
@@ -143,7 +164,61 @@ def _first_frame_checks(sequence, background, out) -> dict:
             MmocapWarning,
             stacklevel=2,
         )
-    return {"foreground_fraction": fractions, "reprojection_px": errors, "meeting_point_mm": meet.tolist()}
+    return {
+        "foreground_fraction": fractions,
+        "hull_explained": explained,
+        "reprojection_px": errors,
+        "meeting_point_mm": meet.tolist(),
+    }
+
+
+def _hull_explained(cameras, masks, voxel_mm: float, out) -> dict:
+    """Per camera, the fraction of its first-frame foreground covered by the projection of the
+    person's visual hull (:func:`mmocap.stages.initialisation.person_hull`, voxels of side
+    ``voxel_mm``); a warning where it is below :data:`HULL_EXPLAINED_WARN`."""
+    try:
+        hull = person_hull(cameras, masks, voxel_mm)
+    except DataError as exc:
+        warnings.warn(f"no visual hull in the first frame: {exc}", MmocapWarning, stacklevel=2)
+        return {}
+    height = float(np.ptp(hull[:, 1]) + voxel_mm)
+    explained = {}
+    for camera, mask in zip(cameras, masks):
+        mask = np.asarray(mask)
+        if not mask.any():
+            continue
+        depth = hull @ camera.R[2] + camera.t[2]
+        uv = camera.project(hull)
+        drawn = np.zeros(mask.shape, np.uint8)
+        for (u, v), side in zip(uv, camera.focal * voxel_mm / depth):
+            half = max(side / 2, 0.5)
+            cv2.rectangle(drawn, (int(u - half), int(v - half)), (int(u + half), int(v + half)), 1, thickness=-1)
+        explained[camera.name] = float(np.count_nonzero(mask & drawn.astype(bool)) / np.count_nonzero(mask))
+    out(
+        f"  first frame: the person's visual hull is {height:.0f} mm tall and explains "
+        + ", ".join(f"{name} {100 * share:.0f} %" for name, share in explained.items())
+        + " of each camera's foreground"
+    )
+    if not HEIGHT_RANGE_MM[0] <= height <= HEIGHT_RANGE_MM[1]:
+        warnings.warn(
+            f"the person's visual hull in the first frame is {height:.0f} mm tall, outside a person's "
+            f"{HEIGHT_RANGE_MM[0]:.0f}-{HEIGHT_RANGE_MM[1]:.0f} mm: the foreground holds more (or less) than the "
+            "person (compression noise, shadows, a background that does not fit); try another foreground "
+            "(foreground.method, background=...)",
+            MmocapWarning,
+            stacklevel=2,
+        )
+    for name, share in explained.items():
+        if share < HULL_EXPLAINED_WARN:
+            warnings.warn(
+                f"camera {name}: only {100 * share:.0f} % of its first-frame foreground lies inside the person's "
+                f"visual hull (under {100 * HULL_EXPLAINED_WARN:.0f} %): the rest is seen by no other camera "
+                "(compression noise, shadows, a second person, a wrong calibration); try another foreground "
+                "(foreground.method, background=...) and check the masks",
+                MmocapWarning,
+                stacklevel=2,
+            )
+    return explained
 
 
 def check_main(argv: list[str], prog: str) -> None:

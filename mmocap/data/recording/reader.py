@@ -8,11 +8,22 @@ A recording folder holds::
                              per-camera files; dataset.calibration names another file
     videos/<camera>.mp4      one video per camera (any suffix of mmocap.video.VIDEO_SUFFIXES),
       or images/<camera>/    one image file per frame (.png, .jpg, ...), in name order
-    background/<camera>.mp4  optional: the empty scene, as a video or an image folder;
-      or background/<camera>/  without it, dataset.background names frames of the main videos
-                             where nobody is in view
+    background/<camera>.mp4  optional: the empty scene (a plate), as a video or an image
+      or background/<camera>/  folder; or dataset.background names frames of the main videos
+                             where nobody is in view; without either, the foreground comes
+                             from person segmentation (mmocap.stages.foreground)
+    masks/<camera>.mp4       optional: the person's masks made by another tool (SAM, rembg,
+      or masks/<camera>/     a matting tool), a video or image folder of 8-bit masks (255 the
+                             person), one per frame of the camera's video, at its size; used
+                             as the foreground as they are
     markers_mm.csv           optional ground truth: frame, marker, x_mm, y_mm, z_mm (frames
                              numbered from the synchronised frame 0, as the tracker's)
+
+Image size: a video up to :data:`CODEC_PADDING_PX` pixels narrower or lower than its
+calibration says is the calibrated image without the rows or columns a codec pads to a
+multiple of 16 (a 1088-row sensor in a 1080-row video): it is read, with a one-line warning,
+as the calibrated camera cropped at the right and bottom (the principal point kept). Any other
+mismatch is an error.
 
 Synchronisation: ``offsets`` gives, per camera, how many frames of its video come before the
 common frame 0 (a camera started 3 frames early has offset 3). Frame ``k`` of the recording
@@ -34,6 +45,7 @@ from __future__ import annotations
 import itertools
 import logging
 import math
+import warnings
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -44,7 +56,7 @@ from mmocap.body.model import MARKER_NAMES
 from mmocap.camera import Camera
 from mmocap.data.calibration import CALIBRATION_FORMATS, read_calibration, write_opencv_yaml
 from mmocap.data.sequence import Sequence, SequenceBase, listed, read_markers, write_markers
-from mmocap.errors import ConfigError, DataError
+from mmocap.errors import ConfigError, DataError, MmocapWarning
 from mmocap.validate import check_choice, check_number
 from mmocap.video import VIDEO_SUFFIXES, VideoReader, count_frames, frame_rate, write_video
 
@@ -66,6 +78,8 @@ UP_AXES = {
 }
 #: frame rates of the cameras' videos that differ by more than this fraction disagree
 FPS_TOLERANCE = 0.01
+#: the most rows or columns a codec adds to reach a multiple of 16 (see the module docstring)
+CODEC_PADDING_PX = 16
 
 
 class FrameSource:
@@ -92,6 +106,18 @@ class FrameSource:
             self.fps = frame_rate(path)
             if self.count == 0:
                 raise DataError(f"camera {camera.name}: video {path} holds no frame that decodes")
+
+    def frame_size(self) -> tuple[int, int]:
+        """(width, height) in pixels of the source's first frame, as stored."""
+        if self.video is None:
+            image = cv2.imread(str(self.files[0]), cv2.IMREAD_UNCHANGED)
+            if image is None:
+                raise DataError(
+                    f"camera {self.camera.name}: cannot read image {self.files[0]} (damaged, or not an image file)"
+                )
+        else:
+            image = self.video.read(0)
+        return image.shape[1], image.shape[0]
 
     @property
     def kind(self) -> str:
@@ -129,6 +155,24 @@ def find_source(folder: Path, camera: str, what: str) -> Path | None:
     return found[0] if found else None
 
 
+def fitted_to_frames(camera: Camera, source: FrameSource) -> Camera:
+    """``camera`` with the image size of ``source``'s frames when they are the calibrated
+    image less a codec's padding (module docstring; a warning says so), else ``camera`` itself
+    (a size that differs otherwise is refused when a frame is read)."""
+    width, height = source.frame_size()
+    short_x, short_y = camera.width - width, camera.height - height
+    if (short_x, short_y) == (0, 0) or not (0 <= short_x <= CODEC_PADDING_PX and 0 <= short_y <= CODEC_PADDING_PX):
+        return camera
+    warnings.warn(
+        f"camera {camera.name}: {source.path} is {width}x{height}, its calibration says "
+        f"{camera.width}x{camera.height}: read as the calibrated image without the codec's padding "
+        "(cropped at the right and bottom, principal point kept)",
+        MmocapWarning,
+        stacklevel=2,
+    )
+    return replace(camera, width=width, height=height, _maps={})
+
+
 def turned(camera: Camera, world: np.ndarray) -> Camera:
     """``camera`` in a world turned by ``world`` (3, 3): X_new = world @ X_old."""
     if np.array_equal(world, np.eye(3)):
@@ -147,8 +191,9 @@ class RecordingSequence(SequenceBase):
     # None only as dataclass defaults after SequenceBase's: open() gives every one
     sources: list = None  # type: ignore[assignment]
     offsets: list = None  # type: ignore[assignment]
-    background_sources: list = None  # type: ignore[assignment]
-    background_frames: list = None  # type: ignore[assignment]
+    background_sources: list | None = None
+    background_frames: list | None = None
+    mask_sources: list | None = None
     markers_path: Path | None = None
     world: np.ndarray = None  # type: ignore[assignment]
 
@@ -162,9 +207,30 @@ class RecordingSequence(SequenceBase):
         return [source.read(first + frame + offset) for source, offset in zip(self.sources, self.offsets)]
 
     def background(self, camera: Camera) -> list[np.ndarray]:
+        if self.background_sources is None:
+            raise DataError(
+                f"camera {camera.name}: no background video or image folder "
+                f"{self.root / 'background' / camera.name}[.mp4]; record the empty scene, or "
+                "set dataset.background=[first,last] to frames in which nobody is in view"
+            )
         k = [c.name for c in self.cameras].index(camera.name)
-        source, frames = self.background_sources[k], self.background_frames[k]
+        source, frames = self.background_sources[k], self.background_frames[k]  # type: ignore[index]  # with the sources
         return [source.read(f) for f in frames]
+
+    @property
+    def has_background(self) -> bool:
+        return self.background_sources is not None
+
+    @property
+    def has_given_masks(self) -> bool:
+        return self.mask_sources is not None
+
+    def given_masks(self, frame: int) -> list[np.ndarray]:
+        if self.mask_sources is None:
+            return super().given_masks(frame)
+        self.check_frame(frame)
+        first = int(self.meta["start"])
+        return [source.read(first + frame + offset) for source, offset in zip(self.mask_sources, self.offsets)]
 
     @property
     def markers_source(self) -> str:
@@ -318,8 +384,10 @@ class RecordingDataset:
                     f"camera {name}: no video {root / 'videos' / name}.mp4 (or another video suffix) "
                     f"and no image folder {root / 'images' / name}"
                 )
-            cameras.append(by_name[name])
-            sources.append(FrameSource(path, by_name[name]))
+            source = FrameSource(path, by_name[name])
+            source.camera = fitted_to_frames(source.camera, source)
+            cameras.append(source.camera)
+            sources.append(source)
         offsets = [self.offsets.get(c.name, 0) for c in cameras]
         usable = [s.count - o for s, o in zip(sources, offsets)]
         if min(usable) <= self.start:
@@ -331,6 +399,7 @@ class RecordingDataset:
         recorded = min(usable)
         n_frames = recorded - self.start if self.frames is None else min(self.frames, recorded - self.start)
         background_sources, background_frames = self._background(cameras, sources, offsets)
+        mask_sources = self._masks(cameras, sources)
         markers = root / "markers_mm.csv"
         meta = {
             "format": "mmocap-recording/1",
@@ -355,6 +424,7 @@ class RecordingDataset:
             offsets=offsets,
             background_sources=background_sources,
             background_frames=background_frames,
+            mask_sources=mask_sources,
             markers_path=markers if markers.is_file() else None,
             world=world,
         )
@@ -382,8 +452,43 @@ class RecordingDataset:
             )
         return float(np.median(list(stated.values())))
 
+    def _masks(self, cameras, sources) -> list[FrameSource] | None:
+        """Per camera, the source of its given masks (``masks/<camera>``), each with as many
+        frames as the camera's video and at its size; None if the recording has no masks/."""
+        folder = self.path / "masks"
+        found = {camera.name: find_source(folder, camera.name, "masks") for camera in cameras}
+        if not any(found.values()):
+            return None
+        missing = [name for name, path in found.items() if path is None]
+        if missing:
+            raise DataError(
+                f"camera {missing[0]}: {folder} holds masks of other cameras but none of this one; add "
+                f"{folder / missing[0]}/ (one mask image per frame) or {folder / missing[0]}.mp4, or leave it "
+                "out with dataset.cameras"
+            )
+        masks = []
+        for camera, source in zip(cameras, sources):
+            mask = FrameSource(found[camera.name], replace(camera, colour=False, _maps={}))  # type: ignore[arg-type]  # all found
+            if mask.count != source.count:
+                raise DataError(
+                    f"camera {camera.name}: {mask.path} holds {mask.count} masks, but {source.path} has "
+                    f"{source.count} frames: give one mask per frame"
+                )
+            if mask.frame_size() != (camera.width, camera.height):
+                width, height = mask.frame_size()
+                raise DataError(
+                    f"camera {camera.name}: the masks in {mask.path} are {width}x{height}, but its frames are "
+                    f"{camera.width}x{camera.height}: give masks at the frames' size"
+                )
+            masks.append(mask)
+        return masks
+
     def _background(self, cameras, sources, offsets):
-        """Per camera: the source of its empty-scene frames and the frame indices to take."""
+        """Per camera: the source of its empty-scene frames and the frame indices to take;
+        (None, None) when the recording has no plate (no background/ folder and no
+        ``background`` range)."""
+        if self.background is None and not (self.path / "background").is_dir():
+            return None, None
         out_sources, out_frames = [], []
         for camera, source, offset in zip(cameras, sources, offsets):
             if self.background is not None:

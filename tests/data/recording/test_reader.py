@@ -8,9 +8,11 @@ import cv2
 import numpy as np
 import pytest
 
-from mmocap.data.recording.reader import UP_AXES, RecordingDataset, turned, write_recording
+from mmocap.data.calibration import read_calibration
+from mmocap.data.recording.reader import CODEC_PADDING_PX, UP_AXES, RecordingDataset, turned, write_recording
 from mmocap.data.sequence import Sequence
-from mmocap.errors import ConfigError, DataError
+from mmocap.errors import ConfigError, DataError, MmocapWarning
+from tests.helpers import pad_calibration, write_masks
 
 OFFSETS = {"C2": 2}
 YAW_DEG = 30.0
@@ -118,9 +120,21 @@ def test_a_z_up_calibration_is_turned_into_y_up(tiny_sequence):
     np.testing.assert_allclose(back.R, camera.R, atol=1e-12)
 
 
+#: the breaks of masks, sizes and the plate, each a function of the recording's folder
+FOLDER_BREAKS = {
+    "masks-of-one-camera": lambda root: write_masks(root, cameras=["C1"]),
+    "masks-wrong-count": lambda root: write_masks(root, missing=1),
+    "masks-wrong-size": lambda root: write_masks(root, size=(160, 120)),
+    "beyond-the-codec-padding": lambda root: pad_calibration(root, CODEC_PADDING_PX + 1),
+    "no-background": lambda root: shutil.rmtree(root / "background"),
+}
+
+
 def _break(root: Path, how: str) -> dict:
     """Break a copy of the recording; returns extra RecordingDataset arguments."""
-    if how == "no-calibration":
+    if how in FOLDER_BREAKS:
+        FOLDER_BREAKS[how](root)
+    elif how == "no-calibration":
         (root / "calibration.yml").unlink()
     elif how == "two-calibrations":
         shutil.copy(root / "calibration.yml", root / "calibration.yaml")
@@ -131,8 +145,6 @@ def _break(root: Path, how: str) -> dict:
         (root / "images" / "C1").mkdir(parents=True)
     elif how == "damaged-video":
         (root / "videos" / "C1.mp4").write_bytes(b"\0" * 100)
-    elif how == "no-background":
-        shutil.rmtree(root / "background")
     elif how == "background-past-the-end":
         return {"background": [0, 9]}
     elif how == "offset-of-an-unknown-camera":
@@ -167,6 +179,10 @@ CASES = {  # how -> words the one-line error must hold
     "offsets-past-the-end": ["camera C1", "offset 4", "none is left"],
     "images-without-fps": ["dataset.fps"],
     "wrong-resolution": ["camera C1", "100x100", "320x240"],
+    "masks-of-one-camera": ["camera C2", "none of this one", "masks"],
+    "masks-wrong-count": ["camera C1", "3 masks", "4 frames", "one mask per frame"],
+    "masks-wrong-size": ["camera C1", "160x120", "320x240", "at the frames' size"],
+    "beyond-the-codec-padding": ["camera C1", "320x240", "337x240"],
 }
 
 
@@ -176,6 +192,7 @@ def test_a_broken_recording_is_one_clear_error(recording_copy, how):
     with pytest.raises((DataError, ConfigError)) as caught:  # noqa: PT012 - at opening or at the first image
         opened = RecordingDataset(str(recording_copy), **extra).open(progress=False)
         opened.images(0)
+        opened.background(opened.cameras[0])  # a recording without a plate opens, and says so when asked
     message = str(caught.value)
     assert "\n" not in message
     for word in CASES[how]:
@@ -197,3 +214,30 @@ def test_a_broken_recording_is_one_clear_error(recording_copy, how):
 def test_a_bad_setting_names_its_key(recording, key, value):
     with pytest.raises(ConfigError, match=f"dataset.{key}"):
         RecordingDataset(str(recording), **{key: value})
+
+
+def test_a_recording_without_a_plate_opens_and_given_masks_are_read_as_they_are(recording_copy):
+    shutil.rmtree(recording_copy / "background")
+    write_masks(recording_copy)
+    first = recording_copy / "masks" / "C1" / "0000.png"
+    person = np.zeros((240, 320), np.uint8)
+    person[100:200, 150:180] = 255
+    cv2.imwrite(str(first), person)
+    opened = RecordingDataset(str(recording_copy), offsets=OFFSETS).open(progress=False)
+    assert not opened.has_background
+    assert opened.has_given_masks
+    masks = opened.given_masks(0)
+    assert [m.shape for m in masks] == [(240, 320)] * len(opened.cameras)
+    np.testing.assert_array_equal(masks[0], person)
+    assert not masks[1].any()
+
+
+def test_a_video_short_of_its_calibration_by_the_codec_padding_is_read_with_a_warning(recording_copy):
+    pad_calibration(recording_copy, CODEC_PADDING_PX)
+    calibrated = read_calibration(recording_copy / "calibration.yml", units="mm").cameras[0]
+    with pytest.warns(MmocapWarning, match=r"camera C1: .*C1.mp4 is 320x240, its calibration says 336x240.*padding"):
+        opened = RecordingDataset(str(recording_copy), offsets=OFFSETS).open(progress=False)
+    camera = opened.cameras[0]
+    assert (camera.width, camera.height) == (320, 240)
+    np.testing.assert_array_equal(camera.K, calibrated.K)  # the principal point kept
+    assert opened.images(0)[0].shape[:2] == (240, 320)
