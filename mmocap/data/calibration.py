@@ -36,40 +36,44 @@ The accepted formats are listed in :data:`CALIBRATION_FORMATS`:
   split over two files).
 - **Qualisys QTM** ``.qca.txt`` (XML, read with ``xml.etree``): one ``<camera>`` per camera
   under ``<cameras>``, named by its ``serial``; cameras with ``active="0"`` are left out
-  (logged). The video image is the sensor window ``<fov_video left top right bottom>`` in
-  sensor pixels: ``(right - left + 1) x (bottom - top + 1)`` pixels. ``<intrinsic>`` gives
-  ``focalLengthU``, ``focalLengthV``, ``centerPointU``, ``centerPointV`` in 1/64 sensor
-  pixels (:data:`QTM_SUBPIXELS`; the centre is then taken relative to the window's
-  ``left``, ``top``), ``skew`` (refused unless 0) and the dimensionless OpenCV coefficients
-  ``radialDistortion1-3`` (k1 k2 k3) and ``tangentalDistortion1-2`` (p1 p2).
-  ``<transform>`` gives the camera centre ``x y z`` in mm and the camera-to-world rotation
-  listed column by column: ``r11 r12 r13`` is the camera's x axis in the world, ``r31 r32
-  r33`` its z axis, along which QTM's camera looks backwards (y up the image); mmocap's
-  camera is turned half a turn about its x axis (:data:`QTM_TO_OPENCV`), so that
-  ``R = QTM_TO_OPENCV @ [[r11 r12 r13] [r21 r22 r23] [r31 r32 r33]]`` and ``t = -R @ (x,
-  y, z)``. A camera with ``viewrotation`` other than 0 is read as its sensor sees it (a
-  warning says so): its videos must not be turned.
-- **Vicon** ``.xcp`` (XML, Nexus, Tracker, Shogun): one ``<Camera>`` per camera under
-  ``<Cameras>``, named by its ``DEVICEID`` (else ``USERID``, else ``NAME``), with
-  ``SENSOR_SIZE`` (width height, pixels), ``PIXEL_ASPECT_RATIO`` (fy = fx / ratio) and
+  (logged); the others are all read, marker cameras too (a recording uses those with a
+  video). The video image is the sensor window ``<fov_video left top right bottom>`` in
+  sensor pixels: ``(right - left + 1) x (bottom - top + 1)`` pixels (a video binned to fewer
+  pixels, QTM's 540p of a 1080p window, is told by its size when a recording is opened).
+  ``<intrinsic>`` gives ``focalLengthU``, ``focalLengthV``, ``centerPointU``,
+  ``centerPointV`` in 1/64 sensor pixels (:data:`QTM_SUBPIXELS`; the centre is then taken
+  relative to the window's ``left``, ``top``), ``skew`` (refused unless 0) and the
+  dimensionless OpenCV coefficients ``radialDistortion1-3`` (k1 k2 k3) and
+  ``tangentalDistortion1-2`` (p1 p2). ``<transform>`` gives the camera centre ``x y z`` in
+  mm and the camera-to-world rotation listed column by column: ``r11 r12 r13`` is the
+  camera's x axis in the world, ``r31 r32 r33`` its z axis, along which QTM's camera looks
+  backwards (y up the image); mmocap's camera is turned half a turn about its x axis
+  (:data:`QTM_TO_OPENCV`), so that
+  ``R = QTM_TO_OPENCV @ [[r11 r12 r13] [r21 r22 r23] [r31 r32 r33]]`` and
+  ``t = -R @ (x, y, z)``. A camera with ``viewrotation`` other than 0 is read as its sensor
+  sees it (a warning says so): its videos must not be turned.
+- **Vicon** ``.xcp`` (XML, as Nexus and Tracker write it): one ``<Camera>`` per camera under
+  ``<Cameras>``, every one read, named by its ``DEVICEID`` (else ``USERID``, else ``NAME``),
+  with ``SENSOR_SIZE`` (width height, pixels), ``PIXEL_ASPECT_RATIO`` (fy = fx / ratio) and
   ``SKEW`` (refused unless 0), and one ``<KeyFrames><KeyFrame>`` (several: a moving camera,
   refused) with ``FOCAL_LENGTH`` (pixels), ``PRINCIPAL_POINT`` (x y, pixels),
   ``ORIENTATION`` (the world-to-camera rotation as a quaternion x y z w, the real part
   last), ``POSITION`` (the camera centre, mm) and the distortion ``VICON_RADIAL2``
   (``<model> <centre x> <centre y> k1 k2 [k3]``, read as OpenCV's radial coefficients about
-  the principal point, as Pose2Sim reads them) or else ``VICON_RADIAL`` (k1 k2).
+  the principal point, as Pose2Sim reads them; a centre elsewhere is warned of) or else
+  ``VICON_RADIAL`` (k1 k2).
 - A folder holding one file of a format that keeps every camera in one file (TOML,
   ``.qca.txt``, ``.xcp``: :data:`RIG_FILE_SUFFIXES`) and no other calibration file is read as
   that file (Pose2Sim's ``calibration/Calib.qca.txt``); its subfolders are ignored.
 
 Units: mmocap's translations are in mm; tools write mm (anipose: the units of the board's
 square size, usually mm; QTM and Vicon, whose files are read as stating mm) or metres
-(Pose2Sim). ``units="auto"`` takes what the file states,
-else decides from the cameras' distances from the world origin (their centres
-``-R^T t``): rigs stand 1-10 m away, so a median below :data:`METRES_BELOW` means metres and
-above :data:`MILLIMETRES_ABOVE` means mm; in between is refused. Cameras standing at the
-origin (the reference camera of a rig calibrated relative to one camera) are left out of
-the median. The decision and its reason are logged in one line and returned.
+(Pose2Sim). ``units="auto"`` takes what the file states, else decides from the cameras'
+distances from the world origin (their centres ``-R^T t``): rigs stand 1-10 m away, so a
+median below :data:`METRES_BELOW` means metres and above :data:`MILLIMETRES_ABOVE` means
+mm; in between is refused. Cameras standing at the origin (the reference camera of a rig
+calibrated relative to one camera) are left out of the median. The decision and its
+reason are logged in one line and returned.
 
 Errors are one-line :class:`~mmocap.errors.DataError` messages naming the file, the camera
 and the key as the file spells it.
@@ -115,6 +119,9 @@ QTM_SUBPIXELS = 64
 QTM_TO_OPENCV = np.diag([1.0, -1.0, -1.0])
 #: the attributes naming a Vicon camera, first found wins (Pose2Sim takes DEVICEID)
 VICON_NAMES = ("DEVICEID", "USERID", "NAME")
+#: pixels between the centre of a Vicon camera's distortion and its principal point beyond
+#: which a warning says that mmocap centres the distortion on the principal point
+VICON_CENTRE_PX = 1.0
 #: the units ``read_calibration`` takes, and the factor turning each into mm
 UNITS = {"mm": 1.0, "m": 1000.0}
 #: median camera distance from the world origin below which ``units="auto"`` reads metres
@@ -663,7 +670,8 @@ def _read_qtm(path: Path) -> _Parsed:
     """The active cameras of a Qualisys QTM ``.qca.txt`` (see the module's docstring)."""
     source = f"calibration file {path}"
     root = _xml_root(path, "calibration", "Qualisys QTM calibration")
-    cameras, serials = [], {}
+    cameras: list[Camera] = []
+    serials: dict[str, int] = {}
     for index, element in enumerate(root.findall("cameras/camera"), 1):
         name = _XmlCamera(source, f"#{index}", element).text(element, "serial")
         camera = _XmlCamera(source, name, element)
@@ -691,8 +699,13 @@ def _qtm_camera(camera: _XmlCamera) -> Camera:
     camera.zero_skew(intrinsic, "skew")
     k1, k2, k3, p1, p2 = (
         camera.number(intrinsic, key)
-        for key in ("radialDistortion1", "radialDistortion2", "radialDistortion3")
-        + ("tangentalDistortion1", "tangentalDistortion2")
+        for key in (
+            "radialDistortion1",
+            "radialDistortion2",
+            "radialDistortion3",
+            "tangentalDistortion1",
+            "tangentalDistortion2",
+        )
     )
     rotation = np.array([[camera.number(transform, f"r{i}{j}") for j in (1, 2, 3)] for i in (1, 2, 3)])
     centre = np.array([camera.number(transform, axis) for axis in ("x", "y", "z")])
@@ -731,7 +744,8 @@ def _read_vicon(path: Path) -> _Parsed:
     """The cameras of a Vicon ``.xcp`` (see the module's docstring)."""
     source = f"calibration file {path}"
     root = _xml_root(path, "Cameras", "Vicon calibration")
-    cameras, names = [], {}
+    cameras: list[Camera] = []
+    names: dict[str, int] = {}
     for index, element in enumerate(root.findall("Camera"), 1):
         attribute = next((key for key in VICON_NAMES if (element.get(key) or "").strip()), None)
         if attribute is None:
@@ -774,7 +788,7 @@ def _vicon_camera(camera: _XmlCamera) -> Camera:
         camera.source,
         camera.name,
         np.array([[focal, 0.0, cx], [0.0, focal / aspect, cy], [0.0, 0.0, 1.0]]),
-        _vicon_distortion(camera, keyframe),
+        _vicon_distortion(camera, keyframe, (cx, cy)),
         R,
         -R @ position,
         _whole(float(width)),
@@ -789,10 +803,17 @@ def _vicon_camera(camera: _XmlCamera) -> Camera:
     )
 
 
-def _vicon_distortion(camera: _XmlCamera, keyframe: ET.Element) -> np.ndarray:
+def _vicon_distortion(camera: _XmlCamera, keyframe: ET.Element, principal_point: tuple[float, float]) -> np.ndarray:
     """(5,) ``k1 k2 0 0 k3`` from ``VICON_RADIAL2`` (``<model> <centre x> <centre y> k1 k2
-    [k3]``) or else ``VICON_RADIAL`` (``k1 k2``)."""
-    if keyframe.get("VICON_RADIAL2") is None and keyframe.get("VICON_RADIAL") is not None:
+    [k3]``) or else ``VICON_RADIAL`` (``k1 k2``); a warning if the distortion's centre stands
+    more than :data:`VICON_CENTRE_PX` from ``principal_point`` (x, y in pixels), on which
+    mmocap centres it."""
+    if keyframe.get("VICON_RADIAL2") is None:
+        if keyframe.get("VICON_RADIAL") is None:
+            raise DataError(
+                f"camera {camera.name}: {camera.source}: <KeyFrame> lacks the lens distortion: give the "
+                "attribute 'VICON_RADIAL2' or 'VICON_RADIAL'"
+            )
         k1, k2 = camera.numbers(keyframe, "VICON_RADIAL", (2,), "k1 k2")
         return np.array([k1, k2, 0.0, 0.0, 0.0])
     text = camera.text(keyframe, "VICON_RADIAL2")
@@ -803,6 +824,15 @@ def _vicon_distortion(camera: _XmlCamera, keyframe: ET.Element) -> np.ndarray:
     if len(values) not in (4, 5) or not np.all(np.isfinite(values)):
         words = "<model> <centre x> <centre y> k1 k2 [k3], finite (or give VICON_RADIAL: k1 k2)"
         raise camera.fail(keyframe, "VICON_RADIAL2", f"must be {words}, got {text!r:.80}")
+    offset = float(np.hypot(values[0] - principal_point[0], values[1] - principal_point[1]))
+    if offset > VICON_CENTRE_PX:
+        log.warning(
+            "camera %s: %s: the distortion's centre in VICON_RADIAL2 stands %.3g px from PRINCIPAL_POINT: "
+            "the distortion is taken about the principal point",
+            camera.name,
+            camera.source,
+            offset,
+        )
     k1, k2, k3 = [*values[2:], 0.0][:3]
     return np.array([k1, k2, 0.0, 0.0, k3])
 

@@ -311,8 +311,10 @@ def test_a_qtm_export_reads_as_worked_out_by_hand(tmp_path, caplog):
     assert f'camera 28124: calibration file {path}: inactive (active="0"): left out' in caplog.text
 
 
-def test_a_vicon_export_reads_as_worked_out_by_hand(tmp_path):
-    first, second = read_calibration(write(tmp_path / "lab.xcp", VICON_FILE)).cameras
+def test_a_vicon_export_reads_as_worked_out_by_hand(tmp_path, caplog):
+    with caplog.at_level(logging.WARNING):
+        first, second = read_calibration(write(tmp_path / "lab.xcp", VICON_FILE)).cameras
+    assert not caplog.records
     assert (first.name, first.width, first.height) == ("2107734", 1920, 1080)
     np.testing.assert_allclose(first.K, [[1600.0, 0.0, 955.5], [0.0, 1280.0, 541.25], [0.0, 0.0, 1.0]])
     np.testing.assert_allclose(first.dist, [-0.12, 0.05, 0.0, 0.0, 0.0])
@@ -322,6 +324,16 @@ def test_a_vicon_export_reads_as_worked_out_by_hand(tmp_path):
     np.testing.assert_allclose(second.dist, [-0.1, 0.02, 0.0, 0.0, 0.0])
     np.testing.assert_allclose(second.R, np.eye(3))
     np.testing.assert_allclose(second.t, [0.0, 0.0, 5000.0])
+
+
+def test_a_vicon_distortion_centre_off_the_principal_point_is_warned_of(tmp_path, caplog):
+    path = write(tmp_path / "lab.xcp", VICON_FILE.replace("ThirdOrderRadial 955.5", "ThirdOrderRadial 965.5"))
+    with caplog.at_level(logging.WARNING):
+        first, _ = read_calibration(path).cameras
+    np.testing.assert_allclose(first.K[:2, 2], [955.5, 541.25])
+    assert f"camera 2107734: calibration file {path}: the distortion's centre in VICON_RADIAL2 stands 10 px" in (
+        caplog.text
+    )
 
 
 def test_a_turned_qtm_camera_is_read_unturned_with_a_warning(tmp_path, caplog):
@@ -411,6 +423,16 @@ def xml_with(dist):
     return make
 
 
+def qtm_with(edit):
+    """A maker of QTM_FILE with ``edit(text) -> text`` applied."""
+    return lambda folder, rig: write(folder / "lab.qca.txt", edit(QTM_FILE))
+
+
+def vicon_with(edit):
+    """A maker of VICON_FILE with ``edit(text) -> text`` applied."""
+    return lambda folder, rig: write(folder / "lab.xcp", edit(VICON_FILE))
+
+
 def camera_folder(folder: Path, cameras: list[Camera]) -> Path:
     """A folder of one YAML per camera of ``cameras`` (top-level keys), and BW9.yml holding none."""
     folder = folder / "calibration"
@@ -498,6 +520,97 @@ BAD_INPUTS = {
         lambda folder, rig: camera_folder(folder, rig[:1]),
         None,
         ("calibration file", "BW9.yml holds no camera", "must hold one"),
+    ),
+    "qtm_unparsable": (qtm_with(lambda text: text[:400]), None, ("is not valid XML", "QTM", "line")),
+    "qtm_other_root": (
+        lambda folder, rig: write(folder / "lab.qca.txt", VICON_FILE),
+        None,
+        ("root element is <Cameras>, expected <calibration>",),
+    ),
+    "qtm_without_serial": (
+        qtm_with(lambda text: text.replace(' serial="28123"', "")),
+        None,
+        ("camera #1", "<camera> lacks the attribute 'serial'"),
+    ),
+    "qtm_without_intrinsic": (
+        qtm_with(lambda text: re.sub(r"<intrinsic [^>]*/>", "", text)),
+        None,
+        ("camera 28123", "lacks the element <intrinsic>"),
+    ),
+    "qtm_focal_nan": (
+        qtm_with(lambda text: text.replace('focalLengthU="115200.0"', 'focalLengthU="nan"')),
+        None,
+        ("camera 28123", "<intrinsic> attribute 'focalLengthU' must be finite", "'nan'"),
+    ),
+    "qtm_skew": (
+        qtm_with(lambda text: text.replace('skew="0.0"', 'skew="2.5"')),
+        None,
+        ("camera 28123", "attribute 'skew' is 2.5", "not supported"),
+    ),
+    "qtm_half_pixel_window": (
+        qtm_with(lambda text: text.replace('right="1919" bottom="1083"', 'right="1919.5" bottom="1083"')),
+        None,
+        ("camera 28123", "'<fov_video> left, right' must be an integer number of pixels", "1920.5"),
+    ),
+    "qtm_viewrotation_45": (
+        qtm_with(lambda text: text.replace('viewrotation="0" video', 'viewrotation="45" video')),
+        None,
+        ("camera 28123", "attribute 'viewrotation' must be 0, 90, 180 or 270, got '45'"),
+    ),
+    "qtm_active_yes": (
+        qtm_with(lambda text: text.replace('active="0"', 'active="yes"')),
+        None,
+        ("camera 28124", "attribute 'active' must be 1 or 0, got 'yes'"),
+    ),
+    "qtm_every_camera_inactive": (
+        qtm_with(lambda text: text.replace('active="1"', 'active="0"')),
+        None,
+        ("holds no cameras", 'looked for <camera active="1">'),
+    ),
+    "vicon_moving_camera": (
+        vicon_with(lambda text: text.replace("<KeyFrame FRAME", '<KeyFrame FRAME="9"/><KeyFrame FRAME', 1)),
+        None,
+        ("camera 2107734", "2 <KeyFrame>s: a moving camera"),
+    ),
+    "vicon_no_keyframe": (
+        vicon_with(lambda text: re.sub(r"<KeyFrame FRAME=\"0\" FOCAL_LENGTH=\"1000\"[^>]*/>", "", text)),
+        None,
+        ("camera 2107735", "lacks the element <KeyFrames/KeyFrame>"),
+    ),
+    "vicon_no_name": (
+        vicon_with(lambda text: text.replace('DEVICEID="2107735" USERID="4" ', "")),
+        None,
+        ("camera #2", "lacks the attributes DEVICEID, USERID, NAME"),
+    ),
+    "vicon_quaternion_of_norm_2": (
+        vicon_with(lambda text: text.replace('ORIENTATION="0 0 0 1"', 'ORIENTATION="0 0 0 2"')),
+        None,
+        ("camera 2107735", "'ORIENTATION' must be a unit quaternion x y z w, got norm 2"),
+    ),
+    "vicon_sensor_size_of_one": (
+        vicon_with(lambda text: text.replace('SENSOR_SIZE="1280 720"', 'SENSOR_SIZE="1280"')),
+        None,
+        ("camera 2107735", "'SENSOR_SIZE' must be width height in pixels, got '1280'"),
+    ),
+    "vicon_aspect_zero": (
+        vicon_with(lambda text: text.replace('PIXEL_ASPECT_RATIO="1"', 'PIXEL_ASPECT_RATIO="0"')),
+        None,
+        ("camera 2107735", "'PIXEL_ASPECT_RATIO' must be > 0"),
+    ),
+    "vicon_skew": (
+        vicon_with(lambda text: text.replace('SKEW="0">\n    <KeyFrames>', 'SKEW="0.5">\n    <KeyFrames>')),
+        None,
+        ("camera 2107735", "attribute 'SKEW' is 0.5"),
+    ),
+    "vicon_radial2_of_one_coefficient": (
+        vicon_with(lambda text: text.replace("541.25 -0.12 0.05", "541.25 -0.12")),
+        None,
+        ("camera 2107734", "'VICON_RADIAL2' must be <model> <centre x> <centre y> k1 k2 [k3]"),
+    ),
+    "vicon_no_distortion": (
+        vicon_with(lambda text: text.replace(' VICON_RADIAL="-0.1 0.02"', "")),
+        None,
+        ("camera 2107735", "lacks the lens distortion", "'VICON_RADIAL2' or 'VICON_RADIAL'"),
     ),
     "not_found": (lambda folder, rig: folder / "nothing.yml", None, ("calibration file not found",)),
     "unknown_suffix": (
