@@ -391,3 +391,103 @@ def pad_calibration(root: Path, pixels: int) -> None:
     calibration = read_calibration(root / "calibration.yml")
     padded = [replace(camera, width=camera.width + pixels, _maps={}) for camera in calibration.cameras]
     write_opencv_yaml(root / "calibration.yml", padded, units="mm")
+
+
+# --- lab calibration files ------------------------------------------------------------------
+
+
+def xml_attributes(values: dict) -> str:
+    """``key="value" ...``, numbers written to be read back exactly, lists joined by spaces."""
+
+    def text(value) -> str:
+        if isinstance(value, (list, tuple, np.ndarray)):
+            return " ".join(text(v) for v in value)
+        return value if isinstance(value, str) else repr(float(value)) if isinstance(value, float) else str(value)
+
+    return " ".join(f'{key}="{text(value)}"' for key, value in values.items())
+
+
+def qtm_calibration_xml(cameras, window=(8, 4)) -> str:
+    """A Qualisys QTM ``.qca.txt`` of ``cameras`` (mmocap cameras, t in mm), written from the
+    format's conventions: each camera's image is the sensor window ``<fov_video>`` starting at
+    ``window`` (left, top) of a larger sensor; focal lengths and principal point in 1/64 sensor
+    pixels, the centre relative to the sensor's corner; ``<transform>`` holds the camera centre
+    and QTM's camera axes in world coordinates, x then y then z (``r11 r12 r13`` is the x
+    axis): QTM's camera has y up the image and looks along -z, so its axes are OpenCV's x, -y
+    and -z axes (the rows of R, the last two negated)."""
+    left, top = window
+    blocks = []
+    for c in cameras:
+        right, bottom = left + c.width - 1, top + c.height - 1
+        axes = (c.R[0], -c.R[1], -c.R[2])
+        (fx, _, cx), (_, fy, cy), _ = c.K
+        k1, k2, p1, p2, k3 = map(float, c.dist)
+        camera = {"active": "1", "calibrated": "true", "avg-residual": "0.3", "serial": c.name}
+        fov = {"left": left, "top": top, "right": right, "bottom": bottom}
+        transform = dict(zip("xyz", map(float, c.centre), strict=True))
+        transform |= {f"r{i + 1}{j + 1}": float(axes[i][j]) for i in range(3) for j in range(3)}
+        intrinsic = {
+            "focallength": "8.0",
+            "sensorMinU": "0",
+            "sensorMaxU": 64 * (right + left),
+            "sensorMinV": "0",
+            "sensorMaxV": 64 * (bottom + top),
+            "focalLengthU": 64 * float(fx),
+            "focalLengthV": 64 * float(fy),
+            "centerPointU": 64 * float(cx + left),
+            "centerPointV": 64 * float(cy + top),
+            "skew": "0",
+            "radialDistortion1": k1,
+            "radialDistortion2": k2,
+            "radialDistortion3": k3,
+            "tangentalDistortion1": p1,
+            "tangentalDistortion2": p2,
+        }
+        blocks.append(
+            f'    <camera {xml_attributes(camera)} model="Miqus Video" viewrotation="0">\n'
+            f"      <fov_video {xml_attributes(fov)}/>\n"
+            f"      <transform {xml_attributes(transform)}/>\n"
+            f"      <intrinsic {xml_attributes(intrinsic)}/>\n    </camera>\n"
+        )
+    return (
+        '<?xml version="1.0" encoding="UTF-8"?>\n<calibration source="test" type="regular">\n'
+        f'  <results std-dev="0.4"/>\n  <cameras>\n{"".join(blocks)}  </cameras>\n</calibration>\n'
+    )
+
+
+def vicon_calibration_xml(cameras) -> str:
+    """A Vicon ``.xcp`` of ``cameras`` (mmocap cameras, t in mm, no tangential distortion),
+    written from the format's conventions: ``SENSOR_SIZE`` the image size, ``FOCAL_LENGTH``
+    fx and ``PIXEL_ASPECT_RATIO`` fx / fy, ``ORIENTATION`` the world-to-camera rotation as the
+    quaternion x y z w (from R's axis and angle), ``POSITION`` the camera centre in mm,
+    ``VICON_RADIAL2`` the model, its centre (the principal point) and k1 k2 k3."""
+    blocks = []
+    for index, c in enumerate(cameras, 1):
+        rvec = cv2.Rodrigues(c.R)[0].ravel()
+        angle = float(np.linalg.norm(rvec))
+        axis = rvec / angle if angle else np.zeros(3)
+        (fx, _, cx), (_, fy, cy), _ = c.K
+        k1, k2, _, _, k3 = map(float, c.dist)
+        camera = {
+            "DEVICEID": c.name,
+            "USERID": index,
+            "TYPE": "Vue",
+            "PIXEL_ASPECT_RATIO": float(fx / fy),
+            "SENSOR_SIZE": [c.width, c.height],
+            "SKEW": "0",
+        }
+        keyframe = {
+            "FRAME": 0,
+            "FOCAL_LENGTH": float(fx),
+            "ORIENTATION": [*map(float, axis * np.sin(angle / 2)), float(np.cos(angle / 2))],
+            "POSITION": [*map(float, c.centre)],
+            "PRINCIPAL_POINT": [float(cx), float(cy)],
+            "VICON_RADIAL2": ["ThirdOrderRadial", float(cx), float(cy), k1, k2, k3],
+            "WORLD_ERROR": "0.3",
+        }
+        blocks.append(
+            f"  <Camera {xml_attributes(camera)}>\n"
+            f"    <KeyFrames>\n      <KeyFrame {xml_attributes(keyframe)}/>\n    </KeyFrames>\n  </Camera>\n"
+        )
+    header = '<?xml version="1.0" encoding="UTF-8" standalone="no" ?>\n<Cameras VERSION="1.0">\n'
+    return f"{header}{''.join(blocks)}</Cameras>\n"

@@ -34,14 +34,46 @@ The accepted formats are listed in :data:`CALIBRATION_FORMATS`:
   read by :meth:`~mmocap.camera.Camera.load`; translations in mm.
 - **EasyMocap**: a folder holding ``intri.yml`` and ``extri.yml`` (the ``names`` layout
   split over two files).
+- **Qualisys QTM** ``.qca.txt`` (XML, read with ``xml.etree``): one ``<camera>`` per camera
+  under ``<cameras>``, named by its ``serial``; cameras with ``active="0"`` are left out
+  (logged); the others are all read, marker cameras too (a recording uses those with a
+  video). The video image is the sensor window ``<fov_video left top right bottom>`` in
+  sensor pixels: ``(right - left + 1) x (bottom - top + 1)`` pixels (a video binned to fewer
+  pixels, QTM's 540p of a 1080p window, is told by its size when a recording is opened).
+  ``<intrinsic>`` gives ``focalLengthU``, ``focalLengthV``, ``centerPointU``,
+  ``centerPointV`` in 1/64 sensor pixels (:data:`QTM_SUBPIXELS`; the centre is then taken
+  relative to the window's ``left``, ``top``), ``skew`` (refused unless 0) and the
+  dimensionless OpenCV coefficients ``radialDistortion1-3`` (k1 k2 k3) and
+  ``tangentalDistortion1-2`` (p1 p2). ``<transform>`` gives the camera centre ``x y z`` in
+  mm and the camera-to-world rotation listed column by column: ``r11 r12 r13`` is the
+  camera's x axis in the world, ``r31 r32 r33`` its z axis, along which QTM's camera looks
+  backwards (y up the image); mmocap's camera is turned half a turn about its x axis
+  (:data:`QTM_TO_OPENCV`), so that
+  ``R = QTM_TO_OPENCV @ [[r11 r12 r13] [r21 r22 r23] [r31 r32 r33]]`` and
+  ``t = -R @ (x, y, z)``. A camera with ``viewrotation`` other than 0 is read as its sensor
+  sees it (a warning says so): its videos must not be turned.
+- **Vicon** ``.xcp`` (XML, as Nexus and Tracker write it): one ``<Camera>`` per camera under
+  ``<Cameras>``, every one read, named by its ``DEVICEID`` (else ``USERID``, else ``NAME``),
+  with ``SENSOR_SIZE`` (width height, pixels), ``PIXEL_ASPECT_RATIO`` (fy = fx / ratio) and
+  ``SKEW`` (refused unless 0), and one ``<KeyFrames><KeyFrame>`` (several: a moving camera,
+  refused) with ``FOCAL_LENGTH`` (pixels), ``PRINCIPAL_POINT`` (x y, pixels),
+  ``ORIENTATION`` (the world-to-camera rotation as a quaternion x y z w, the real part
+  last), ``POSITION`` (the camera centre, mm) and the distortion ``VICON_RADIAL2``
+  (``<model> <centre x> <centre y> k1 k2 [k3]``, read as OpenCV's radial coefficients about
+  the principal point, as Pose2Sim reads them; a centre elsewhere is warned of) or else
+  ``VICON_RADIAL`` (k1 k2).
+- A folder holding one file of a format that keeps every camera in one file (TOML,
+  ``.qca.txt``, ``.xcp``: :data:`RIG_FILE_SUFFIXES`) and no other calibration file is read as
+  that file (Pose2Sim's ``calibration/Calib.qca.txt``); its subfolders are ignored.
 
 Units: mmocap's translations are in mm; tools write mm (anipose: the units of the board's
-square size, usually mm) or metres (Pose2Sim). ``units="auto"`` takes what the file states,
-else decides from the cameras' distances from the world origin (their centres
-``-R^T t``): rigs stand 1-10 m away, so a median below :data:`METRES_BELOW` means metres and
-above :data:`MILLIMETRES_ABOVE` means mm; in between is refused. Cameras standing at the
-origin (the reference camera of a rig calibrated relative to one camera) are left out of
-the median. The decision and its reason are logged in one line and returned.
+square size, usually mm; QTM and Vicon, whose files are read as stating mm) or metres
+(Pose2Sim). ``units="auto"`` takes what the file states, else decides from the cameras'
+distances from the world origin (their centres ``-R^T t``): rigs stand 1-10 m away, so a
+median below :data:`METRES_BELOW` means metres and above :data:`MILLIMETRES_ABOVE` means
+mm; in between is refused. Cameras standing at the origin (the reference camera of a rig
+calibrated relative to one camera) are left out of the median. The decision and its
+reason are logged in one line and returned.
 
 Errors are one-line :class:`~mmocap.errors.DataError` messages naming the file, the camera
 and the key as the file spells it.
@@ -53,6 +85,7 @@ import logging
 import math
 import re
 import tomllib
+import xml.etree.ElementTree as ET
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -60,7 +93,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from mmocap.camera import Camera, checked_camera
+from mmocap.camera import ROTATION_TOLERANCE, Camera, checked_camera
 from mmocap.errors import DataError
 from mmocap.io import write_text_atomic
 from mmocap.validate import check_choice, is_real
@@ -74,7 +107,21 @@ CALIBRATION_FORMATS = {
     ".xml": "OpenCV FileStorage XML",
     ".json": "OpenCV FileStorage JSON, or mmocap's calibration JSON (one camera, with t_mm)",
     ".toml": "anipose / Pose2Sim TOML",
+    ".qca.txt": "Qualisys QTM calibration XML",
+    ".xcp": "Vicon calibration XML",
 }
+#: the suffixes of formats that keep every camera in one file: a folder holding one such file
+#: (and no other calibration file) is read as that file
+RIG_FILE_SUFFIXES = (".toml", ".qca.txt", ".xcp")
+#: QTM's intrinsics count sensor pixels in 1/64ths
+QTM_SUBPIXELS = 64
+#: QTM's camera axes (x right, y up the image, looking along -z) -> OpenCV's (x right, y down, z forward)
+QTM_TO_OPENCV = np.diag([1.0, -1.0, -1.0])
+#: the attributes naming a Vicon camera, first found wins (Pose2Sim takes DEVICEID)
+VICON_NAMES = ("DEVICEID", "USERID", "NAME")
+#: pixels between the centre of a Vicon camera's distortion and its principal point beyond
+#: which a warning says that mmocap centres the distortion on the principal point
+VICON_CENTRE_PX = 1.0
 #: the units ``read_calibration`` takes, and the factor turning each into mm
 UNITS = {"mm": 1.0, "m": 1000.0}
 #: median camera distance from the world origin below which ``units="auto"`` reads metres
@@ -281,9 +328,16 @@ def _rounded(length: float) -> str:
 # --- files and folders -------------------------------------------------------------------
 
 
+def calibration_suffix(path: str | Path) -> str | None:
+    """The suffix of :data:`CALIBRATION_FORMATS` that ``path``'s name ends in, in any case
+    (the longest: ``Calib.qca.txt`` is ``.qca.txt``), or None."""
+    name = Path(path).name.lower()
+    return max((suffix for suffix in CALIBRATION_FORMATS if name.endswith(suffix)), key=len, default=None)
+
+
 def _read_file(path: Path) -> _Parsed:
-    suffix = path.suffix.lower()
-    if suffix not in CALIBRATION_FORMATS:
+    suffix = calibration_suffix(path)
+    if suffix is None:
         accepted = "; ".join(f"{s} ({f})" for s, f in CALIBRATION_FORMATS.items())
         raise DataError(
             f"calibration file {path}: unknown format {path.suffix or '(no suffix)'}; accepted: "
@@ -291,6 +345,10 @@ def _read_file(path: Path) -> _Parsed:
         )
     if suffix == ".toml":
         return _read_toml(path)
+    if suffix == ".qca.txt":
+        return _read_qtm(path)
+    if suffix == ".xcp":
+        return _read_vicon(path)
     if suffix == ".json" and _is_mmocap_json(path):
         return _Parsed([Camera.load(path)], "mm", "mmocap calibration JSON")
     return _read_filestorage([path], path.stem, CALIBRATION_FORMATS[suffix])
@@ -308,14 +366,17 @@ def _is_mmocap_json(path: Path) -> bool:
 def _read_folder(folder: Path) -> _Parsed:
     if all((folder / name).is_file() for name in EASYMOCAP_FILES):
         return _read_filestorage([folder / name for name in EASYMOCAP_FILES], None, "EasyMocap intri.yml + extri.yml")
-    files = sorted(p for p in folder.iterdir() if p.is_file() and p.suffix.lower() in CALIBRATION_FORMATS)
-    kinds = sorted({"json" if p.suffix.lower() == ".json" else "FileStorage" for p in files})
+    files = sorted(p for p in folder.iterdir() if p.is_file() and calibration_suffix(p) is not None)
+    kinds = sorted({"json" if calibration_suffix(p) == ".json" else "FileStorage" for p in files})
     if not files:
         raise DataError(
             f"calibration folder {folder} holds no calibration files (looked for "
             f"*{', *'.join(CALIBRATION_FORMATS)}, or {' and '.join(EASYMOCAP_FILES)})"
         )
-    if len(kinds) > 1 or any(p.suffix.lower() == ".toml" for p in files):
+    rig_files = [p for p in files if calibration_suffix(p) in RIG_FILE_SUFFIXES]
+    if rig_files == files and len(files) == 1:
+        return _read_file(files[0])
+    if len(kinds) > 1 or rig_files:
         raise DataError(
             f"calibration folder {folder} mixes calibration formats "
             f"({', '.join(p.name for p in files)}); keep one camera file per camera, in one format, "
@@ -531,6 +592,260 @@ def _read_toml(path: Path) -> _Parsed:
         cameras.append(_camera(source, name, _MapKeys(table.get, f"[{table_name}]")))
     return _Parsed(
         cameras, None, CALIBRATION_FORMATS[".toml"], f"looked for tables other than {', '.join(TOML_SKIPPED)}"
+    )
+
+
+# --- Qualisys QTM and Vicon XML --------------------------------------------------------------
+
+
+def _xml_root(path: Path, tag: str, format_name: str) -> ET.Element:
+    """The root element of the XML file ``path``, which must be ``<tag>``; a DataError if the
+    file cannot be read or parsed."""
+    source = f"calibration file {path}"
+    try:
+        root = ET.parse(path).getroot()
+    except ET.ParseError as exc:
+        raise DataError(f"{source} is not valid XML ({format_name}): {exc}") from None
+    except OSError as exc:
+        raise DataError(f"{source} cannot be read: {exc.strerror}") from None
+    if root.tag != tag:
+        raise DataError(f"{source} is not a {format_name}: its root element is <{root.tag}>, expected <{tag}>")
+    return root
+
+
+class _XmlCamera:
+    """One camera's XML element, its children and attributes read with one-line DataErrors
+    naming the file, the camera and the attribute."""
+
+    def __init__(self, source: str, name: str, element: ET.Element):
+        self.source, self.name, self.element = source, name, element
+
+    def fail(self, element: ET.Element, attribute: str, problem: str) -> DataError:
+        return DataError(f"camera {self.name}: {self.source}: <{element.tag}> attribute '{attribute}' {problem}")
+
+    def child(self, path: str) -> ET.Element:
+        """The one element at ``path`` below the camera's."""
+        found = self.element.findall(path)
+        if len(found) != 1:
+            problem = "lacks the element" if not found else f"has {len(found)} elements"
+            raise DataError(f"camera {self.name}: {self.source}: its <{self.element.tag}> {problem} <{path}>")
+        return found[0]
+
+    def text(self, element: ET.Element, attribute: str) -> str:
+        value = (element.get(attribute) or "").strip()
+        if not value:
+            raise DataError(
+                f"camera {self.name}: {self.source}: <{element.tag}> lacks the attribute '{attribute}' (or it is empty)"
+            )
+        return value
+
+    def numbers(self, element: ET.Element, attribute: str, counts: Sequence[int] = (1,), words: str = "a number"):
+        """(n,) the finite numbers of ``attribute``, separated by spaces, n in ``counts``;
+        ``words`` says what they are in messages."""
+        text = self.text(element, attribute)
+        try:
+            values = np.array([float(token) for token in text.split()])
+        except ValueError:
+            raise self.fail(element, attribute, f"must be {words}, got {text!r:.80}") from None
+        if values.size not in counts:
+            raise self.fail(element, attribute, f"must be {words}, got {text!r:.80}")
+        if not np.all(np.isfinite(values)):
+            raise self.fail(element, attribute, f"must be finite, got {text!r:.80}")
+        return values
+
+    def number(self, element: ET.Element, attribute: str, default: float | None = None) -> float:
+        if default is not None and element.get(attribute) is None:
+            return default
+        return float(self.numbers(element, attribute)[0])
+
+    def zero_skew(self, element: ET.Element, attribute: str) -> None:
+        skew = self.number(element, attribute, default=0.0)
+        if skew != 0:
+            raise self.fail(
+                element, attribute, f"is {skew:g}: a skewed sensor is not supported (its units are unknown)"
+            )
+
+
+def _read_qtm(path: Path) -> _Parsed:
+    """The active cameras of a Qualisys QTM ``.qca.txt`` (see the module's docstring)."""
+    source = f"calibration file {path}"
+    root = _xml_root(path, "calibration", "Qualisys QTM calibration")
+    cameras: list[Camera] = []
+    serials: dict[str, int] = {}
+    for index, element in enumerate(root.findall("cameras/camera"), 1):
+        name = _XmlCamera(source, f"#{index}", element).text(element, "serial")
+        camera = _XmlCamera(source, name, element)
+        if name in serials:
+            raise camera.fail(element, "serial", f"{name!r} is also the serial of camera #{serials[name]}")
+        serials[name] = index
+        active = element.get("active", "1").strip()
+        if active not in ("0", "1"):
+            raise camera.fail(element, "active", f"must be 1 or 0, got {active!r}")
+        if active == "0":
+            log.info('camera %s: %s: inactive (active="0"): left out', name, source)
+            continue
+        cameras.append(_qtm_camera(camera))
+    return _Parsed(cameras, "mm", CALIBRATION_FORMATS[".qca.txt"], 'looked for <camera active="1"> in <cameras>')
+
+
+def _qtm_camera(camera: _XmlCamera) -> Camera:
+    """One QTM camera, translation in mm."""
+    fov, intrinsic, transform = (camera.child(tag) for tag in ("fov_video", "intrinsic", "transform"))
+    left, top, right, bottom = (camera.number(fov, side) for side in ("left", "top", "right", "bottom"))
+    fu, fv, cu, cv_ = (
+        camera.number(intrinsic, key) / QTM_SUBPIXELS
+        for key in ("focalLengthU", "focalLengthV", "centerPointU", "centerPointV")
+    )
+    camera.zero_skew(intrinsic, "skew")
+    k1, k2, k3, p1, p2 = (
+        camera.number(intrinsic, key)
+        for key in (
+            "radialDistortion1",
+            "radialDistortion2",
+            "radialDistortion3",
+            "tangentalDistortion1",
+            "tangentalDistortion2",
+        )
+    )
+    rotation = np.array([[camera.number(transform, f"r{i}{j}") for j in (1, 2, 3)] for i in (1, 2, 3)])
+    centre = np.array([camera.number(transform, axis) for axis in ("x", "y", "z")])
+    turn = camera.element.get("viewrotation", "0").strip()
+    if turn not in ("0", "90", "180", "270"):
+        raise camera.fail(camera.element, "viewrotation", f"must be 0, 90, 180 or 270, got {turn!r}")
+    if turn != "0":
+        log.warning(
+            "camera %s: %s: viewrotation %s: read as its sensor sees it, unturned: its videos must not be turned",
+            camera.name,
+            camera.source,
+            turn,
+        )
+    R = QTM_TO_OPENCV @ rotation
+    return checked_camera(
+        camera.source,
+        camera.name,
+        np.array([[fu, 0.0, cu - left], [0.0, fv, cv_ - top], [0.0, 0.0, 1.0]]),
+        np.array([k1, k2, p1, p2, k3]),
+        R,
+        -R @ centre,
+        _whole(right - left + 1),
+        _whole(bottom - top + 1),
+        keys={
+            "K": "<intrinsic> focalLengthU, focalLengthV, centerPointU, centerPointV",
+            "dist": "<intrinsic> radialDistortion1-3, tangentalDistortion1-2",
+            "R": "<transform> r11-r33",
+            "t_mm": "<transform> x, y, z",
+            "width": "<fov_video> left, right",
+            "height": "<fov_video> top, bottom",
+        },
+    )
+
+
+def _read_vicon(path: Path) -> _Parsed:
+    """The cameras of a Vicon ``.xcp`` (see the module's docstring)."""
+    source = f"calibration file {path}"
+    root = _xml_root(path, "Cameras", "Vicon calibration")
+    cameras: list[Camera] = []
+    names: dict[str, int] = {}
+    for index, element in enumerate(root.findall("Camera"), 1):
+        attribute = next((key for key in VICON_NAMES if (element.get(key) or "").strip()), None)
+        if attribute is None:
+            raise DataError(
+                f"camera #{index}: {source}: <Camera> lacks the attributes {', '.join(VICON_NAMES)} that name it"
+            )
+        name = element.get(attribute, "").strip()
+        camera = _XmlCamera(source, name, element)
+        if name in names:
+            raise camera.fail(element, attribute, f"{name!r} also names camera #{names[name]}")
+        names[name] = index
+        cameras.append(_vicon_camera(camera))
+    return _Parsed(cameras, "mm", CALIBRATION_FORMATS[".xcp"], "looked for <Camera> in <Cameras>")
+
+
+def _vicon_camera(camera: _XmlCamera) -> Camera:
+    """One Vicon camera, translation in mm."""
+    element = camera.element
+    keyframes = element.findall("KeyFrames/KeyFrame")
+    if len(keyframes) > 1:
+        raise DataError(
+            f"camera {camera.name}: {camera.source}: {len(keyframes)} <KeyFrame>s: a moving camera, which "
+            "mmocap does not support; calibrate the cameras standing still"
+        )
+    keyframe = camera.child("KeyFrames/KeyFrame")
+    width, height = camera.numbers(element, "SENSOR_SIZE", (2,), "width height in pixels")
+    aspect = camera.number(element, "PIXEL_ASPECT_RATIO")
+    if aspect <= 0:
+        raise camera.fail(element, "PIXEL_ASPECT_RATIO", f"must be > 0, got {aspect:g}")
+    camera.zero_skew(element, "SKEW")
+    focal = camera.number(keyframe, "FOCAL_LENGTH")
+    cx, cy = camera.numbers(keyframe, "PRINCIPAL_POINT", (2,), "x y in pixels")
+    quaternion = camera.numbers(keyframe, "ORIENTATION", (4,), "a quaternion x y z w")
+    norm = float(np.linalg.norm(quaternion))
+    if abs(norm - 1) > ROTATION_TOLERANCE:
+        raise camera.fail(keyframe, "ORIENTATION", f"must be a unit quaternion x y z w, got norm {norm:g}")
+    position = camera.numbers(keyframe, "POSITION", (3,), "x y z in mm")
+    R = _quaternion_matrix(quaternion / norm)
+    return checked_camera(
+        camera.source,
+        camera.name,
+        np.array([[focal, 0.0, cx], [0.0, focal / aspect, cy], [0.0, 0.0, 1.0]]),
+        _vicon_distortion(camera, keyframe, (cx, cy)),
+        R,
+        -R @ position,
+        _whole(float(width)),
+        _whole(float(height)),
+        keys={
+            "K": "FOCAL_LENGTH, PIXEL_ASPECT_RATIO, PRINCIPAL_POINT",
+            "R": "ORIENTATION",
+            "t_mm": "POSITION",
+            "width": "SENSOR_SIZE",
+            "height": "SENSOR_SIZE",
+        },
+    )
+
+
+def _vicon_distortion(camera: _XmlCamera, keyframe: ET.Element, principal_point: tuple[float, float]) -> np.ndarray:
+    """(5,) ``k1 k2 0 0 k3`` from ``VICON_RADIAL2`` (``<model> <centre x> <centre y> k1 k2
+    [k3]``) or else ``VICON_RADIAL`` (``k1 k2``); a warning if the distortion's centre stands
+    more than :data:`VICON_CENTRE_PX` from ``principal_point`` (x, y in pixels), on which
+    mmocap centres it."""
+    if keyframe.get("VICON_RADIAL2") is None:
+        if keyframe.get("VICON_RADIAL") is None:
+            raise DataError(
+                f"camera {camera.name}: {camera.source}: <KeyFrame> lacks the lens distortion: give the "
+                "attribute 'VICON_RADIAL2' or 'VICON_RADIAL'"
+            )
+        k1, k2 = camera.numbers(keyframe, "VICON_RADIAL", (2,), "k1 k2")
+        return np.array([k1, k2, 0.0, 0.0, 0.0])
+    text = camera.text(keyframe, "VICON_RADIAL2")
+    try:
+        values = [float(token) for token in text.split()[1:]]
+    except ValueError:
+        values = []
+    if len(values) not in (4, 5) or not np.all(np.isfinite(values)):
+        words = "<model> <centre x> <centre y> k1 k2 [k3], finite (or give VICON_RADIAL: k1 k2)"
+        raise camera.fail(keyframe, "VICON_RADIAL2", f"must be {words}, got {text!r:.80}")
+    offset = float(np.hypot(values[0] - principal_point[0], values[1] - principal_point[1]))
+    if offset > VICON_CENTRE_PX:
+        log.warning(
+            "camera %s: %s: the distortion's centre in VICON_RADIAL2 stands %.3g px from PRINCIPAL_POINT: "
+            "the distortion is taken about the principal point",
+            camera.name,
+            camera.source,
+            offset,
+        )
+    k1, k2, k3 = [*values[2:], 0.0][:3]
+    return np.array([k1, k2, 0.0, 0.0, k3])
+
+
+def _quaternion_matrix(quaternion: np.ndarray) -> np.ndarray:
+    """(3, 3) rotation of the unit quaternion ``(x, y, z, w)``, real part last."""
+    x, y, z, w = quaternion
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+        ]
     )
 
 

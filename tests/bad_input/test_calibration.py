@@ -6,11 +6,13 @@ Before, the JSON reader checked only det(R): a negative focal length and a shear
 determinant 1 tracked with exit 0 and errors of hundreds of mm."""
 
 import json
+import re
 
 import numpy as np
 import pytest
 
-from tests.helpers import assert_clean_error, track_args
+from mmocap.data.synthetic import camera_rig
+from tests.helpers import assert_clean_error, qtm_calibration_xml, track_args, vicon_calibration_xml
 from tests.helpers import mmocap_in_process as mmocap
 
 
@@ -85,3 +87,57 @@ def test_a_bad_calibration_file_names_it_and_the_camera(sequence_copy, tmp_path,
     path = sequence_copy / "calibration" / "BW1.json"
     damage(path)
     assert_clean_error(mmocap(*track_args(sequence_copy, tmp_path / "run")), str(path), "camera BW1", *culprits)
+
+
+def lab_file(suffix: str) -> str:
+    """A valid QTM (``.qca.txt``) or Vicon (``.xcp``) calibration of cameras C1 and C2."""
+    cameras = camera_rig(["C1", "C2"], 160, 120, np.random.default_rng(3))
+    return qtm_calibration_xml(cameras) if suffix == ".qca.txt" else vicon_calibration_xml(cameras)
+
+
+def without(attribute: str, camera: str):
+    """An edit removing ``attribute`` from the element of the camera named ``camera``."""
+
+    def edit(text: str) -> str:
+        start = text.index(f'"{camera}"')
+        block = re.sub(rf' {attribute}="[^"]*"', "", text[start:], count=1)
+        return text[:start] + block
+
+    return edit
+
+
+def replaced(old: str, new: str):
+    return lambda text: re.sub(old, new, text, count=1, flags=re.DOTALL)
+
+
+LAB_CASES = {
+    # id: (suffix, edit(text) -> text, what the one line names besides the file)
+    "qtm-missing-attribute": (".qca.txt", without("focalLengthU", "C2"), ("camera C2", "'focalLengthU'", "lacks")),
+    "qtm-not-a-number": (".qca.txt", replaced(r' y="[^"]*"', ' y="1460,2"'), ("camera C1", "'y'", "number", "1460,2")),
+    "qtm-no-cameras": (".qca.txt", replaced(r"<cameras>.*</cameras>", "<cameras/>"), ("holds no cameras",)),
+    "qtm-duplicate-serial": (".qca.txt", replaced('serial="C2"', 'serial="C1"'), ("camera C1", "'serial'", "also")),
+    "vicon-missing-attribute": (".xcp", without("FOCAL_LENGTH", "C1"), ("camera C1", "'FOCAL_LENGTH'", "lacks")),
+    "vicon-not-a-number": (
+        ".xcp",
+        replaced(r'POSITION="(\S+) ', 'POSITION="4,1e3 '),
+        ("camera C1", "'POSITION'", "x y z in mm", "4,1e3"),
+    ),
+    "vicon-no-cameras": (".xcp", replaced(r"<Camera .*</Camera>\n", ""), ("holds no cameras", "<Camera>")),
+    "vicon-duplicate-deviceid": (
+        ".xcp",
+        replaced('DEVICEID="C2"', 'DEVICEID="C1"'),
+        ("camera C1", "'DEVICEID'", "also"),
+    ),
+}
+
+
+@pytest.mark.parametrize(("suffix", "edit", "culprits"), LAB_CASES.values(), ids=LAB_CASES.keys())
+def test_a_bad_lab_calibration_names_the_file_and_the_camera(tmp_path, suffix, edit, culprits):
+    """QTM's and Vicon's files, in a recording folder as they ship: read before anything else."""
+    root = tmp_path / "recording"
+    root.mkdir()
+    path = root / f"calibration{suffix}"
+    text = lab_file(suffix)
+    path.write_text(edit(text))
+    assert path.read_text() != text  # the edit found what it breaks
+    assert_clean_error(mmocap("check-recording", str(root)), str(path), *culprits)

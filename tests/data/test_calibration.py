@@ -1,5 +1,6 @@
 import logging
 import re
+from dataclasses import replace
 from pathlib import Path
 
 import cv2
@@ -10,6 +11,7 @@ from mmocap.camera import Camera
 from mmocap.data.calibration import read_calibration, write_opencv_yaml
 from mmocap.data.synthetic import camera_rig
 from mmocap.errors import ConfigError, DataError
+from tests.helpers import qtm_calibration_xml, vicon_calibration_xml
 
 
 @pytest.fixture
@@ -208,6 +210,155 @@ def test_folders_of_per_camera_files(tmp_path, rig):
     assert_same_cameras(read_calibration(yml_folder).cameras, expected, colour=False)
 
 
+#: world points in mm in front of every camera of the rig, inside their images
+POINTS_MM = np.array([[0.0, 0.0, 0.0], [300.0, 900.0, -200.0], [-400.0, 1500.0, 500.0], [200.0, -300.0, 800.0]])
+
+
+def lab_rig(rig: list[Camera], tangential: bool) -> list[Camera]:
+    """The rig with fx != fy and every distortion coefficient nonzero (``tangential``: p1 p2
+    too, which Vicon's model has not)."""
+    p1, p2 = (0.0012, -0.0007) if tangential else (0.0, 0.0)
+    cameras = []
+    for c in rig:
+        K = c.K.copy()
+        K[1, 1] *= 0.997
+        cameras.append(replace(c, K=K, dist=np.array([-0.21, 0.08, p1, p2, 0.01]), _maps={}))
+    return cameras
+
+
+def assert_same_projections(read: list[Camera], written: list[Camera]):
+    """Every read camera projects POINTS_MM within 0.01 px of cv2.projectPoints on the camera
+    written, and has its name and image size."""
+    assert [c.name for c in read] == [c.name for c in written]
+    for got, want in zip(read, written, strict=True):
+        expected = cv2.projectPoints(POINTS_MM, cv2.Rodrigues(want.R)[0], want.t, want.K, want.dist)[0].reshape(-1, 2)
+        assert np.abs(got.project(POINTS_MM) - expected).max() < 0.01, want.name
+        assert (got.width, got.height) == (want.width, want.height)
+
+
+def test_qtm_and_vicon_files_project_as_the_cameras_written(tmp_path, rig, caplog):
+    qtm_rig, vicon_rig = lab_rig(rig, tangential=True), lab_rig(rig, tangential=False)
+    qtm = write(tmp_path / "Calib.qca.txt", qtm_calibration_xml(qtm_rig))
+    vicon = write(tmp_path / "calibration.xcp", vicon_calibration_xml(vicon_rig))
+    with caplog.at_level(logging.INFO):
+        from_qtm, from_vicon = read_calibration(qtm), read_calibration(vicon)
+    assert_same_projections(from_qtm.cameras, qtm_rig)
+    assert_same_projections(from_vicon.cameras, vicon_rig)
+    assert (from_qtm.format, from_vicon.format) == ("Qualisys QTM calibration XML", "Vicon calibration XML")
+    assert (from_qtm.units, from_qtm.units_reason) == ("mm", "stated in the file")
+    assert (from_vicon.units, from_vicon.units_reason) == ("mm", "stated in the file")
+    assert f"calibration file {qtm}: units mm (stated in the file)" in caplog.text
+
+
+#: a QTM export of two cameras, the second inactive: sensor 1920 x 1088, video window 1920 x
+#: 1080 from row 4; the first camera at (0, -4000, 1000) mm looks along +y, upright (z up)
+QTM_FILE = """<?xml version="1.0" encoding="UTF-8"?>
+<calibration source="lab.qtm" created="2024-03-12 10:41:07" qtm-version="2024.1" type="regular" wandLength="601.2">
+  <results std-dev="0.41" min-max-diff="0.93"/>
+  <cameras>
+    <camera active="1" calibrated="true" message="" point-count="5120" avg-residual="0.38" serial="28123"
+            model="Miqus Video" viewrotation="0" video_resolution="1080p">
+      <fov_marker left="0" top="0" right="1919" bottom="1087"/>
+      <fov_marker_max left="0" top="0" right="1919" bottom="1087"/>
+      <fov_video left="0" top="4" right="1919" bottom="1083"/>
+      <fov_video_max left="0" top="0" right="1919" bottom="1087"/>
+      <transform x="0.0" y="-4000.0" z="1000.0" r11="1.0" r12="0.0" r13="0.0" r21="0.0" r22="0.0" r23="1.0"
+                 r31="0.0" r32="-1.0" r33="0.0"/>
+      <intrinsic focallength="6.2" sensorMinU="0.0" sensorMaxU="122879.0" sensorMinV="0.0" sensorMaxV="69631.0"
+                 focalLengthU="115200.0" focalLengthV="115136.0" centerPointU="61472.0" centerPointV="35040.0"
+                 skew="0.0" radialDistortion1="-0.05" radialDistortion2="0.1" radialDistortion3="0.01"
+                 tangentalDistortion1="0.001" tangentalDistortion2="-0.002"/>
+    </camera>
+    <camera active="0" calibrated="false" message="" point-count="0" avg-residual="0" serial="28124"
+            model="Miqus M3" viewrotation="0"/>
+  </cameras>
+</calibration>
+"""
+#: a Vicon export of two cameras: 2107734 stands at (0, -4000, 1000) mm turned a quarter turn
+#: about x (looking along +y, z up), 2107735 at (0, 0, -5000) unturned, with VICON_RADIAL only
+VICON_FILE = """<?xml version="1.0" encoding="UTF-8" standalone="no" ?>
+<Cameras VERSION="1.0">
+  <Camera DEVICEID="2107734" USERID="3" NAME="" TYPE="Vue" DISPLAY_TYPE="Vue" PIXEL_ASPECT_RATIO="1.25"
+          SENSOR="Vue" SENSOR_SIZE="1920 1080" SKEW="0">
+    <ControlFrames/>
+    <KeyFrames>
+      <KeyFrame FRAME="0" FOCAL_LENGTH="1600" IMAGE_ERROR="0.14" WORLD_ERROR="0.21"
+                ORIENTATION="0.70710678118654757 0 0 0.70710678118654757" POSITION="0 -4000 1000"
+                PRINCIPAL_POINT="955.5 541.25" VICON_RADIAL2="ThirdOrderRadial 955.5 541.25 -0.12 0.05"/>
+    </KeyFrames>
+  </Camera>
+  <Camera DEVICEID="2107735" USERID="4" TYPE="Vue" PIXEL_ASPECT_RATIO="1" SENSOR_SIZE="1280 720" SKEW="0">
+    <KeyFrames>
+      <KeyFrame FRAME="0" FOCAL_LENGTH="1000" ORIENTATION="0 0 0 1" POSITION="0 0 -5000"
+                PRINCIPAL_POINT="640 360" VICON_RADIAL="-0.1 0.02"/>
+    </KeyFrames>
+  </Camera>
+</Cameras>
+"""
+#: OpenCV's world-to-camera rotation of a camera looking along +y with z up the image
+LOOKING_ALONG_Y = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
+
+
+def test_a_qtm_export_reads_as_worked_out_by_hand(tmp_path, caplog):
+    path = write(tmp_path / "lab.qca.txt", QTM_FILE)
+    with caplog.at_level(logging.INFO):
+        (camera,) = read_calibration(path).cameras
+    assert (camera.name, camera.width, camera.height) == ("28123", 1920, 1080)
+    np.testing.assert_allclose(camera.K, [[1800.0, 0.0, 960.5], [0.0, 1799.0, 543.5], [0.0, 0.0, 1.0]])
+    np.testing.assert_allclose(camera.dist, [-0.05, 0.1, 0.001, -0.002, 0.01])
+    np.testing.assert_allclose(camera.R, LOOKING_ALONG_Y)
+    np.testing.assert_allclose(camera.t, [0.0, 1000.0, 4000.0])
+    assert f'camera 28124: calibration file {path}: inactive (active="0"): left out' in caplog.text
+
+
+def test_a_vicon_export_reads_as_worked_out_by_hand(tmp_path, caplog):
+    with caplog.at_level(logging.WARNING):
+        first, second = read_calibration(write(tmp_path / "lab.xcp", VICON_FILE)).cameras
+    assert not caplog.records
+    assert (first.name, first.width, first.height) == ("2107734", 1920, 1080)
+    np.testing.assert_allclose(first.K, [[1600.0, 0.0, 955.5], [0.0, 1280.0, 541.25], [0.0, 0.0, 1.0]])
+    np.testing.assert_allclose(first.dist, [-0.12, 0.05, 0.0, 0.0, 0.0])
+    np.testing.assert_allclose(first.R, LOOKING_ALONG_Y, atol=1e-15)
+    np.testing.assert_allclose(first.t, [0.0, 1000.0, 4000.0], atol=1e-9)
+    assert (second.name, second.width, second.height) == ("2107735", 1280, 720)
+    np.testing.assert_allclose(second.dist, [-0.1, 0.02, 0.0, 0.0, 0.0])
+    np.testing.assert_allclose(second.R, np.eye(3))
+    np.testing.assert_allclose(second.t, [0.0, 0.0, 5000.0])
+
+
+def test_a_vicon_distortion_centre_off_the_principal_point_is_warned_of(tmp_path, caplog):
+    path = write(tmp_path / "lab.xcp", VICON_FILE.replace("ThirdOrderRadial 955.5", "ThirdOrderRadial 965.5"))
+    with caplog.at_level(logging.WARNING):
+        first, _ = read_calibration(path).cameras
+    np.testing.assert_allclose(first.K[:2, 2], [955.5, 541.25])
+    assert f"camera 2107734: calibration file {path}: the distortion's centre in VICON_RADIAL2 stands 10 px" in (
+        caplog.text
+    )
+
+
+def test_a_turned_qtm_camera_is_read_unturned_with_a_warning(tmp_path, caplog):
+    path = write(tmp_path / "lab.qca.txt", QTM_FILE.replace('viewrotation="0" video', 'viewrotation="180" video'))
+    with caplog.at_level(logging.WARNING):
+        (camera,) = read_calibration(path).cameras
+    np.testing.assert_allclose(camera.R, LOOKING_ALONG_Y)
+    assert f"camera 28123: calibration file {path}: viewrotation 180: read as its sensor sees it" in caplog.text
+
+
+def test_a_folder_holding_one_rig_file_is_read_as_it(tmp_path, rig):
+    """Pose2Sim's layout: calibration/Calib.qca.txt beside the images it was made from."""
+    folder = tmp_path / "calibration"
+    for sub in ("extrinsics", "intrinsics/int_cam01_img"):
+        (folder / sub).mkdir(parents=True)
+        (folder / sub / "cam01.png").write_bytes(b"not read")
+    write(folder / "Calib.qca.txt", qtm_calibration_xml(rig))
+    calibration = read_calibration(folder)
+    assert_same_projections(calibration.cameras, rig)
+    assert (calibration.source, calibration.format) == (folder, "Qualisys QTM calibration XML")
+    write(folder / "C1.json", "{}")
+    with pytest.raises(DataError, match="mixes calibration formats"):
+        read_calibration(folder)
+
+
 def write(path: Path, text: str) -> Path:
     path.write_text(text)
     return path
@@ -270,6 +421,16 @@ def xml_with(dist):
         return path
 
     return make
+
+
+def qtm_with(edit):
+    """A maker of QTM_FILE with ``edit(text) -> text`` applied."""
+    return lambda folder, rig: write(folder / "lab.qca.txt", edit(QTM_FILE))
+
+
+def vicon_with(edit):
+    """A maker of VICON_FILE with ``edit(text) -> text`` applied."""
+    return lambda folder, rig: write(folder / "lab.xcp", edit(VICON_FILE))
 
 
 def camera_folder(folder: Path, cameras: list[Camera]) -> Path:
@@ -359,6 +520,97 @@ BAD_INPUTS = {
         lambda folder, rig: camera_folder(folder, rig[:1]),
         None,
         ("calibration file", "BW9.yml holds no camera", "must hold one"),
+    ),
+    "qtm_unparsable": (qtm_with(lambda text: text[:400]), None, ("is not valid XML", "QTM", "line")),
+    "qtm_other_root": (
+        lambda folder, rig: write(folder / "lab.qca.txt", VICON_FILE),
+        None,
+        ("root element is <Cameras>, expected <calibration>",),
+    ),
+    "qtm_without_serial": (
+        qtm_with(lambda text: text.replace(' serial="28123"', "")),
+        None,
+        ("camera #1", "<camera> lacks the attribute 'serial'"),
+    ),
+    "qtm_without_intrinsic": (
+        qtm_with(lambda text: re.sub(r"<intrinsic [^>]*/>", "", text)),
+        None,
+        ("camera 28123", "lacks the element <intrinsic>"),
+    ),
+    "qtm_focal_nan": (
+        qtm_with(lambda text: text.replace('focalLengthU="115200.0"', 'focalLengthU="nan"')),
+        None,
+        ("camera 28123", "<intrinsic> attribute 'focalLengthU' must be finite", "'nan'"),
+    ),
+    "qtm_skew": (
+        qtm_with(lambda text: text.replace('skew="0.0"', 'skew="2.5"')),
+        None,
+        ("camera 28123", "attribute 'skew' is 2.5", "not supported"),
+    ),
+    "qtm_half_pixel_window": (
+        qtm_with(lambda text: text.replace('right="1919" bottom="1083"', 'right="1919.5" bottom="1083"')),
+        None,
+        ("camera 28123", "'<fov_video> left, right' must be an integer number of pixels", "1920.5"),
+    ),
+    "qtm_viewrotation_45": (
+        qtm_with(lambda text: text.replace('viewrotation="0" video', 'viewrotation="45" video')),
+        None,
+        ("camera 28123", "attribute 'viewrotation' must be 0, 90, 180 or 270, got '45'"),
+    ),
+    "qtm_active_yes": (
+        qtm_with(lambda text: text.replace('active="0"', 'active="yes"')),
+        None,
+        ("camera 28124", "attribute 'active' must be 1 or 0, got 'yes'"),
+    ),
+    "qtm_every_camera_inactive": (
+        qtm_with(lambda text: text.replace('active="1"', 'active="0"')),
+        None,
+        ("holds no cameras", 'looked for <camera active="1">'),
+    ),
+    "vicon_moving_camera": (
+        vicon_with(lambda text: text.replace("<KeyFrame FRAME", '<KeyFrame FRAME="9"/><KeyFrame FRAME', 1)),
+        None,
+        ("camera 2107734", "2 <KeyFrame>s: a moving camera"),
+    ),
+    "vicon_no_keyframe": (
+        vicon_with(lambda text: re.sub(r"<KeyFrame FRAME=\"0\" FOCAL_LENGTH=\"1000\"[^>]*/>", "", text)),
+        None,
+        ("camera 2107735", "lacks the element <KeyFrames/KeyFrame>"),
+    ),
+    "vicon_no_name": (
+        vicon_with(lambda text: text.replace('DEVICEID="2107735" USERID="4" ', "")),
+        None,
+        ("camera #2", "lacks the attributes DEVICEID, USERID, NAME"),
+    ),
+    "vicon_quaternion_of_norm_2": (
+        vicon_with(lambda text: text.replace('ORIENTATION="0 0 0 1"', 'ORIENTATION="0 0 0 2"')),
+        None,
+        ("camera 2107735", "'ORIENTATION' must be a unit quaternion x y z w, got norm 2"),
+    ),
+    "vicon_sensor_size_of_one": (
+        vicon_with(lambda text: text.replace('SENSOR_SIZE="1280 720"', 'SENSOR_SIZE="1280"')),
+        None,
+        ("camera 2107735", "'SENSOR_SIZE' must be width height in pixels, got '1280'"),
+    ),
+    "vicon_aspect_zero": (
+        vicon_with(lambda text: text.replace('PIXEL_ASPECT_RATIO="1"', 'PIXEL_ASPECT_RATIO="0"')),
+        None,
+        ("camera 2107735", "'PIXEL_ASPECT_RATIO' must be > 0"),
+    ),
+    "vicon_skew": (
+        vicon_with(lambda text: text.replace('SKEW="0">\n    <KeyFrames>', 'SKEW="0.5">\n    <KeyFrames>')),
+        None,
+        ("camera 2107735", "attribute 'SKEW' is 0.5"),
+    ),
+    "vicon_radial2_of_one_coefficient": (
+        vicon_with(lambda text: text.replace("541.25 -0.12 0.05", "541.25 -0.12")),
+        None,
+        ("camera 2107734", "'VICON_RADIAL2' must be <model> <centre x> <centre y> k1 k2 [k3]"),
+    ),
+    "vicon_no_distortion": (
+        vicon_with(lambda text: text.replace(' VICON_RADIAL="-0.1 0.02"', "")),
+        None,
+        ("camera 2107735", "lacks the lens distortion", "'VICON_RADIAL2' or 'VICON_RADIAL'"),
     ),
     "not_found": (lambda folder, rig: folder / "nothing.yml", None, ("calibration file not found",)),
     "unknown_suffix": (

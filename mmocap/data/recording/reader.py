@@ -54,7 +54,7 @@ import numpy as np
 
 from mmocap.body.model import MARKER_NAMES
 from mmocap.camera import Camera
-from mmocap.data.calibration import CALIBRATION_FORMATS, read_calibration, write_opencv_yaml
+from mmocap.data.calibration import calibration_suffix, read_calibration, write_opencv_yaml
 from mmocap.data.sequence import Sequence, SequenceBase, listed, read_markers, write_markers
 from mmocap.errors import ConfigError, DataError, MmocapWarning
 from mmocap.validate import check_choice, check_number
@@ -323,12 +323,11 @@ class RecordingDataset:
             if not path.exists():
                 raise DataError(f"calibration {path} not found (dataset.calibration={self.calibration})")
             return path
-        suffixes = tuple(CALIBRATION_FORMATS)
         found = [
             p
             for name in CALIBRATION_NAMES
             for p in self.path.glob(f"{name}*")
-            if p.is_dir() or p.suffix.lower() in suffixes
+            if p.is_dir() or calibration_suffix(p) is not None
         ]
         if not found:
             raise DataError(

@@ -2,6 +2,7 @@
 cameras, frames and ground truth; every way a recording can be wrong is one clear error."""
 
 import shutil
+from dataclasses import replace
 from pathlib import Path
 
 import cv2
@@ -12,7 +13,7 @@ from mmocap.data.calibration import read_calibration
 from mmocap.data.recording.reader import CODEC_PADDING_PX, UP_AXES, RecordingDataset, turned, write_recording
 from mmocap.data.sequence import Sequence
 from mmocap.errors import ConfigError, DataError, MmocapWarning
-from tests.helpers import pad_calibration, write_masks
+from tests.helpers import pad_calibration, qtm_calibration_xml, vicon_calibration_xml, write_masks
 
 OFFSETS = {"C2": 2}
 YAW_DEG = 30.0
@@ -128,6 +129,27 @@ FOLDER_BREAKS = {
     "beyond-the-codec-padding": lambda root: pad_calibration(root, CODEC_PADDING_PX + 1),
     "no-background": lambda root: shutil.rmtree(root / "background"),
 }
+
+
+@pytest.mark.parametrize("layout", ["calibration.qca.txt", "calibration.xcp", "calibration/Calib.qca.txt"])
+def test_a_lab_calibration_is_found_and_opened(recording_copy, layout):
+    """QTM's double suffix, Vicon's, and Pose2Sim's calibration/ folder holding one QTM file
+    beside the images it was made from."""
+    calibration = read_calibration(recording_copy / "calibration.yml")
+    (recording_copy / "calibration.yml").unlink()
+    path = recording_copy / layout
+    if path.parent != recording_copy:
+        (path.parent / "extrinsics").mkdir(parents=True)
+        (path.parent / "extrinsics" / "C1.png").write_bytes(b"not read")
+    cameras = [replace(c, dist=np.r_[c.dist[:2], 0, 0, c.dist[4]], _maps={}) for c in calibration.cameras]
+    path.write_text((vicon_calibration_xml if layout.endswith(".xcp") else qtm_calibration_xml)(cameras))
+    dataset = RecordingDataset(str(recording_copy), offsets=OFFSETS)
+    assert dataset.calibration_path() == recording_copy / layout.split("/")[0]
+    opened = dataset.open(progress=False)
+    points = np.array([[0.0, 0.0, 0.0], [300.0, 900.0, -200.0]])
+    for got, want in zip(opened.cameras, cameras, strict=True):
+        assert got.name == want.name
+        np.testing.assert_allclose(got.project(points), want.project(points), atol=0.01)
 
 
 def _break(root: Path, how: str) -> dict:
