@@ -92,6 +92,17 @@ class Camera:
         """The same camera without lens distortion (what the evaluators use)."""
         return replace(self, dist=np.zeros(5), _maps={})
 
+    def shrunk(self, scale: float, min_side_px: int = 1) -> Camera:
+        """The camera imaging a ``scale`` times smaller picture (lens distortion, which acts
+        before ``K``, unchanged): the size rounded to whole pixels (at least ``min_side_px``),
+        ``K`` scaled per axis by the rounded ratio, pixel centres kept at integer coordinates
+        (OpenCV's convention: ``u' = (u + 0.5) s - 0.5``)."""
+        width = max(min_side_px, round(self.width * scale))
+        height = max(min_side_px, round(self.height * scale))
+        sx, sy = width / self.width, height / self.height
+        S = np.array([[sx, 0.0, 0.5 * sx - 0.5], [0.0, sy, 0.5 * sy - 0.5], [0.0, 0.0, 1.0]])
+        return replace(self, K=S @ np.asarray(self.K, np.float64), width=width, height=height, _maps={})
+
     def to_camera(self, points: np.ndarray) -> np.ndarray:
         """(N, 3) world points in mm -> (N, 3) camera-frame points in mm."""
         return points @ self.R.T + self.t

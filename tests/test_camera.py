@@ -311,3 +311,22 @@ def test_cal_alpha_c_reaches_projection_and_undistortion(tmp_path, skewed):
     loaded = Camera.load_cal(tmp_path / "C1.cal", 640, 480)
     np.testing.assert_allclose(loaded.K, skewed.K)
     np.testing.assert_allclose(loaded.undistort_maps()[0], skewed.undistort_maps()[0], atol=1e-3)
+
+
+def test_a_shrunk_camera_keeps_pixel_centres_at_integers():
+    camera = Camera.look_at("C1", [3000.0, -2500.0, 1500.0], [0.0, 0.0, 900.0], 600.0, 640, 480)
+    small = camera.shrunk(0.25)
+    assert (small.width, small.height) == (160, 120)
+    points = np.array([[0.0, 0.0, 900.0], [300.0, -200.0, 1700.0], [-250.0, 100.0, 50.0]])
+    # the centre of full-size pixel u lies at (u + 0.5) / 4 - 0.5 in the shrunk picture
+    np.testing.assert_allclose(small.project(points), (camera.project(points) + 0.5) * 0.25 - 0.5, atol=1e-9)
+    odd = camera.shrunk(0.3)  # 192 x 144: the rounded size sets each axis's ratio
+    np.testing.assert_allclose(
+        odd.project(points), (camera.project(points) + 0.5) * [192 / 640, 144 / 480] - 0.5, atol=1e-9
+    )
+    lens = Camera.look_at(
+        "C1", [3000.0, -2500.0, 1500.0], [0.0, 0.0, 900.0], 600.0, 640, 480, dist=(-0.2, 0.1, 0, 0, 0)
+    )
+    np.testing.assert_allclose(  # the lens acts before K: a distorted camera shrinks alike
+        lens.shrunk(0.5).project(points), (lens.project(points) + 0.5) * 0.5 - 0.5, atol=1e-9
+    )

@@ -29,7 +29,7 @@ counts them (:meth:`mmocap.stages.tracking.Trace.skip`).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import cv2
 import numpy as np
@@ -51,18 +51,6 @@ class FidelityLevel:
     vertices: int | None
     evaluations: int
     optimizer: dict = field(default_factory=dict)
-
-
-def shrunk_camera(camera, scale: float):
-    """``camera`` (an ideal pin-hole) imaging a ``scale`` times smaller picture: the size
-    rounded to whole pixels (at least :data:`MIN_SIDE_PX`), ``K`` scaled per axis by the
-    rounded ratio, pixel centres kept at integer coordinates (OpenCV's convention:
-    ``u' = (u + 0.5) s - 0.5``)."""
-    width = max(MIN_SIDE_PX, round(camera.width * scale))
-    height = max(MIN_SIDE_PX, round(camera.height * scale))
-    sx, sy = width / camera.width, height / camera.height
-    S = np.array([[sx, 0.0, 0.5 * sx - 0.5], [0.0, sy, 0.5 * sy - 0.5], [0.0, 0.0, 1.0]])
-    return replace(camera, K=S @ np.asarray(camera.K, np.float64), width=width, height=height, _maps={})
 
 
 def shrunk_mask(mask: np.ndarray, width: int, height: int) -> np.ndarray:
@@ -204,7 +192,7 @@ class Fidelity:
         if not self._evaluators:
             self._evaluators = [self._new_evaluator() for _ in self.levels]
         for level, evaluator in zip(self.levels, self._evaluators):
-            small = [shrunk_camera(cam, level.scale) for cam in cameras]
+            small = [cam.shrunk(level.scale, MIN_SIDE_PX) for cam in cameras]
             evaluator.setup(
                 self.level_body(body, level.vertices),
                 small,

@@ -10,21 +10,8 @@ from mmocap.errors import ConfigError
 from mmocap.evaluators.numpy_backend import NumpyEvaluator
 from mmocap.optimizers.cmaes import CMAES
 from mmocap.stages import tracking
-from mmocap.stages.fidelity import Fidelity, check_levels, shrunk_camera, shrunk_mask
+from mmocap.stages.fidelity import Fidelity, check_levels, shrunk_mask
 from mmocap.stages.tracking import Holistic
-
-
-def test_a_shrunk_camera_keeps_pixel_centres_at_integers():
-    camera = Camera.look_at("C1", [3000.0, -2500.0, 1500.0], [0.0, 0.0, 900.0], 600.0, 640, 480)
-    small = shrunk_camera(camera, 0.25)
-    assert (small.width, small.height) == (160, 120)
-    points = np.array([[0.0, 0.0, 900.0], [300.0, -200.0, 1700.0], [-250.0, 100.0, 50.0]])
-    # the centre of full-size pixel u lies at (u + 0.5) / 4 - 0.5 in the shrunk picture
-    np.testing.assert_allclose(small.project(points), (camera.project(points) + 0.5) * 0.25 - 0.5, atol=1e-9)
-    odd = shrunk_camera(camera, 0.3)  # 192 x 144: the rounded size sets each axis's ratio
-    np.testing.assert_allclose(
-        odd.project(points), (camera.project(points) + 0.5) * [192 / 640, 144 / 480] - 0.5, atol=1e-9
-    )
 
 
 def test_a_shrunk_mask_pixel_is_foreground_when_most_of_it_is():

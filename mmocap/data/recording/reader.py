@@ -87,11 +87,13 @@ class FrameSource:
 
     ``read(k)`` returns frame ``k`` (0-based) as the camera's images are (see
     :func:`mmocap.data.sequence.read_image`): (H, W, 3) BGR for a colour camera, (H, W) for
-    a greyscale one, whose video frames are converted; the size must be the calibration's.
+    a greyscale one, whose video frames are converted; the size must be the calibration's
+    (``camera``'s), and the frame is then shrunk by ``scale`` (area averaging) to the size of
+    ``camera.shrunk(scale)``.
     """
 
-    def __init__(self, path: Path, camera: Camera):
-        self.path, self.camera = path, camera
+    def __init__(self, path: Path, camera: Camera, scale: float = 1.0):
+        self.path, self.camera, self.scale = path, camera, scale
         if path.is_dir():
             self.files = sorted(p for p in path.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES)
             if not self.files:
@@ -143,6 +145,9 @@ class FrameSource:
                 f"camera {cam.name}: {where} is {image.shape[1]}x{image.shape[0]}, its calibration "
                 f"says {cam.width}x{cam.height}: the calibration of another resolution?"
             )
+        if self.scale != 1:
+            small = cam.shrunk(self.scale)
+            image = cv2.resize(image, (small.width, small.height), interpolation=cv2.INTER_AREA)
         return image
 
 
@@ -273,6 +278,9 @@ class RecordingDataset:
             frames of the main sources in which nobody is in view.
         background_frames: frames taken, evenly spaced, from the background.
         greyscale: cameras whose frames are used as greyscale.
+        scale: tracks at this fraction of the cameras' resolution, in (0, 1]: every frame (and
+            plate and given mask) is shrunk as it is read, the cameras' intrinsics with it
+            (:meth:`mmocap.camera.Camera.shrunk`); the tracked poses, in mm, are unchanged.
     """
 
     def __init__(
@@ -290,6 +298,7 @@ class RecordingDataset:
         background: list[int] | None = None,
         background_frames: int = 20,
         greyscale: list[str] | None = None,
+        scale: float = 1.0,
     ):
         self.path = Path(root)
         self.subject = subject
@@ -315,6 +324,7 @@ class RecordingDataset:
         self.background = background
         self.background_frames = check_number("dataset.background_frames", background_frames, 1, integer=True)
         self.greyscale = list(greyscale or [])
+        self.scale = check_number("dataset.scale", scale, 0, 1, low_open=True)
 
     def calibration_path(self) -> Path:
         """The calibration file or folder (see ``calibration``)."""
@@ -383,9 +393,9 @@ class RecordingDataset:
                     f"camera {name}: no video {root / 'videos' / name}.mp4 (or another video suffix) "
                     f"and no image folder {root / 'images' / name}"
                 )
-            source = FrameSource(path, by_name[name])
+            source = FrameSource(path, by_name[name], self.scale)
             source.camera = fitted_to_frames(source.camera, source)
-            cameras.append(source.camera)
+            cameras.append(source.camera.shrunk(self.scale) if self.scale != 1 else source.camera)
             sources.append(source)
         offsets = [self.offsets.get(c.name, 0) for c in cameras]
         usable = [s.count - o for s, o in zip(sources, offsets)]
@@ -466,8 +476,9 @@ class RecordingDataset:
                 "out with dataset.cameras"
             )
         masks = []
-        for camera, source in zip(cameras, sources):
-            mask = FrameSource(found[camera.name], replace(camera, colour=False, _maps={}))  # type: ignore[arg-type]  # all found
+        for source in sources:
+            camera = source.camera  # the frames' own size
+            mask = FrameSource(found[camera.name], replace(camera, colour=False, _maps={}), self.scale)  # type: ignore[arg-type]  # all found
             if mask.count != source.count:
                 raise DataError(
                     f"camera {camera.name}: {mask.path} holds {mask.count} masks, but {source.path} has "
@@ -507,7 +518,7 @@ class RecordingDataset:
                         f"{self.path / 'background' / camera.name}[.mp4]; record the empty scene, or "
                         "set dataset.background=[first,last] to frames in which nobody is in view"
                     )
-                background = FrameSource(path, camera)
+                background = FrameSource(path, source.camera, self.scale)
                 frames = np.unique(np.linspace(0, background.count - 1, self.background_frames).round().astype(int))
                 out_sources.append(background)
             out_frames.append(frames.tolist())

@@ -263,3 +263,15 @@ def test_a_video_short_of_its_calibration_by_the_codec_padding_is_read_with_a_wa
     assert (camera.width, camera.height) == (320, 240)
     np.testing.assert_array_equal(camera.K, calibrated.K)  # the principal point kept
     assert opened.images(0)[0].shape[:2] == (240, 320)
+
+
+def test_a_scale_shrinks_the_frames_and_the_cameras_together(recording):
+    full = RecordingDataset(str(recording), offsets=OFFSETS).open(progress=False)
+    half = RecordingDataset(str(recording), offsets=OFFSETS, scale=0.5).open(progress=False)
+    points = np.array([[0.0, 900.0, 0.0], [250.0, 1500.0, -100.0]])
+    for big, small, image in zip(full.cameras, half.cameras, half.images(1)):
+        assert (small.width, small.height) == (160, 120)
+        assert image.shape[:2] == (120, 160)
+        np.testing.assert_allclose(small.project(points), (big.project(points) + 0.5) * 0.5 - 0.5, atol=1e-9)
+    np.testing.assert_array_equal(half.markers(), full.markers())  # the world, in mm, is unchanged
+    assert half.background(half.cameras[0])[0].shape[:2] == (120, 160)
