@@ -196,12 +196,20 @@ SUBCOMMANDS = {
         _main_of("mmocap.data.recording.commands", "convert_main"),
         "write a sequence folder as a user's recording (OpenCV YAML calibration, MP4 videos)",
     ),
+    "pose2sim-demo": (
+        _main_of("mmocap.data.recording.commands", "pose2sim_demo_main"),
+        "get Pose2Sim's real 4-camera demo recording (from its wheel on the package index)",
+    ),
     "export": (_main_of("mmocap.writers.export"), "a finished run's motion as TRC, C3D, BVH and CSV files"),
     "collect": (_main_of("mmocap.report.collect"), "write runs.csv and frames.csv of a sweep folder"),
     "ioh": (_main_of("mmocap.report.ioh"), "the runs' per-frame convergence traces for IOHanalyzer"),
     "summaries": (_main_of("mmocap.report.summaries"), "table of the run summaries below a folder"),
     "stats": (_main_of("mmocap.report.stats"), "Friedman test and Holm's comparisons on a table of results"),
     "paper": (_main_of("mmocap.report.paper"), "make a paper table or figure from a sweep's runs.csv"),
+    "held-out": (
+        _main_of("mmocap.report.held_out"),
+        "a finished run against a camera it was not tracked with: silhouette IoU, joint distance",
+    ),
     "results-page": (_main_of("mmocap.report.results_page"), "put Markdown tables on a stamped docs/results page"),
     "bench": (_main_of("mmocap.bench.cli"), "evaluator benchmark: Cano Tables 1 and 2 and Fig. 3 here"),
     "foreground-quality": (

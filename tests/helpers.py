@@ -60,6 +60,24 @@ TINY_BAD_INPUT = dict(
 )
 
 
+#: the automatic start's settings for a quick test run: a few hundred evaluations
+QUICK_START = [
+    "start.headings=4",
+    "start.candidates=1",
+    "start.refined=1",
+    "start.evaluations=80",
+    "start.limb_evaluations=40",
+    "start.limb_samples=20",
+    "start.limb_restarts=1",
+    "start.rounds=1",
+    "start.girth_steps=[0.1]",
+    "start.height_steps_mm=[]",
+    "start.shape_evaluations=40",
+    "start.shape_passes=1",
+    "start.hull_height_offsets_mm=[0]",
+]
+
+
 def overrides(root, **extra) -> list[str]:
     """Command-line overrides that select the :data:`TINY` sequence under ``root`` and track
     2 frames of it at 300 evaluations; ``extra`` adds or replaces overrides."""

@@ -69,6 +69,24 @@ LANDMARK_NAMES = (
     "right_foot_index",
 )
 
+#: mmocap's joints (:data:`mmocap.body.skeleton.JOINTS`) -> the landmark at the same place.
+#: Landmarks mark the body's surface features (a shoulder's top, a hip's front-side), so they
+#: lie some way from the joint centres; mmocap's L is the person's left, as MediaPipe's.
+JOINT_LANDMARKS = {
+    "LShoulder": "left_shoulder",
+    "LElbow": "left_elbow",
+    "LWrist": "left_wrist",
+    "RShoulder": "right_shoulder",
+    "RElbow": "right_elbow",
+    "RWrist": "right_wrist",
+    "LHip": "left_hip",
+    "LKnee": "left_knee",
+    "LAnkle": "left_ankle",
+    "RHip": "right_hip",
+    "RKnee": "right_knee",
+    "RAnkle": "right_ankle",
+}
+
 
 def available() -> bool:
     """True when MediaPipe is installed (the ``segment`` extra)."""

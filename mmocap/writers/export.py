@@ -196,12 +196,12 @@ def export_run(
             MmocapWarning,
             stacklevel=2,
         )
-    body = _rebuild_body(summary, summary_path)
+    body = run_body(summary, summary_path)
     poses = read_poses(frames_path)
     return export_motion(run_dir / EXPORT_FOLDER if out_dir is None else Path(out_dir), formats, body, poses, fps)
 
 
-def _rebuild_body(summary: Summary, summary_path: Path) -> BodyModel:
+def run_body(summary: Summary, summary_path: Path) -> BodyModel:
     """The run's body model from the summary's ``config.body``, with the height and girth the
     run tracked with (``body`` in the summary: an automatic start may have fitted them)."""
     if not isinstance(summary.config.get("body"), dict):

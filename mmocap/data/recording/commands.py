@@ -24,6 +24,11 @@ sanity checks on the first frame:
 Every finding that would spoil a run is a warning line; a recording that cannot be read at
 all is one error line (exit 2).
 
+``mmocap pose2sim-demo OUT [--wheel FILE]`` puts Pose2Sim's real demo recording, as it ships
+in Pose2Sim's wheel on the package index (:data:`POSE2SIM_WHEEL`), in ``OUT/Demo_SinglePerson``:
+four 1080x1920 videos at 60 fps of one person, 100 frames, and the lab's Qualisys calibration,
+with no empty-scene plate. Track it with ``dataset.up=+z`` (Qualisys's world has z up).
+
 ``mmocap to-recording SEQUENCE OUT [--cameras C1,C2] [--offsets C2=3,BW1=1] [--yaw DEG] [--units mm|m]
 [--crf N]``
 writes a sequence folder (a synthetic one: ``outputs/data/S1_walking``) in the recording
@@ -33,7 +38,12 @@ layout, ground truth included, to test the path from a user's files to a result.
 from __future__ import annotations
 
 import argparse
+import shutil
+import subprocess
+import sys
+import tempfile
 import warnings
+import zipfile
 from pathlib import Path
 
 import cv2
@@ -50,6 +60,9 @@ from mmocap.pipeline import open_foreground
 from mmocap.stages.foreground import Foreground
 from mmocap.stages.initialisation import nearest_point_to_rays, person_hull, silhouette_rays
 
+#: the wheel on the package index that ships Pose2Sim's demo, and the demo's folder in it
+POSE2SIM_WHEEL = "pose2sim==0.10.49"
+POSE2SIM_DEMO = "Pose2Sim/Demo_SinglePerson/"
 #: foreground fractions of the image outside which a camera's first frame is suspect
 FOREGROUND_RANGE = (0.001, 0.5)
 #: the share of a camera's foreground the visual hull must explain (see the module docstring);
@@ -287,3 +300,49 @@ def convert_main(argv: list[str], prog: str) -> None:
             else ""
         )
     )
+
+
+def fetch_pose2sim_demo(out: Path, wheel: Path | None = None) -> Path:
+    """``out/Demo_SinglePerson``: Pose2Sim's demo recording (module docstring), extracted from
+    ``wheel`` or from the wheel downloaded with pip; kept once complete (a ``.complete`` file
+    says so), so that a second call downloads nothing. A DataError when it cannot be had."""
+    target = Path(out) / POSE2SIM_DEMO.rstrip("/").rsplit("/", 1)[-1]
+    if (target / ".complete").is_file():
+        return target
+    with tempfile.TemporaryDirectory() as tmp:
+        if wheel is None:
+            command = [sys.executable, "-m", "pip", "download", "--no-deps", "--quiet", POSE2SIM_WHEEL, "-d", tmp]
+            done = subprocess.run(command, capture_output=True, text=True, check=False)
+            found = sorted(Path(tmp).glob("pose2sim-*.whl"))
+            if done.returncode or not found:
+                reason = " ".join((done.stderr or done.stdout).split())[-300:]
+                raise DataError(
+                    f"cannot download {POSE2SIM_WHEEL} from the package index ({reason}); download it "
+                    "elsewhere with `pip download --no-deps " + POSE2SIM_WHEEL + "` and pass --wheel FILE"
+                )
+            wheel = found[0]
+        try:
+            with zipfile.ZipFile(wheel) as archive:
+                members = [m for m in archive.namelist() if m.startswith(POSE2SIM_DEMO)]
+                if not members:
+                    raise DataError(f"{wheel} holds no {POSE2SIM_DEMO}: is it the wheel of {POSE2SIM_WHEEL}?")
+                archive.extractall(tmp, members)
+        except (zipfile.BadZipFile, OSError) as exc:
+            raise DataError(f"{wheel} is not a readable wheel ({exc}); download it again") from None
+        if target.exists():
+            shutil.rmtree(target)  # an extraction that stopped
+        target.parent.mkdir(parents=True, exist_ok=True)
+        shutil.move(str(Path(tmp) / POSE2SIM_DEMO), target)
+    (target / ".complete").write_text(f"{POSE2SIM_WHEEL}\n")
+    return target
+
+
+def pose2sim_demo_main(argv: list[str], prog: str) -> None:
+    """``mmocap pose2sim-demo OUT``: put Pose2Sim's real demo recording in OUT/Demo_SinglePerson."""
+    parser = argparse.ArgumentParser(prog=prog, description=pose2sim_demo_main.__doc__)
+    parser.add_argument("out", type=Path, help="the folder to put Demo_SinglePerson in")
+    parser.add_argument("--wheel", type=Path, help=f"the wheel of {POSE2SIM_WHEEL}, already downloaded")
+    args = parser.parse_args(argv)
+    if args.wheel is not None and not args.wheel.is_file():
+        raise ConfigError(f"--wheel {args.wheel}: no such file")
+    print(f"Pose2Sim's demo recording: {fetch_pose2sim_demo(args.out, args.wheel)}")

@@ -6,23 +6,7 @@ import json
 
 import pytest
 
-from tests.helpers import run_cli
-
-QUICK_START = [
-    "start.headings=4",
-    "start.candidates=1",
-    "start.refined=1",
-    "start.evaluations=80",
-    "start.limb_evaluations=40",
-    "start.limb_samples=20",
-    "start.limb_restarts=1",
-    "start.rounds=1",
-    "start.girth_steps=[0.1]",
-    "start.height_steps_mm=[]",
-    "start.shape_evaluations=40",
-    "start.shape_passes=1",
-    "start.hull_height_offsets_mm=[0]",
-]
+from tests.helpers import QUICK_START, run_cli
 
 
 @pytest.fixture(scope="module")
