@@ -28,11 +28,11 @@ from mmocap.validate import check_number
 
 #: what every plausibility warning tells the user to check
 WHAT_TO_CHECK = (
-    "check the foreground (overlays/, video=true), the background method (background=, "
-    "`mmocap foreground-quality`) and the calibration"
+    "check the foreground (overlays/, video=true, `mmocap check-recording`), the background "
+    "method (background=) and the calibration"
 )
 #: what a correct fit gives (measured: docs/troubleshooting.md)
-CORRECT_FITNESS = "about 0.05 on synthetic data, 0.13 on a real recording"
+CORRECT_FITNESS = "0.05-0.11 on synthetic data, about 0.13 on a real recording"
 
 
 class Plausibility:
@@ -49,7 +49,7 @@ class Plausibility:
         self,
         max_fitness: float = 0.2,
         min_height_mm: float = 1400.0,
-        max_height_mm: float = 2100.0,
+        max_height_mm: float = 2000.0,
         min_girth: float = 0.7,
         max_girth: float = 1.5,
         hull_tolerance_mm: float = 200.0,
@@ -101,8 +101,8 @@ class Plausibility:
         apart = abs(body.height_mm - start.height_mm)
         if apart > self.hull_tolerance_mm:
             self._warn(
-                "hull_height_mm",
-                start.height_mm,
+                "height_against_hull_mm",
+                apart,
                 self.hull_tolerance_mm,
                 f"the body is {body.height_mm:.0f} mm tall but the first frame's visual hull "
                 f"{start.height_mm:.0f} mm, {apart:.0f} mm apart, more than plausibility.hull_tolerance_mm="

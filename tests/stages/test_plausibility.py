@@ -33,12 +33,12 @@ def test_a_plausible_start_and_run_give_no_warning(recwarn):
         (
             start(height_mm=2260.0, hull_height_mm=2290.0),
             "body_height_mm",
-            ["2260 mm tall", "plausibility.min_height_mm-max_height_mm=1400-2100"],
+            ["2260 mm tall", "plausibility.min_height_mm-max_height_mm=1400-2000"],
         ),
         (start(girth=0.6), "body_girth", ["girth 0.60", "plausibility.min_girth-max_girth=0.7-1.5"]),
         (
             start(height_mm=1780.0, hull_height_mm=2100.0),
-            "hull_height_mm",
+            "height_against_hull_mm",
             ["1780 mm tall", "visual hull 2100 mm", "320 mm apart", "plausibility.hull_tolerance_mm=200"],
         ),
     ],
@@ -71,7 +71,7 @@ def test_the_findings_are_json_values():
     with pytest.warns(MmocapWarning):
         checks.check_start(start(fitness=np.float64(0.5), height_mm=2290.0, girth=1.55, hull_height_mm=1700.0))
     findings = checks.findings()
-    assert [f["check"] for f in findings] == ["start_fitness", "body_height_mm", "body_girth", "hull_height_mm"]
+    assert [f["check"] for f in findings] == ["start_fitness", "body_height_mm", "body_girth", "height_against_hull_mm"]
     for finding in findings:
         assert type(finding["value"]) is float
         assert isinstance(finding["limit"], (float, list))
