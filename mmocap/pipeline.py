@@ -36,7 +36,7 @@ from omegaconf import DictConfig, OmegaConf
 from tqdm.auto import tqdm
 
 from mmocap import provenance
-from mmocap.analysis.results import ResultsStore, make_record, run_key, store_folder
+from mmocap.analysis.results import ResultsStore, make_record, mean_best_fitness, run_key, store_folder
 from mmocap.errors import ConfigError, DataError, MmocapWarning
 from mmocap.evaluators.timed import TimedEvaluator
 from mmocap.io import LockBusyError, exclusive, locked, writing
@@ -121,7 +121,8 @@ def clear_outputs(output_dir: Path) -> None:
 class Components:
     """The parts of a run, built from the config groups of the same names
     (:func:`build_components`); ``start`` is the automatic start (``start:``), ``evaluator``
-    times its calls, and ``body`` is replaced by the fitted one when an automatic start fits it."""
+    times its calls, ``body`` is replaced by the fitted one when an automatic start fits it, and
+    ``plausibility`` warns when the fit explains the foreground poorly."""
 
     optimizer: Any
     strategy: Any
@@ -131,6 +132,7 @@ class Components:
     start: Any
     recovery: Any
     fidelity: Any
+    plausibility: Any
 
 
 @dataclass
@@ -153,6 +155,11 @@ class Tracking:
         """The time spent reading the frames' foreground, s."""
         return sum(r.foreground_seconds for r in self.results)
 
+    @property
+    def mean_best_fitness(self) -> float:
+        """The mean of the frames' best fitness (NaN if one is not finite)."""
+        return mean_best_fitness([row["fitness"] for row in self.frame_rows])
+
 
 def _run(cfg: DictConfig, output_dir: Path, warning_messages: list[str]) -> dict:
     """:func:`run`, in the locked run folder ``output_dir``: the summary's ``warnings`` is
@@ -171,6 +178,7 @@ def _run(cfg: DictConfig, output_dir: Path, warning_messages: list[str]) -> dict
     rng = np.random.default_rng(int(cfg.seed))
     x0, start_facts = find_start(cfg, parts, sequence, foreground, rng)
     tracking = track_frames(cfg, output_dir, parts, sequence, foreground, truth, x0, rng)
+    parts.plausibility.check_run(tracking.mean_best_fitness)
     summary = make_summary(cfg, run_id, parts, sequence, tracking, start_facts, warning_messages)
     write_outputs(cfg, output_dir, parts, sequence, foreground, truth, tracking, summary)
     summary.write(output_dir)  # the last output: the run is complete
@@ -220,6 +228,7 @@ def build_components(cfg: DictConfig) -> Components:
             evaluator=lambda: instantiate(cfg.evaluator),
             optimizer=lambda **settings: instantiate(cfg.optimizer, **settings),
         ),
+        plausibility=instantiate(cfg.plausibility),
     )
     parts.strategy.check(parts.body, parts.optimizer, int(cfg.tracking.evaluations))
     parts.fidelity.check(parts.strategy)
@@ -277,6 +286,7 @@ def find_start(
             fit_girth=cfg.body.get("girth") is None,
         )
         parts.body, x0, start_facts = found.body, found.pose, found.summary()
+        parts.plausibility.check_start(found)
         parts.evaluator.seconds = 0.0  # the tracking's evaluation time from here on; the start's is in start_facts
         log.info(
             "automatic start: %.1f s, %d evaluations; body %.0f mm tall, girth %.2f",
@@ -370,6 +380,7 @@ def make_summary(
         mean_marker_error_mm=float(np.mean(scored)) if scored.size else None,
         median_marker_error_mm=float(np.median(scored)) if scored.size else None,
         max_marker_error_mm=float(np.max(scored)) if scored.size else None,
+        mean_best_fitness=float(tracking.mean_best_fitness) if np.isfinite(tracking.mean_best_fitness) else None,
         frames=frames,
         frames_scored=int(scored.size),
         evaluations_per_frame=int(cfg.tracking.evaluations),
@@ -386,6 +397,7 @@ def make_summary(
         subject=sequence.subject or "unknown",  # a recording names nobody
         body={"preset": body.subject.name, "height_mm": body.subject.height_mm, "girth": body.subject.girth},
         start=start_facts,
+        plausibility=parts.plausibility.findings(),
         recoveries=[event.summary() for event in parts.recovery.events],
         action=sequence.meta.get("action"),
         cameras=[c.name for c in sequence.cameras],

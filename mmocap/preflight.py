@@ -62,4 +62,5 @@ def check_config(cfg: DictConfig) -> None:
     instantiate(cfg.coverage)
     instantiate(cfg.start)
     instantiate(cfg.recovery)
+    instantiate(cfg.plausibility)
     instantiate(cfg.dataset)

@@ -64,6 +64,9 @@ class Summary:
     mean_marker_error_mm: float | None
     median_marker_error_mm: float | None
     max_marker_error_mm: float | None
+    #: the mean over the frames of each frame's best fitness (0 = the model covers the foreground
+    #: exactly, 1 = not at all; null if a frame's is not finite)
+    mean_best_fitness: float | None = None
     #: frames tracked
     frames: int
     #: frames with ground truth, over which the errors are taken
@@ -94,6 +97,8 @@ class Summary:
     body: dict | None = None
     #: how the first pose was found (:meth:`mmocap.stages.initialisation.Start.summary`)
     start: dict | None = None
+    #: the plausibility checks that failed (:meth:`mmocap.stages.plausibility.Plausibility.findings`)
+    plausibility: list | None = None
     #: the recoveries (:meth:`mmocap.stages.recovery.RecoveryEvent.summary`)
     recoveries: list | None = None
     #: the sequence's action (null if it names none), camera names and folder

@@ -116,6 +116,17 @@ def track_args(root: Path, out: Path) -> list[str]:
     ]
 
 
+def box_in_the_scene(sequence: Path) -> None:
+    """A black box over a twelfth of every image of the sequence folder ``sequence`` that its
+    background frames lack, as if something had been put into the scene after the empty scene
+    was filmed: a foreground the body model cannot explain."""
+    for path in sorted((sequence / "images").glob("*/*.png")):
+        image = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
+        height, width = image.shape[:2]
+        image[height // 8 : height // 8 + height // 3, width // 16 : width // 16 + width // 4] = 0
+        assert cv2.imwrite(str(path), image)
+
+
 @dataclass
 class Outcome:
     """What the user saw: the exit status and both streams."""

@@ -1,18 +1,24 @@
-"""Tracking through the Python API on the tiny sequence: accuracy and crash-safe output."""
+"""Tracking through the Python API on the tiny sequence: accuracy, crash-safe output, and the
+plausibility warnings of a run whose foreground the model cannot explain."""
 
 import functools
+import shutil
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
+import pytest
 
 from mmocap.body.model import BodyModel
 from mmocap.data.sequence import Sequence
+from mmocap.errors import MmocapWarning
 from mmocap.evaluators.numpy_backend import NumpyEvaluator
 from mmocap.optimizers.cmaes import CMAES
 from mmocap.stages.accuracy import FrameLog, marker_error
 from mmocap.stages.background import GaussianBackground
 from mmocap.stages.foreground import Foreground
 from mmocap.stages.tracking import Holistic, track
+from tests.helpers import box_in_the_scene, compose_config
 
 
 def test_tracking_recovers_the_pose_from_a_perturbed_start(tiny_sequence, tmp_path):
@@ -51,3 +57,85 @@ def test_tracking_recovers_the_pose_from_a_perturbed_start(tiny_sequence, tmp_pa
     table = pd.read_csv(tmp_path / "frames.csv")
     assert list(table["frame"]) == [0, 1, 2]
     assert table.shape[1] == 5 + 51
+
+
+#: a short automatic start (about 900 evaluations)
+QUICK_START = [
+    "start.mode=search",
+    "start.headings=4",
+    "start.candidates=1",
+    "start.refined=1",
+    "start.evaluations=80",
+    "start.limb_evaluations=40",
+    "start.limb_samples=20",
+    "start.limb_restarts=1",
+    "start.rounds=1",
+    "start.height_steps_mm=[]",
+    "start.shape_evaluations=40",
+    "start.shape_passes=1",
+    "start.hull_height_offsets_mm=[0]",
+]
+
+
+def with_a_box(sequence, tmp_path) -> Path:
+    """A copy of ``sequence`` with a box in the scene (:func:`tests.helpers.box_in_the_scene`)."""
+    copy = Path(shutil.copytree(sequence, tmp_path / "data" / sequence.name))
+    box_in_the_scene(copy)
+    return copy
+
+
+def run_tiny(sequence, out, *extra) -> dict:
+    """The tiny sequence folder tracked for 3 frames at 150 evaluations; its summary."""
+    from mmocap.pipeline import run
+
+    cfg = compose_config(
+        "dataset=folder",
+        f"dataset.root={sequence}",
+        "evaluator=numpy",
+        "body.vertices=1000",
+        "tracking.evaluations=150",
+        "tracking.frames=3",
+        "overlays=0",
+        "progress=false",
+        "foreground_cache=null",
+        *extra,
+    )
+    return run(cfg, out)
+
+
+def test_a_correct_run_records_its_fitness_and_no_plausibility_warning(tiny_sequence, tmp_path, recwarn):
+    summary = run_tiny(tiny_sequence, tmp_path / "run")
+    assert summary["mean_best_fitness"] == pytest.approx(
+        np.mean(pd.read_csv(tmp_path / "run" / "frames.csv")["fitness"]),
+        abs=1e-6,  # the file's 6 decimals
+    )
+    assert summary["mean_best_fitness"] < 0.1  # measured: 0.073
+    assert summary["plausibility"] == []
+    assert summary["warnings"] == []
+    assert not [w for w in recwarn if issubclass(w.category, MmocapWarning)]
+
+
+def test_a_foreground_the_model_cannot_explain_is_warned_and_recorded(tiny_sequence, tmp_path):
+    boxed = with_a_box(tiny_sequence, tmp_path)
+    with pytest.warns(MmocapWarning, match="the run's mean fitness is") as shown:
+        summary = run_tiny(boxed, tmp_path / "run")
+    assert summary["mean_best_fitness"] > 0.3  # measured: 0.40
+    (finding,) = summary["plausibility"]
+    assert finding["check"] == "mean_fitness"
+    assert finding["value"] == pytest.approx(summary["mean_best_fitness"], abs=1e-4)
+    assert finding["message"] in summary["warnings"]
+    assert [str(w.message) for w in shown if issubclass(w.category, MmocapWarning)] == [finding["message"]]
+
+
+def test_an_automatic_start_on_that_foreground_is_warned_with_its_body_recorded(tiny_sequence, tmp_path):
+    boxed = with_a_box(tiny_sequence, tmp_path)
+    with pytest.warns(MmocapWarning) as shown:
+        summary = run_tiny(boxed, tmp_path / "run", *QUICK_START, "tracking.frames=1")
+    checks = [finding["check"] for finding in summary["plausibility"]]
+    assert checks[0] == "start_fitness"  # measured: 0.62
+    assert "mean_fitness" in checks  # measured: 0.61
+    assert str(shown[0].message).startswith("the automatic start's fitness is")
+    assert summary["start"]["fitness"] > 0.3
+    assert {"hull_height_mm", "body_height_mm", "body_girth"} <= set(summary["start"])
+    assert summary["body"]["height_mm"] == summary["start"]["body_height_mm"]
+    assert all(finding["message"] in summary["warnings"] for finding in summary["plausibility"])

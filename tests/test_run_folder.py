@@ -32,12 +32,14 @@ def test_a_summary_reads_and_writes_back_byte_for_byte(tmp_path):
 
 def test_a_summary_of_an_older_mmocap_reads_its_later_keys_as_none(tmp_path):
     later = (
+        "mean_best_fitness",
         "frames_scored",
         "cheap_evaluations_per_frame",
         "foreground_seconds_per_frame",
         "evaluator_choice",
         "body",
         "start",
+        "plausibility",
         "recoveries",
         "fps",
         "warnings",

@@ -60,6 +60,7 @@ NOT_IN_KEY = (
     "evaluation",
     "export",
     "video",
+    "plausibility",
 )
 
 RUN_COLUMNS = [

@@ -15,6 +15,7 @@ def test_the_unbroken_copy_tracks_with_exit_0_and_no_warning(sequence_copy, tmp_
     summary = json.loads((out / "summary.json").read_text())
     assert summary["frames"] == 2
     assert summary["mean_marker_error_mm"] < 100
+    assert summary["plausibility"] == []  # mean fitness measured: 0.09
 
 
 def test_the_fault_fixtures_refuse_writes(small_disk, make_read_only, tmp_path):
