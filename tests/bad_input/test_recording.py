@@ -6,12 +6,13 @@ import shutil
 from pathlib import Path
 
 import cv2
+import numpy as np
 import pytest
 
 from mmocap.data.recording.reader import write_recording
 from mmocap.data.sequence import Sequence
 from mmocap.stages import segmentation
-from tests.helpers import assert_clean_error, assert_warned, pad_calibration, write_masks
+from tests.helpers import QUICK_START, assert_clean_error, assert_warned, pad_calibration, write_masks
 from tests.helpers import mmocap_in_process as mmocap
 
 
@@ -132,6 +133,21 @@ def test_a_mask_holding_two_people_is_tracked_with_one_warning_naming_the_camera
         image = cv2.imread(str(mask), cv2.IMREAD_GRAYSCALE)
         image[20:100, 60:90] = 255
         cv2.imwrite(str(mask), image)
-    outcome = track_recording(recording, tmp_path, "start.mode=auto", "body.height_mm=1700", "body.girth=1")
+    outcome = track_recording(recording, tmp_path, "body.height_mm=1700", "body.girth=1", *QUICK_START)
     summary = json.loads((tmp_path / "run" / "summary.json").read_text())
     assert_warned(outcome, summary, "camera C1", "2 separate person-sized regions", "largest_only")
+
+
+def test_a_frame_where_a_camera_finds_nobody_leaves_it_out_of_that_frame_with_a_warning(
+    recording, tiny_original, tmp_path
+):
+    sequence = Sequence.open(tiny_original)
+    write_masks(recording)
+    for camera in sequence.cameras:  # the true silhouettes as the given masks, but C1's frame 1 blank
+        for frame in range(sequence.n_frames):
+            person = sequence.silhouette(frame, camera) & ~(camera.name == "C1" and frame == 1)
+            cv2.imwrite(str(recording / "masks" / camera.name / f"{frame:04d}.png"), person.astype(np.uint8) * 255)
+    outcome = track_recording(recording, tmp_path, "body.height_mm=1700", "body.girth=1", *QUICK_START)
+    summary = json.loads((tmp_path / "run" / "summary.json").read_text())
+    assert summary["frames"] == 2
+    assert_warned(outcome, summary, "camera C1", "nobody in its foreground in 1 of 2 frames (1)", "left out")

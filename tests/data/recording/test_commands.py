@@ -26,6 +26,26 @@ def test_check_recording_reports_cameras_sync_and_the_first_frame(recording, cap
     assert "frames tracked: 4 from frame 0" in report
     assert "4 of 4 frames have markers" in report
     assert "the silhouettes' rays meet at" in report
+    assert "  foreground: background subtraction (HorprasertBackground) on the empty-scene plate (auto: " in report
+    assert "first frame: the person's visual hull is" in report
+
+
+def test_check_recording_warns_of_foreground_the_hull_does_not_explain(recording, capsys):
+    """A background model far too sensitive (1 sigma) marks sensor noise everywhere, which no
+    other camera confirms: the hull explains little of it, or is no person's height."""
+    assert (
+        run_cli(
+            "check-recording",
+            recording,
+            "dataset.offsets={C2:1}",
+            "background=gaussian",
+            "background.threshold=1",
+            "background.min_area_px=5",
+        )
+        == 0
+    )
+    err = capsys.readouterr().err
+    assert "lies inside the person's visual hull" in err or "outside a person's" in err
 
 
 def test_a_recording_is_tracked_from_nothing_by_the_documented_command(recording, tmp_path):
