@@ -75,6 +75,8 @@ real-demo: $(STAMP) ## Pose2Sim's real 4-camera recording from nothing, no plate
 	$(REAL_DEMO_TRACK) export=[csv,trc,c3d,bvh] video=true hydra.run.dir=$(REAL_DEMO)/all $(REAL_DEMO_ARGS)
 	$(REAL_DEMO_TRACK) 'dataset.cameras=[cam01,cam02,cam03]' overlays=0 hydra.run.dir=$(REAL_DEMO)/held-out $(REAL_DEMO_ARGS)
 	$(MMOCAP) held-out $(REAL_DEMO)/held-out --camera cam04 --no-progress --runs $(REAL_DEMO)/all --page docs/results/real_demo.md
+	$(PY) -c "import cv2; i = cv2.imread('$(REAL_DEMO)/all/overlays/frame_000099.png'); \
+		assert cv2.imwrite('docs/results/real_demo_fit.jpg', cv2.resize(i, None, fx=0.5, fy=0.5, interpolation=cv2.INTER_AREA))"
 
 table1: $(STAMP) ## Cano Table 1 and Fig. 3 for this machine: CMA-ES frame times, 3 meshes x 4 budgets (about 10 min); outputs/tables/table1.*, fig3.png
 	$(BENCH) table1
