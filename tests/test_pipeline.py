@@ -124,7 +124,9 @@ def test_a_foreground_the_model_cannot_explain_is_warned_and_recorded(tiny_seque
     assert finding["check"] == "mean_fitness"
     assert finding["value"] == pytest.approx(summary["mean_best_fitness"], abs=1e-4)
     assert finding["message"] in summary["warnings"]
-    assert [str(w.message) for w in shown if issubclass(w.category, MmocapWarning)] == [finding["message"]]
+    messages = [str(w.message) for w in shown if issubclass(w.category, MmocapWarning)]
+    # the box is a second region beside the person in some cameras, warned of once each
+    assert [m for m in messages if "person-sized regions" not in m] == [finding["message"]]
 
 
 def test_an_automatic_start_on_that_foreground_is_warned_with_its_body_recorded(tiny_sequence, tmp_path):
@@ -134,7 +136,8 @@ def test_an_automatic_start_on_that_foreground_is_warned_with_its_body_recorded(
     checks = [finding["check"] for finding in summary["plausibility"]]
     assert checks[0] == "start_fitness"  # measured: 0.62
     assert "mean_fitness" in checks  # measured: 0.61
-    assert str(shown[0].message).startswith("the automatic start's fitness is")
+    fitness_warnings = [str(w.message) for w in shown if "fitness is" in str(w.message)]
+    assert fitness_warnings[0].startswith("the automatic start's fitness is")
     assert summary["start"]["fitness"] > 0.3
     assert {"hull_height_mm", "body_height_mm", "body_girth"} <= set(summary["start"])
     assert summary["body"]["height_mm"] == summary["start"]["body_height_mm"]

@@ -50,12 +50,14 @@ def test_a_bad_action_is_a_config_error(sequence_copy, tmp_path):
     )
 
 
-def test_a_foreground_the_model_explains_poorly_is_one_warning_and_recorded(sequence_copy, tmp_path):
+def test_a_foreground_the_model_explains_poorly_is_warned_and_recorded(sequence_copy, tmp_path):
     box_in_the_scene(sequence_copy)
     out = tmp_path / "run"
     outcome = mmocap(*track_args(sequence_copy, out))
     summary = json.loads((out / "summary.json").read_text()) if (out / "summary.json").exists() else {}
     line = assert_warned(outcome, summary, "mean fitness", "plausibility.max_fitness=0.2", "foreground")
-    assert [w for w in outcome.stderr.splitlines() if w.startswith("mmocap: warning:")] == [line]
+    warned = [w for w in outcome.stderr.splitlines() if w.startswith("mmocap: warning:")]
+    # besides the fit, the box is a second person-sized region in a camera or two
+    assert [w for w in warned if "person-sized regions" not in w] == [line]
     assert [finding["check"] for finding in summary["plausibility"]] == ["mean_fitness"]
     assert summary["mean_best_fitness"] > 0.3  # measured: 0.39; 0.09 without the box
