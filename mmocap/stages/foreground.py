@@ -118,9 +118,13 @@ def choose_method(
             " (auto: the sequence has one)" if method == "auto" else ""
         )
     if not segmentation.available():
+        why = (
+            "foreground.method=segmentation asks for person segmentation"
+            if method == "segmentation"
+            else f"{sequence.root} has no empty-scene plate and no masks/, so its foreground needs person segmentation"
+        )
         raise ConfigError(
-            f"{sequence.root} has no empty-scene plate and no masks/, so its foreground needs person "
-            f"segmentation, which is not installed: {segmentation.INSTALL}; or record the empty scene "
+            f"{why}, which is not installed: {segmentation.INSTALL}; or record the empty scene "
             "(background/<camera>.mp4), set dataset.background=[first,last], or give masks/<camera>/"
         )
     return make_segmenter, "person segmentation (MediaPipe Pose)" + (
