@@ -1,7 +1,9 @@
 """Stage "initialisation": the first frame's pose, and the body's size, from the silhouettes alone.
 
 A user's recording gives no first pose (``x0``) and no body dimensions. :class:`AutoStart`
-finds both from the foreground masks of the first frame:
+finds both from the foreground masks of the first frame, on cameras no larger than
+``max_image_px`` (a full-HD camera and its mask are shrunk for the start, which then costs
+what it does at 640x480):
 
 1. **Where:** the rays through the centroids of the silhouettes, one per camera, meet (in
    the least-squares sense) near the person's centre; a visual hull is carved around that
@@ -42,9 +44,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from mmocap.bitmask import ForegroundMask
 from mmocap.body.mesh import GIRTH_RANGE, HEIGHT_RANGE_MM
 from mmocap.body.model import BodyModel
 from mmocap.errors import ConfigError, DataError
+from mmocap.stages.fidelity import shrunk_mask
 from mmocap.validate import check_choice, check_number
 
 log = logging.getLogger(__name__)
@@ -233,6 +237,9 @@ class AutoStart:
         limb_restarts: best of those samples each searched too, besides the current pose.
         hull_height_offsets_mm: offsets (mm) from the visual hull's height, each the body's
             height for steps 2-3 (unless ``body.height_mm`` is given).
+        max_image_px: the longest image side the start searches on, px: larger cameras and
+            their masks are shrunk to it for the start (:meth:`reduced`), so that its cost
+            does not grow with the cameras' resolution (None: the images' own size).
     """
 
     def __init__(
@@ -255,6 +262,7 @@ class AutoStart:
         shape_evaluations: int = 800,
         shape_passes: int = 2,
         hull_height_offsets_mm=(0.0, -40.0),
+        max_image_px: int | None = 640,
     ):
         self.mode = check_choice("start.mode", mode, START_MODES)
         self.headings = check_number("start.headings", headings, 1, 360, integer=True)
@@ -281,6 +289,9 @@ class AutoStart:
                 "start.hull_height_offsets_mm is empty: give at least one height offset (mm) "
                 "from the visual hull's height, e.g. [0]"
             )
+        self.max_image_px = (
+            None if max_image_px is None else check_number("start.max_image_px", max_image_px, 64, integer=True)
+        )
         self.shape_passes = check_number("start.shape_passes", shape_passes, 1, 100, integer=True)
         self.limb_samples = check_number("start.limb_samples", limb_samples, 0, 10**6, integer=True)
         self.limb_restarts = check_number("start.limb_restarts", limb_restarts, 0, self.limb_samples, integer=True)
@@ -306,6 +317,7 @@ class AutoStart:
         steps. ``fit_height`` / ``fit_girth``: whether the body's height / girth are
         unknown (not given in the config) and fitted."""
         started = time.perf_counter()
+        cameras, masks = self.reduced(cameras, masks)
         centre, height, floor_y = self.measure(cameras, masks)
         log.info(
             "automatic start: visual hull %.0f mm tall, centre (%.0f, %.0f, %.0f) mm, floor at y = %.0f mm",
@@ -341,6 +353,22 @@ class AutoStart:
                 used += n
         evaluator.setup(body, cameras, masks)  # leave the evaluator on the body that won
         return StartResult(best_x, float(best_f), body, used, time.perf_counter() - started, height, floor_y)
+
+    def reduced(self, cameras, masks) -> tuple[list, list]:
+        """``cameras`` and their (H, W) bool ``masks``, each camera whose longest side exceeds
+        ``max_image_px`` shrunk to it (:meth:`mmocap.camera.Camera.shrunk`, masks by area,
+        :func:`mmocap.stages.fidelity.shrunk_mask`); the others as they are."""
+        if self.max_image_px is None:
+            return list(cameras), list(masks)
+        out_cameras, out_masks = [], []
+        for camera, mask in zip(cameras, masks):
+            scale = self.max_image_px / max(camera.width, camera.height)
+            if scale < 1:
+                camera = camera.shrunk(scale)
+                mask = ForegroundMask(shrunk_mask(mask, camera.width, camera.height))
+            out_cameras.append(camera)
+            out_masks.append(mask)
+        return out_cameras, out_masks
 
     def _pose(self, body, centre, floor_y: float, cameras, masks, evaluator, optimizer, search, rng):
         """Steps 2-3 for ``body``: the rest pose placed at the hull's ``centre`` (3,) mm

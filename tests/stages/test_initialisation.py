@@ -171,3 +171,19 @@ def test_random_limb_poses_bring_back_an_arm_that_a_local_search_misses(first_fr
 def test_a_bad_setting_names_its_key(key, value):
     with pytest.raises(ConfigError, match=f"start.{key}"):
         AutoStart(**{key: value})
+
+
+def test_the_start_searches_full_hd_cameras_shrunk_to_max_image_px():
+    start = AutoStart(max_image_px=640)
+    big = Camera.look_at("HD", [3000.0, 1500.0, 3000.0], [0.0, 900.0, 0.0], 1700.0, 1920, 1080)
+    small = Camera.look_at("VGA", [-3000.0, 1500.0, 3000.0], [0.0, 900.0, 0.0], 600.0, 640, 480)
+    mask = np.zeros((1080, 1920), bool)
+    mask[300:900, 900:1050] = True
+    cameras, masks = start.reduced([big, small], [mask, np.ones((480, 640), bool)])
+    assert (cameras[0].width, cameras[0].height) == (640, 360)
+    assert masks[0].shape == (360, 640)
+    assert masks[0].sum() == pytest.approx(mask.sum() / 9, rel=0.02)
+    assert cameras[1] is small  # already within the limit
+    point = np.array([[0.0, 900.0, 0.0]])
+    np.testing.assert_allclose(cameras[0].project(point), (big.project(point) + 0.5) / 3 - 0.5, atol=1e-9)
+    assert AutoStart(max_image_px=None).reduced([big], [mask])[0][0] is big
