@@ -67,10 +67,10 @@ bench: $(STAMP) ## Evaluator benchmark, 27393 vertices: time per model-view, the
 REAL_DEMO       := outputs/real-demo
 REAL_DEMO_REC   := $(REAL_DEMO)/Demo_SinglePerson
 REAL_DEMO_ARGS  ?=
-REAL_DEMO_TRACK := $(MMOCAP) track dataset=recording dataset.root=$(REAL_DEMO_REC) dataset.up=+z dataset.scale=0.5 progress=false
+REAL_DEMO_TRACK := $(MMOCAP) track dataset=recording dataset.root=$(REAL_DEMO_REC) dataset.scale=0.5 progress=false
 real-demo: $(STAMP) ## Pose2Sim's real 4-camera recording from nothing, no plate: exports, video, held-out camera agreement; docs/results/real_demo.md
 	$(MMOCAP) pose2sim-demo $(REAL_DEMO)
-	$(MMOCAP) check-recording $(REAL_DEMO_REC) dataset.up=+z dataset.scale=0.5
+	$(MMOCAP) check-recording $(REAL_DEMO_REC) dataset.scale=0.5
 	rm -rf $(REAL_DEMO)/all $(REAL_DEMO)/held-out
 	$(REAL_DEMO_TRACK) export=[csv,trc,c3d,bvh] video=true hydra.run.dir=$(REAL_DEMO)/all $(REAL_DEMO_ARGS)
 	$(REAL_DEMO_TRACK) 'dataset.cameras=[cam01,cam02,cam03]' overlays=0 hydra.run.dir=$(REAL_DEMO)/held-out $(REAL_DEMO_ARGS)

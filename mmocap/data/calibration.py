@@ -110,6 +110,12 @@ CALIBRATION_FORMATS = {
     ".qca.txt": "Qualisys QTM calibration XML",
     ".xcp": "Vicon calibration XML",
 }
+#: the world axis pointing up in the formats whose world is a lab's by convention: QTM and Vicon
+#: define the lab's frame with z up (the other formats' world is whatever the board's was)
+UP_AXIS_OF_FORMAT = {
+    CALIBRATION_FORMATS[".qca.txt"]: "+z",
+    CALIBRATION_FORMATS[".xcp"]: "+z",
+}
 #: the suffixes of formats that keep every camera in one file: a folder holding one such file
 #: (and no other calibration file) is read as that file
 RIG_FILE_SUFFIXES = (".toml", ".qca.txt", ".xcp")

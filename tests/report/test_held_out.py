@@ -80,7 +80,7 @@ def test_pose2sim_real_demo_is_read_as_it_ships_and_tracked_without_a_plate(tmp_
     root = tmp_path / "Demo_SinglePerson"
     assert sorted(p.name for p in (root / "videos").iterdir()) == [f"cam0{k}.mp4" for k in range(1, 5)]
     capsys.readouterr()
-    assert run_cli("check-recording", root, "dataset.up=+z", "dataset.scale=0.25") == 0
+    assert run_cli("check-recording", root, "dataset.scale=0.25") == 0
     report = capsys.readouterr()
     assert "foreground: person segmentation (MediaPipe Pose) (auto: no empty-scene plate" in report.out
     assert "translations in mm" in report.out
@@ -88,7 +88,7 @@ def test_pose2sim_real_demo_is_read_as_it_ships_and_tracked_without_a_plate(tmp_
     warned = [line for line in report.err.splitlines() if line.startswith("mmocap: warning:")]
     assert len(warned) == 2
     assert all("is 1080x1920, its calibration says 1088x1920" in w for w in warned)
-    setup = ["dataset.up=+z", "dataset.scale=0.25", "tracking.frames=2"]
+    setup = ["dataset.scale=0.25", "tracking.frames=2"]
     summary = track(
         tmp_path / "held-out",
         "dataset=recording",

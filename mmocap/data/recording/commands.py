@@ -27,7 +27,7 @@ all is one error line (exit 2).
 ``mmocap pose2sim-demo OUT [--wheel FILE]`` puts Pose2Sim's real demo recording, as it ships
 in Pose2Sim's wheel on the package index (:data:`POSE2SIM_WHEEL`), in ``OUT/Demo_SinglePerson``:
 four 1080x1920 videos at 60 fps of one person, 100 frames, and the lab's Qualisys calibration,
-with no empty-scene plate. Track it with ``dataset.up=+z`` (Qualisys's world has z up).
+with no empty-scene plate (its Qualisys world has z up, which ``dataset.up=auto`` takes).
 
 ``mmocap to-recording SEQUENCE OUT [--cameras C1,C2] [--offsets C2=3,BW1=1] [--yaw DEG] [--units mm|m]
 [--crf N]``

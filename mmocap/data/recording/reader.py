@@ -54,7 +54,7 @@ import numpy as np
 
 from mmocap.body.model import MARKER_NAMES
 from mmocap.camera import Camera
-from mmocap.data.calibration import calibration_suffix, read_calibration, write_opencv_yaml
+from mmocap.data.calibration import UP_AXIS_OF_FORMAT, calibration_suffix, read_calibration, write_opencv_yaml
 from mmocap.data.sequence import Sequence, SequenceBase, listed, read_markers, write_markers
 from mmocap.errors import ConfigError, DataError, MmocapWarning
 from mmocap.validate import check_choice, check_number
@@ -269,7 +269,8 @@ class RecordingDataset:
         calibration: the calibration file or folder, relative to ``root`` (None: the one
             ``calibration.*`` or ``calibration/`` there).
         units: the calibration's translation units: ``mm``, ``m`` or ``auto``.
-        up: the calibration world's axis that points up (``+y``, ``+z``, ...).
+        up: the calibration world's axis that points up (``+y``, ``+z``, ...), or ``auto``:
+            ``+z`` for QTM and Vicon calibrations (their labs' convention), else ``+y``.
         offsets: camera name -> frames of its source before the common frame 0.
         start: the first synchronised frame tracked.
         frames: frames to read at most (None: to the end of the shortest source).
@@ -290,7 +291,7 @@ class RecordingDataset:
         cameras: list[str] | None = None,
         calibration: str | None = None,
         units: str = "auto",
-        up: str = "+y",
+        up: str = "auto",
         offsets: dict | None = None,
         start: int = 0,
         frames: int | None = None,
@@ -305,7 +306,7 @@ class RecordingDataset:
         self.cameras = None if cameras is None else list(cameras)
         self.calibration = calibration
         self.units = check_choice("dataset.units", units, ("mm", "m", "auto"))
-        self.up = check_choice("dataset.up", up, tuple(UP_AXES))
+        self.up = check_choice("dataset.up", up, ("auto", *UP_AXES))
         self.offsets = {
             str(k): check_number(f"dataset.offsets.{k}", v, 0, integer=True) for k, v in dict(offsets or {}).items()
         }
@@ -359,7 +360,8 @@ class RecordingDataset:
         if not root.is_dir():
             raise DataError(f"recording folder not found: {root}")
         calibration = read_calibration(self.calibration_path(), self.units, units_key="dataset.units")
-        world = UP_AXES[self.up]
+        up = self._up(calibration)
+        world = UP_AXES[up]
         by_name = {c.name: turned(c, world) for c in calibration.cameras}
         for name in self.greyscale:
             if name not in by_name:
@@ -423,7 +425,7 @@ class RecordingDataset:
             "x0": None,
             "calibration": str(calibration.source),
             "units": calibration.units,
-            "up": self.up,
+            "up": up,
         }
         return RecordingSequence(
             root,
@@ -437,6 +439,17 @@ class RecordingDataset:
             markers_path=markers if markers.is_file() else None,
             world=world,
         )
+
+    def _up(self, calibration) -> str:
+        """The calibration world's up axis: ``up``, or with ``auto`` the format's convention
+        (:data:`mmocap.data.calibration.UP_AXIS_OF_FORMAT`, logged), else ``+y``."""
+        if self.up != "auto":
+            return self.up
+        up = UP_AXIS_OF_FORMAT.get(calibration.format)
+        if up is None:
+            return "+y"
+        log.info("dataset.up=auto: %s, the convention of %s (%s)", up, calibration.format, calibration.source)
+        return up
 
     def _main_source(self, name: str) -> Path | None:
         videos = find_source(self.path / "videos", name, "a video")

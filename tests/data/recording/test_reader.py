@@ -146,10 +146,14 @@ def test_a_lab_calibration_is_found_and_opened(recording_copy, layout):
     dataset = RecordingDataset(str(recording_copy), offsets=OFFSETS)
     assert dataset.calibration_path() == recording_copy / layout.split("/")[0]
     opened = dataset.open(progress=False)
+    assert opened.meta["up"] == "+z"  # dataset.up=auto: QTM's and Vicon's labs have z up
     points = np.array([[0.0, 0.0, 0.0], [300.0, 900.0, -200.0]])
     for got, want in zip(opened.cameras, cameras, strict=True):
         assert got.name == want.name
-        np.testing.assert_allclose(got.project(points), want.project(points), atol=0.01)
+        # the same rays, in mmocap's y-up world turned from the file's z-up one
+        np.testing.assert_allclose(got.project(points @ UP_AXES["+z"].T), want.project(points), atol=0.01)
+    opened = RecordingDataset(str(recording_copy), offsets=OFFSETS, up="+y").open(progress=False)
+    np.testing.assert_allclose(opened.cameras[0].project(points), cameras[0].project(points), atol=0.01)
 
 
 def _break(root: Path, how: str) -> dict:
