@@ -41,6 +41,7 @@ import logging
 import warnings
 import zipfile
 from collections.abc import Callable
+from typing import Any
 from pathlib import Path
 
 import cv2
@@ -143,8 +144,9 @@ def _describe(make_model) -> dict:
     return {"target": f"{make_model.__module__}.{make_model.__qualname__}"}
 
 
-def _model_class(make_model) -> type:
-    """The class a model factory (a class or a partial of one) builds."""
+def _model_class(make_model) -> Any:
+    """The class a model factory (a class or a partial of one) builds: a background model,
+    a person segmenter or :class:`GivenMask`, each with ``needs_plate`` and ``reads``."""
     while isinstance(make_model, functools.partial):
         make_model = make_model.func
     return make_model
