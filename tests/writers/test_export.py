@@ -389,7 +389,9 @@ def test_a_tracking_run_writes_its_exports(tiny_sequence, tmp_path):
             "overlays=0",
             "progress=false",
             "foreground_cache=null",
-            "export=[csv,bvh]",
+            "export=[csv,bvh,trc]",
+            "export_options.units=m",
+            "export_options.names=pose2sim",
         ]
     )
     summary = run(cfg, tmp_path)
@@ -398,10 +400,13 @@ def test_a_tracking_run_writes_its_exports(tiny_sequence, tmp_path):
         "joints_mm.csv",
         "markers_mm.csv",
         "motion.bvh",
+        "motion.trc",
         "pose.csv",
     ]
-    # the same files as an export of the finished run
-    again = export_run(tmp_path, ["csv", "bvh"], out_dir=tmp_path / "again")
+    header, names, *_ = parse_trc(tmp_path / "export" / "motion.trc")
+    assert (header["Units"], names[-1]) == ("m", "Hip")
+    # the same files as an export of the finished run, with the run's export options
+    again = export_run(tmp_path, ["csv", "bvh", "trc"], out_dir=tmp_path / "again")
     for path in again:
         assert path.read_text() == (tmp_path / "export" / path.name).read_text()
 
