@@ -210,10 +210,10 @@ def export_run(
     ``fps`` overrides the frame rate that ``summary.json`` records (a summary written before it
     did needs it). ``units``, ``names`` and ``frame`` (see :class:`ExportOptions`) override
     the run's ``export_options``; None keeps the run's (the default for a run whose summary
-    predates them). A DataError names the file when ``run_dir``
-    is not a finished run (no ``summary.json``; no ``frames.csv``, only ``frames.csv.partial``)
-    or a file is malformed; a ConfigError names ``--format``, ``--fps``, ``--units``,
-    ``--names`` or ``--frame`` for a bad value.
+    predates them). A DataError names the file when ``run_dir`` is not a finished run (no
+    ``summary.json``; no ``frames.csv``, only ``frames.csv.partial``) or a file is malformed; a
+    ConfigError names ``--format``, ``--fps``, ``--units``, ``--names`` or ``--frame`` for a
+    bad value.
     """
     formats = check_formats(formats, "--format")
     if fps is not None:
@@ -460,7 +460,8 @@ def write_c3d(
         warnings.filterwarnings("ignore", message="No analog data", category=UserWarning)  # none is meant
         writer.write(f)
         # the c3d package writes every frame from one buffer, where a missing point keeps the
-        # coordinates of the frame before: zero them on disk (each point is 4 float32 words)
+        # coordinates of the frame before: zero them on disk (a frame is its points, 4 float32
+        # words each, as there is no analog data)
         start = (int(writer.header.data_block) - 1) * 512
         zeros = np.zeros(3, "<f4").tobytes()
         for frame, point in np.argwhere(missing):
