@@ -39,6 +39,7 @@ from mmocap.stages.accuracy import FrameLog
 from mmocap.writers import export
 from mmocap.writers.export import (
     FORMATS,
+    NAMINGS,
     POSE2SIM_NAMES,
     ExportOptions,
     export_motion,
@@ -428,10 +429,9 @@ def test_a_run_starting_again_removes_the_exports_of_the_one_before(tmp_path):
 
 
 @pytest.fixture(scope="module")
-def standing() -> np.ndarray:
+def standing(body) -> np.ndarray:
     """(10, 51) poses of a person standing at the rest pose, every rotation jittered by 0.05
     rad: what Pose2Sim's height estimate measures (it keeps the frames with straight legs)."""
-    body = BodyModel("S1", vertices=1000)
     X = np.tile(body.rest_pose(), (10, 1))
     X[:, 3:] += np.random.default_rng(3).normal(0.0, 0.05, (10, 48))
     return X
@@ -520,16 +520,15 @@ def test_pose2sim_names_match_its_halpe26_marker_set(pose2sim_wheel, body):
     )
 
 
-def test_pose2sim_reads_the_trc_in_metres_and_estimates_the_height(tmp_path, pose2sim, standing):
+def test_pose2sim_reads_the_trc_in_metres_and_estimates_the_height(tmp_path, pose2sim, body, standing):
     """Pose2Sim's read_trc gives the points in metres, and its compute_height (10 cm from heel
     to ankle, as mmocap has no heel; shank, thigh, hip to shoulder, and 1.008 times mid-shoulder
-    to Head) gives 1.82 m for the 1.78 m body: its estimate, not a unit off. On the mm file it
-    gives about 1769, and with mmocap's names (no Head, no Hip) it falls back on the legs'
-    length / 0.485, 1.98 m."""
-    body = BodyModel("S1", vertices=1000)
+    to Head) gives 1.82 m for the 1.78 m body: its estimate, not a unit off. On the mm files it
+    gives 1725 (Pose2Sim's names) and 1769 (mmocap's), and in metres with mmocap's names (no
+    Head, no Hip) it falls back on the legs' length / 0.485, 1.98 m."""
     height_m = body.subject.height_mm / 1000.0
     estimates = {}
-    for units, names in (("m", "pose2sim"), ("mm", "pose2sim"), ("m", "mmocap")):
+    for units, names in (("m", "pose2sim"), ("mm", "pose2sim"), ("m", "mmocap"), ("mm", "mmocap")):
         folder = tmp_path / f"{units}-{names}"
         export_motion(folder, ["trc"], body, standing, FPS, options=ExportOptions(units=units, names=names))
         coordinates, frames, times, markers, _ = pose2sim["read_trc"](str(folder / "motion.trc"))
@@ -543,7 +542,8 @@ def test_pose2sim_reads_the_trc_in_metres_and_estimates_the_height(tmp_path, pos
         )
         estimates[units, names] = pose2sim["compute_height"](coordinates)
     assert abs(estimates["m", "pose2sim"] - height_m) < 0.03 * height_m
-    assert estimates["mm", "pose2sim"] > 500 * height_m  # read as metres: about a thousand times off
+    for names in NAMINGS:  # mm read as metres: about a thousand times off
+        assert estimates["mm", names] > 500 * height_m
     assert abs(estimates["m", "pose2sim"] - height_m) < abs(estimates["m", "mmocap"] - height_m)
 
 
