@@ -430,7 +430,11 @@ def write_outputs(
     (where a frame has ground truth), the overlays and, with ``video``, the videos."""
     body, results = parts.body, tracking.results
     write_traces(output_dir / TRACES, results)
-    export_motion(output_dir / EXPORT_FOLDER, cfg.export, body, read_poses(output_dir / FRAMES), sequence.fps)
+    poses = read_poses(output_dir / FRAMES)
+    options = instantiate(cfg.export_options)
+    export_motion(
+        output_dir / EXPORT_FOLDER, cfg.export, body, poses, sequence.fps, options=options, up=cfg.dataset.get("up")
+    )
     errors = np.asarray(tracking.errors_mm)
     if (~np.isnan(errors)).any():
         plot_error_per_frame(

@@ -42,6 +42,7 @@ def check_config(cfg: DictConfig) -> None:
     check_flag("video", cfg.video)
     check_number("overlays", cfg.overlays, 0, 10_000, integer=True)
     check_formats(cfg.export, "export")
+    instantiate(cfg.export_options)
     evaluations = check_budget(cfg.tracking.evaluations)
     if cfg.tracking.frames is not None:
         check_number("tracking.frames", cfg.tracking.frames, 1, integer=True)

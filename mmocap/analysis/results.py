@@ -59,6 +59,7 @@ NOT_IN_KEY = (
     "run_dir_busy",
     "evaluation",
     "export",
+    "export_options",
     "video",
     "plausibility",
 )

@@ -1,25 +1,33 @@
 """Standard motion files of a finished tracking run: CSV, TRC, C3D and BVH.
 
-``mmocap export RUN_DIR --format trc,c3d,bvh,csv [--out DIR] [--fps N]`` reads a finished run
-folder (``summary.json``, whose ``config`` rebuilds the body model, and ``frames.csv``, the
-tracked poses) and writes into ``RUN_DIR/export`` (or ``--out``); a tracking run writes the
-formats of its config's ``export`` list there itself, before its ``summary.json``.
+``mmocap export RUN_DIR --format trc,c3d,bvh,csv [--out DIR] [--fps N] [--units mm|m]
+[--names mmocap|pose2sim] [--frame world|calibration]`` reads a finished run folder
+(``summary.json``, whose ``config`` rebuilds the body model, and ``frames.csv``, the tracked
+poses) and writes into ``RUN_DIR/export`` (or ``--out``); a tracking run writes the formats of
+its config's ``export`` list there itself, before its ``summary.json``, as its
+``export_options`` (:class:`ExportOptions`) say.
 
-Every file is in mmocap's world frame: Y up (x to the left, y up, z forward of the model axes
-of :mod:`mmocap.body.skeleton`; the rest pose faces +z). Frames are numbered from 0 in the CSV
-files (as in ``frames.csv``) and from 1 in TRC and C3D (their convention); the time of frame
-``f`` is ``f / fps`` seconds, ``fps`` being the tracked sequence's frame rate.
+Every file is in mmocap's world frame by default: Y up (x to the left, y up, z forward of the
+model axes of :mod:`mmocap.body.skeleton`; the rest pose faces +z). ``frame=calibration``
+writes every point, and the BVH, in the calibration's own frame instead: a recording's world
+before its reader turned ``dataset.up`` to +y (:func:`output_turn`). Frames are numbered from
+0 in the CSV files (as in ``frames.csv``) and from 1 in TRC and C3D (their convention); the
+time of frame ``f`` is ``f / fps`` seconds, ``fps`` being the tracked sequence's frame rate.
 
 - ``csv``: ``markers_mm.csv`` (frame, marker, x_mm, y_mm, z_mm: the 15 virtual markers in the
   layout of a sequence folder's ground truth, so that it can stand in for one),
   ``joints_mm.csv`` (frame, joint, x_mm, y_mm, z_mm: the 16 joint centres; the column is
   ``joint`` because joint centres are not markers) and ``pose.csv`` (frame, time_s, the 51
-  pose parameters in mm and rad, every rotation wrapped to (-pi, pi]).
-- ``trc``: ``motion.trc``, the 15 markers then the 16 joint centres in mm, in the layout
-  OpenSim's ``TRCFileAdapter`` reads (tabs, the blank sixth line, ``NaN`` for a missing value,
-  no trailing tab).
-- ``c3d``: ``motion.c3d``, the same points (POINT:UNITS ``mm``, float storage, an invalid point
-  has residual -1), written with the ``c3d`` package (``pip install 'mmocap[export]'``).
+  pose parameters in mm and rad, every rotation wrapped to (-pi, pi]; the body model's
+  parameters, in mmocap's world whatever the frame).
+- ``trc``: ``motion.trc``, the 15 markers then the 16 joint centres in mm (or metres with
+  ``units=m``: Pose2Sim reads a TRC's numbers as metres whatever its Units line says), in the
+  layout OpenSim's ``TRCFileAdapter`` reads (tabs, the blank sixth line, ``NaN`` for a
+  missing value, no trailing tab). ``names=pose2sim`` names them as Pose2Sim does
+  (:data:`POSE2SIM_NAMES`) and adds Pose2Sim's ``Hip`` (:data:`POSE2SIM_HIP`).
+- ``c3d``: ``motion.c3d``, the same points and names (POINT:UNITS ``mm`` or ``m``, float
+  storage; a missing point is written as zeros with residual -1), written with the ``c3d``
+  package (``pip install 'mmocap[export]'``).
 - ``bvh``: ``motion.bvh``, the 16 joints of :data:`~mmocap.body.skeleton.PARENTS` in metres
   (Blender's unit: it imports at true size with Scale 1; its BVH importer also takes Y up), the
   root with 6 channels, every other joint with ``Zrotation Xrotation Yrotation`` in degrees.
@@ -33,6 +41,7 @@ import io
 import math
 import warnings
 from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, fields, replace
 from pathlib import Path
 
 import numpy as np
@@ -44,11 +53,12 @@ from scipy.spatial.transform import Rotation
 
 from mmocap.body import skeleton
 from mmocap.body.model import BodyModel
+from mmocap.data.recording.reader import UP_AXES
 from mmocap.data.sequence import write_markers
 from mmocap.errors import ConfigError, DataError, MmocapError, MmocapWarning
 from mmocap.io import atomic_writer, write_text_atomic
 from mmocap.run_folder import EXPORT_FOLDER, FRAMES, FRAMES_PARTIAL, SUMMARY, Summary, read_summary
-from mmocap.validate import check_number
+from mmocap.validate import check_choice, check_number
 
 #: the formats :func:`export_run` writes, each into the files of :data:`FILES`
 FORMATS = ("csv", "trc", "c3d", "bvh")
@@ -63,6 +73,43 @@ FILES = {
 BVH_ROTATION_ORDER = "ZXY"
 #: the pip command that installs the C3D writer
 C3D_INSTALL = "pip install 'mmocap[export]'"
+#: the units the TRC and C3D files are written in (``units``) -> millimetres per unit
+MM_PER_UNIT = {"mm": 1.0, "m": 1000.0}
+#: how the TRC and C3D files name their points (``names``): mmocap's names, or Pose2Sim's
+NAMINGS = ("mmocap", "pose2sim")
+#: the frame every exported point is in (``frame``): mmocap's y-up world, or the calibration's own
+COORDINATE_FRAMES = ("world", "calibration")
+#: ``names=pose2sim``: mmocap's point -> the name of the same point in Pose2Sim's HALPE_26 skeleton
+#: (Pose2Sim/skeletons.py) and its OpenSim marker set (OpenSim_Setup/Markers_Halpe26.xml): the top
+#: of the head. The 13 joint centres LShoulder ... RWrist, Neck and LHip ... RAnkle already have
+#: Pose2Sim's names; mmocap has no Nose, toes or heels.
+POSE2SIM_NAMES = {"head": "Head"}
+#: ``names=pose2sim`` adds Pose2Sim's ``Hip``, the midpoint of these two joint centres, as Pose2Sim
+#: defines it (mmocap's Root pivot lies above it)
+POSE2SIM_HIP = ("LHip", "RHip")
+#: the C3D screen axes (POINT:X_SCREEN, Y_SCREEN) name these directions of mmocap's world: right, up
+SCREEN_DIRECTIONS = (np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0]))
+
+
+@dataclass(frozen=True)
+class ExportOptions:
+    """How the exports write their points (``export_options`` in ``conf/config.yaml``; for
+    ``mmocap export``, its ``--units``, ``--names`` and ``--frame``): the ``units`` of the TRC
+    and C3D files (:data:`MM_PER_UNIT`), the ``names`` of their points (:data:`NAMINGS`) and
+    the ``frame`` every point is in (:data:`COORDINATE_FRAMES`). A value that is not one of
+    these is a ConfigError naming its ``export_options`` key."""
+
+    units: str = "mm"
+    names: str = "mmocap"
+    frame: str = "world"
+
+    def __post_init__(self):
+        for name, choices in OPTION_CHOICES.items():
+            check_choice(f"export_options.{name}", getattr(self, name), choices)
+
+
+#: each field of :class:`ExportOptions` -> the values it takes
+OPTION_CHOICES = {"units": tuple(MM_PER_UNIT), "names": NAMINGS, "frame": COORDINATE_FRAMES}
 
 
 def check_formats(formats, key: str) -> tuple[str, ...]:
@@ -149,19 +196,33 @@ def read_poses(path: Path) -> np.ndarray:
 
 
 def export_run(
-    run_dir: str | Path, formats: Sequence[str], out_dir: str | Path | None = None, fps: float | None = None
+    run_dir: str | Path,
+    formats: Sequence[str],
+    out_dir: str | Path | None = None,
+    fps: float | None = None,
+    units: str | None = None,
+    names: str | None = None,
+    frame: str | None = None,
 ) -> list[Path]:
     """Write ``formats`` (from :data:`FORMATS`) of the finished run in ``run_dir`` into
     ``out_dir`` (default ``run_dir/export``); returns the paths written.
 
     ``fps`` overrides the frame rate that ``summary.json`` records (a summary written before it
-    did needs it). A DataError names the file when ``run_dir`` is not a finished run (no
+    did needs it). ``units``, ``names`` and ``frame`` (see :class:`ExportOptions`) override
+    the run's ``export_options``; None keeps the run's (the default for a run whose summary
+    predates them). A DataError names the file when ``run_dir`` is not a finished run (no
     ``summary.json``; no ``frames.csv``, only ``frames.csv.partial``) or a file is malformed; a
-    ConfigError names ``--format`` or ``--fps`` for a bad value.
+    ConfigError names ``--format``, ``--fps``, ``--units``, ``--names`` or ``--frame`` for a
+    bad value.
     """
     formats = check_formats(formats, "--format")
     if fps is not None:
         fps = check_number("--fps", fps, 0, low_open=True)
+    given = {
+        name: check_choice(f"--{name}", value, OPTION_CHOICES[name])
+        for name, value in {"units": units, "names": names, "frame": frame}.items()
+        if value is not None
+    }
     run_dir = Path(run_dir)
     summary_path, frames_path = run_dir / SUMMARY, run_dir / FRAMES
     if not run_dir.is_dir():
@@ -196,9 +257,33 @@ def export_run(
             MmocapWarning,
             stacklevel=2,
         )
+    chosen = replace(run_options(summary, summary_path), **given)
     body = run_body(summary, summary_path)
     poses = read_poses(frames_path)
-    return export_motion(run_dir / EXPORT_FOLDER if out_dir is None else Path(out_dir), formats, body, poses, fps)
+    out = run_dir / EXPORT_FOLDER if out_dir is None else Path(out_dir)
+    return export_motion(out, formats, body, poses, fps, options=chosen, up=run_up(summary, summary_path))
+
+
+def run_options(summary: Summary, summary_path: Path) -> ExportOptions:
+    """The :class:`ExportOptions` the run was configured with (the summary's
+    ``config.export_options``; the defaults where it has none, as older summaries)."""
+    recorded = summary.config.get("export_options")
+    names = {f.name for f in fields(ExportOptions)}
+    values = {k: v for k, v in recorded.items() if k in names} if isinstance(recorded, dict) else {}
+    try:
+        return ExportOptions(**values)
+    except ConfigError as exc:
+        raise DataError(f"{summary_path}: config.{exc}") from None
+
+
+def run_up(summary: Summary, summary_path: Path) -> str | None:
+    """The run's ``dataset.up`` (a recording's: the calibration world's up axis, a key of
+    :data:`~mmocap.data.recording.reader.UP_AXES`), None for a dataset that has none."""
+    dataset = summary.config.get("dataset")
+    up = dataset.get("up") if isinstance(dataset, dict) else None
+    if up is not None and up not in UP_AXES:
+        raise DataError(f"{summary_path}: config.dataset.up is {up!r}, not one of {', '.join(UP_AXES)}")
+    return up
 
 
 def run_body(summary: Summary, summary_path: Path) -> BodyModel:
@@ -217,40 +302,93 @@ def run_body(summary: Summary, summary_path: Path) -> BodyModel:
         raise DataError(f"{summary_path}: config.body does not build the body model: {cause}") from None
 
 
+def output_turn(frame: str, up: str | None) -> np.ndarray:
+    """(3, 3) rotation taking mmocap's world to the exports' ``frame``
+    (:data:`COORDINATE_FRAMES`): the identity for ``world``; for ``calibration`` the inverse of
+    the turn a recording's reader gave its calibration's world
+    (:data:`~mmocap.data.recording.reader.UP_AXES` of ``up``, the run's ``dataset.up``). A run
+    without ``up`` (synthetic, folder and HumanEva sequences) was tracked in its calibration's
+    world: the identity too."""
+    if frame == "world" or up is None:
+        return np.eye(3)
+    return UP_AXES[up].T
+
+
+def screen_axes(turn: np.ndarray) -> tuple[str, str]:
+    """The C3D's POINT:X_SCREEN and Y_SCREEN (``"+X"``, ``"-Z"`` ...): the axes of the frame
+    that ``turn`` (3, 3, a signed permutation) takes mmocap's world to, along mmocap's
+    :data:`SCREEN_DIRECTIONS` (right, up)."""
+    names = []
+    for direction in SCREEN_DIRECTIONS:
+        axis = turn @ direction
+        k = int(np.argmax(np.abs(axis)))
+        names.append(f"{'+' if axis[k] > 0 else '-'}{'XYZ'[k]}")
+    return names[0], names[1]
+
+
+def named_points(body: BodyModel, poses: np.ndarray, names: str) -> tuple[np.ndarray, list[str]]:
+    """(F, M, 3) points (mm, mmocap's world) of the TRC and C3D files of the (F, 51) ``poses``,
+    and their M names, as ``names`` (:data:`NAMINGS`) says: the 15 markers of ``body`` then the
+    16 joint centres of :data:`~mmocap.body.skeleton.JOINTS` (M = 31); for ``pose2sim``, renamed
+    by :data:`POSE2SIM_NAMES`, then Pose2Sim's ``Hip`` (:data:`POSE2SIM_HIP`; M = 32)."""
+    joints = body.joint_positions(poses)
+    points = np.concatenate([body.markers(poses), joints], axis=1)
+    labels = [*body.marker_names, *skeleton.JOINTS]
+    if names == "pose2sim":
+        hip = joints[:, [skeleton.JOINTS.index(j) for j in POSE2SIM_HIP]].mean(axis=1)
+        points = np.concatenate([points, hip[:, None]], axis=1)
+        labels = [*(POSE2SIM_NAMES.get(n, n) for n in labels), "Hip"]
+    return points, labels
+
+
 def export_motion(
-    out_dir: Path, formats: Sequence[str], body: BodyModel, poses: np.ndarray, fps: float, key: str = "export"
+    out_dir: Path,
+    formats: Sequence[str],
+    body: BodyModel,
+    poses: np.ndarray,
+    fps: float,
+    key: str = "export",
+    options: ExportOptions | None = None,
+    up: str | None = None,
 ) -> list[Path]:
     """Write ``formats`` of the (F, 51) ``poses`` (mm, rad) of ``body``, frames 0 ... F-1 at
-    ``fps`` frames per second, into ``out_dir``; returns the paths written (:data:`FILES`).
-    ``key`` names the setting that chose the formats in a ConfigError."""
+    ``fps`` frames per second, into ``out_dir``, as ``options`` say (None: the defaults of
+    :class:`ExportOptions`); returns the paths written (:data:`FILES`). ``up`` is the run's
+    ``dataset.up`` (None if its dataset has none), which ``frame=calibration`` turns back
+    (:func:`output_turn`). ``key`` names the setting that chose the formats in a ConfigError."""
     formats = check_formats(formats, key)
+    options = ExportOptions() if options is None else options
     out_dir = Path(out_dir)
     poses = np.atleast_2d(np.asarray(poses, dtype=np.float64))
-    points = np.concatenate([body.markers(poses), body.joint_positions(poses)], axis=1)
-    names = [*body.marker_names, *skeleton.JOINTS]
+    turn = output_turn(options.frame, up)
+    points, names = named_points(body, poses, options.names)
+    points = points @ turn.T
     written = []
     for name in formats:
         if name == "csv":
-            written += write_csv(out_dir, body, poses, fps)
+            written += write_csv(out_dir, body, poses, fps, turn)
         elif name == "trc":
-            written.append(write_trc(out_dir / "motion.trc", points, names, fps))
+            written.append(write_trc(out_dir / "motion.trc", points, names, fps, options.units))
         elif name == "c3d":
-            written.append(write_c3d(out_dir / "motion.c3d", points, names, fps, key))
+            c3d_path = out_dir / "motion.c3d"
+            written.append(write_c3d(c3d_path, points, names, fps, options.units, screen_axes(turn), key))
         else:
-            written.append(write_bvh(out_dir / "motion.bvh", body, poses, fps))
+            written.append(write_bvh(out_dir / "motion.bvh", body, poses, fps, turn))
     return written
 
 
-def write_csv(out_dir: Path, body: BodyModel, poses: np.ndarray, fps: float) -> list[Path]:
-    """``markers_mm.csv``, ``joints_mm.csv`` (long tables, mm, 3 decimals) and ``pose.csv``
-    (frame, time_s, the 51 parameters, 6 decimals) of the (F, 51) ``poses`` into ``out_dir``.
+def write_csv(out_dir: Path, body: BodyModel, poses: np.ndarray, fps: float, turn: np.ndarray) -> list[Path]:
+    """``markers_mm.csv``, ``joints_mm.csv`` (long tables, mm, 3 decimals, in the frame that
+    the (3, 3) rotation ``turn`` takes mmocap's world to) and ``pose.csv`` (frame, time_s, the
+    51 parameters, 6 decimals) of the (F, 51) ``poses`` into ``out_dir``.
 
     ``pose.csv`` wraps every rotation to (-pi, pi]: ``frames.csv`` keeps the angles as the
-    tracker left them, where the root's yaw grows past pi as the subject turns.
+    tracker left them, where the root's yaw grows past pi as the subject turns. Its parameters
+    are the body model's, in mmocap's world whatever ``turn``.
     """
     markers_path, joints_path, pose_path = (out_dir / name for name in FILES["csv"])
-    write_markers(markers_path, body.markers(poses), body.marker_names)  # atomic
-    joints = body.joint_positions(poses)
+    write_markers(markers_path, body.markers(poses) @ turn.T, body.marker_names)  # atomic
+    joints = body.joint_positions(poses) @ turn.T
     F, J, _ = joints.shape
     table = pd.DataFrame(
         {
@@ -269,46 +407,66 @@ def write_csv(out_dir: Path, body: BodyModel, poses: np.ndarray, fps: float) -> 
     return [markers_path, joints_path, pose_path]
 
 
-def write_trc(path: Path, points: np.ndarray, names: Sequence[str], fps: float) -> Path:
+def write_trc(path: Path, points: np.ndarray, names: Sequence[str], fps: float, units: str) -> Path:
     """Write (F, M, 3) ``points`` (mm, NaN = missing) named ``names`` (M, no whitespace) at
-    ``fps`` as a TRC file (Frame# from 1, Time = (Frame# - 1) / fps s, Units mm) in the layout
-    OpenSim's TRCFileAdapter, Pose2Sim and pandas all read; returns ``path``."""
+    ``fps`` as a TRC file in ``units`` (a key of :data:`MM_PER_UNIT`: its numbers and its
+    Units line; Frame# from 1, Time = (Frame# - 1) / fps s) in the layout OpenSim's
+    TRCFileAdapter, Pose2Sim and pandas all read; returns ``path``."""
     F, M, _ = points.shape
     rate = f"{fps:g}"
     header = [
         f"PathFileType\t4\t(X/Y/Z)\t{Path(path).name}",
         "DataRate\tCameraRate\tNumFrames\tNumMarkers\tUnits\tOrigDataRate\tOrigDataStartFrame\tOrigNumFrames",
-        f"{rate}\t{rate}\t{F}\t{M}\tmm\t{rate}\t1\t{F}",
+        f"{rate}\t{rate}\t{F}\t{M}\t{units}\t{rate}\t1\t{F}",
         "Frame#\tTime\t" + "".join(f"{name}\t\t\t" for name in names),
         "\t\t" + "".join(f"X{m}\tY{m}\tZ{m}\t" for m in range(1, M + 1)),
         "",
     ]
+    values = points / MM_PER_UNIT[units]
     rows = [
         f"{f + 1}\t{f / fps:.6f}\t" + "\t".join("NaN" if math.isnan(v) else f"{v:.6f}" for v in frame)
-        for f, frame in enumerate(points.reshape(F, -1).tolist())
+        for f, frame in enumerate(values.reshape(F, -1).tolist())
     ]
     return write_text_atomic(path, "\n".join(header + rows) + "\n")
 
 
-def write_c3d(path: Path, points: np.ndarray, names: Sequence[str], fps: float, key: str = "--format") -> Path:
-    """Write (F, M, 3) ``points`` (mm; a point with a NaN coordinate is written invalid,
-    residual -1) named ``names`` at ``fps`` as a C3D file (float storage, POINT:UNITS mm, first
-    frame 1, screen axes +X right and +Y up); returns ``path``. ``key`` names the setting that
-    asked for C3D in the ConfigError of a missing ``c3d`` package."""
-    writer = c3d_writer(key)(point_rate=float(fps), analog_rate=0.0, point_scale=-1.0, point_units="mm")
+def write_c3d(
+    path: Path,
+    points: np.ndarray,
+    names: Sequence[str],
+    fps: float,
+    units: str,
+    screen: tuple[str, str],
+    key: str = "--format",
+) -> Path:
+    """Write (F, M, 3) ``points`` (mm) named ``names`` at ``fps`` as a C3D file in ``units``
+    (a key of :data:`MM_PER_UNIT`, POINT:UNITS), float storage, first frame 1, screen axes
+    ``screen`` (POINT:X_SCREEN, Y_SCREEN, e.g. ``("+X", "+Y")``); returns ``path``. A point
+    with a NaN coordinate is missing: zeros with residual -1 on disk, so that a reader that
+    ignores the residual does not take it for a real position either. ``key`` names the
+    setting that asked for C3D in the ConfigError of a missing ``c3d`` package."""
+    writer = c3d_writer(key)(point_rate=float(fps), analog_rate=0.0, point_scale=-1.0, point_units=units)
     writer.set_point_labels(list(names))
-    writer.set_screen_axis(X="+X", Y="+Y")
+    writer.set_screen_axis(X=screen[0], Y=screen[1])
     writer.set_start_frame(1)
     no_analog = np.zeros((0, 0), np.float32)
-    for frame in points:
-        valid = np.isfinite(frame).all(axis=1)
+    missing = ~np.isfinite(points).all(axis=2)  # (F, M)
+    for frame, absent in zip(points / MM_PER_UNIT[units], missing):
         rows = np.zeros((len(frame), 5), np.float32)  # x, y, z, residual, camera mask
-        rows[:, :3] = np.where(valid[:, None], frame, 0.0)
-        rows[~valid, 3] = -1.0
+        rows[:, :3] = np.where(absent[:, None], 0.0, frame)
+        rows[absent, 3] = -1.0
         writer.add_frames([(rows, no_analog)])
     with atomic_writer(path, "wb") as f, warnings.catch_warnings():
         warnings.filterwarnings("ignore", message="No analog data", category=UserWarning)  # none is meant
         writer.write(f)
+        # the c3d package writes every frame from one buffer, where a missing point keeps the
+        # coordinates of the frame before: zero them on disk (a frame is its points, 4 float32
+        # words each, as there is no analog data)
+        start = (int(writer.header.data_block) - 1) * 512
+        zeros = np.zeros(3, "<f4").tobytes()
+        for frame, point in np.argwhere(missing):
+            f.seek(start + (int(frame) * len(names) + int(point)) * 16)
+            f.write(zeros)
     return Path(path)
 
 
@@ -323,14 +481,15 @@ def depth_first_joints() -> list[int]:
     return order
 
 
-def bvh_channels(body: BodyModel, poses: np.ndarray) -> np.ndarray:
+def bvh_channels(body: BodyModel, poses: np.ndarray, turn: np.ndarray) -> np.ndarray:
     """(F, 51) poses -> (F, 3 + 3 * 16) BVH channel values in the joint order of
-    :func:`depth_first_joints`: the root pivot's world position in metres, then per joint the
-    ``Zrotation Xrotation Yrotation`` angles in degrees of ``L_j = G_parent^T G_j`` (G the
-    rotation of the joint's rest-to-world transform; the root's parent is the world). Every
-    joint's BVH rest orientation is the world axes, as every rest frame of
+    :func:`depth_first_joints`, in the frame that the (3, 3) rotation ``turn`` takes mmocap's
+    world to: the root pivot's position in metres, then per joint the ``Zrotation Xrotation
+    Yrotation`` angles in degrees of ``L_j = G_parent^T G_j`` (G = turn G_world turn^T, G_world
+    the rotation of the joint's rest-to-world transform; the root's parent is the frame). Every
+    joint's BVH rest orientation is the frame's axes, as every rest frame of
     :mod:`mmocap.body.kinematics` is the identity rotation at the rest pose."""
-    G = body.transforms(poses)[..., :3, :3]  # (F, 16, 3, 3)
+    G = turn @ body.transforms(poses)[..., :3, :3] @ turn.T  # (F, 16, 3, 3)
     parent = skeleton.PARENT_INDEX
     local = G.copy()
     has_parent = parent >= 0
@@ -340,17 +499,18 @@ def bvh_channels(body: BodyModel, poses: np.ndarray) -> np.ndarray:
         angles = Rotation.from_matrix(local.reshape(-1, 3, 3)).as_euler(BVH_ROTATION_ORDER, degrees=True)
     angles = angles.reshape(len(poses), len(skeleton.JOINTS), 3)[:, depth_first_joints()]
     root = int(np.flatnonzero(parent < 0)[0])
-    position_m = body.joint_positions(poses)[:, root] / 1000.0
+    position_m = body.joint_positions(poses)[:, root] @ turn.T / 1000.0
     return np.concatenate([position_m, angles.reshape(len(poses), -1)], axis=1)
 
 
-def write_bvh(path: Path, body: BodyModel, poses: np.ndarray, fps: float) -> Path:
-    """Write the (F, 51) ``poses`` of ``body`` as a BVH file in metres: the HIERARCHY of the 16
-    joints (OFFSETs from the rest pivots, ROOT OFFSET 0 0 0 so that its position channels are
-    the root pivot's world position; an End Site at the segment end of every leaf joint), then
-    MOTION with Frame Time 1/fps; returns ``path``."""
-    rest_m = np.asarray(body.joint_rest_positions, dtype=np.float64) / 1000.0
-    ends_m = np.asarray(body.mesh.segment_ends, dtype=np.float64) / 1000.0
+def write_bvh(path: Path, body: BodyModel, poses: np.ndarray, fps: float, turn: np.ndarray) -> Path:
+    """Write the (F, 51) ``poses`` of ``body`` as a BVH file in metres, in the frame that the
+    (3, 3) rotation ``turn`` takes mmocap's world to: the HIERARCHY of the 16 joints (OFFSETs
+    from the rest pivots, ROOT OFFSET 0 0 0 so that its position channels are the root pivot's
+    position; an End Site at the segment end of every leaf joint), then MOTION with Frame Time
+    1/fps (:func:`bvh_channels`); returns ``path``."""
+    rest_m = np.asarray(body.joint_rest_positions, dtype=np.float64) @ turn.T / 1000.0
+    ends_m = np.asarray(body.mesh.segment_ends, dtype=np.float64) @ turn.T / 1000.0
     parent = skeleton.PARENT_INDEX
     lines = ["HIERARCHY"]
 
@@ -381,17 +541,17 @@ def write_bvh(path: Path, body: BodyModel, poses: np.ndarray, fps: float) -> Pat
     declare(depth_first_joints()[0], 0)
     lines += ["MOTION", f"Frames: {len(poses)}", f"Frame Time: {1.0 / fps:.8f}"]
     motion = io.StringIO()
-    np.savetxt(motion, bvh_channels(body, poses), fmt="%.6f", delimiter=" ")
+    np.savetxt(motion, bvh_channels(body, poses, turn), fmt="%.6f", delimiter=" ")
     return write_text_atomic(path, "\n".join(lines) + "\n" + motion.getvalue())
 
 
 def main(argv: list[str], prog: str) -> None:
-    """``mmocap export RUN_DIR [--format ...] [--out DIR] [--fps FPS]``: write a finished run's
-    motion as TRC, C3D, BVH and CSV files."""
+    """``mmocap export RUN_DIR [--format ...] [--out DIR] [--fps FPS] [--units U] [--names N]
+    [--frame F]``: write a finished run's motion as TRC, C3D, BVH and CSV files."""
     parser = argparse.ArgumentParser(
         prog=prog,
-        description="Write a finished run's motion as CSV, TRC (OpenSim), C3D and BVH (Blender) "
-        "files, in mmocap's Y-up world frame.",
+        description="Write a finished run's motion as CSV, TRC (OpenSim, Pose2Sim), C3D and BVH (Blender) "
+        "files, in mmocap's Y-up world frame or the calibration's.",
     )
     parser.add_argument("run_dir", type=Path, help=f"a finished run folder ({SUMMARY} and {FRAMES})")
     parser.add_argument(
@@ -401,9 +561,20 @@ def main(argv: list[str], prog: str) -> None:
     parser.add_argument(
         "--fps", type=float, help=f"frames per second of the tracked sequence (default: {SUMMARY}'s fps)"
     )
+    helps = {
+        "units": "the TRC's and C3D's units; Pose2Sim reads a TRC in m",
+        "names": "the TRC's and C3D's point names; pose2sim: Pose2Sim's HALPE_26 names where mmocap has the point",
+        "frame": "world: mmocap's, Y up; calibration: the calibration's own (dataset.up turned back)",
+    }
+    for name, choices in OPTION_CHOICES.items():
+        parser.add_argument(
+            f"--{name}",
+            help=f"{' or '.join(choices)}: {helps[name]} (default: the run's export_options.{name}, "
+            f"else {getattr(ExportOptions, name)})",
+        )
     args = parser.parse_args(argv)
     formats = [f.strip() for f in args.format.split(",") if f.strip()]
     if not formats:
         raise ConfigError(f"--format names no format; choose from {', '.join(FORMATS)}")
-    for path in export_run(args.run_dir, formats, args.out, args.fps):
+    for path in export_run(args.run_dir, formats, args.out, args.fps, args.units, args.names, args.frame):
         print(path)

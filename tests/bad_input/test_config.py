@@ -30,6 +30,9 @@ CASES = [
     ("coverage.frames=0", "coverage.frames"),
     ("run_dir_busy=later", "run_dir_busy"),
     ("evaluation.missing_markers=ignore", "evaluation.missing_markers"),
+    ("export_options.units=km", "export_options.units"),
+    ("export_options.names=vicon", "export_options.names"),
+    ("export_options.frame=lab", "export_options.frame"),
 ]
 
 

@@ -1,32 +1,53 @@
 """Motion-file exports of a finished run, each read back by an independent reader: TRC by a
-plain parser written here, C3D by ezc3d, BVH by bvhio (its own forward kinematics), CSV by
-pandas and by mmocap's ground-truth reader."""
+plain parser written here and by Pose2Sim's own reader (from its wheel on the package index),
+C3D by ezc3d and by the c3d package's reader, BVH by bvhio (its own forward kinematics), CSV
+by pandas and by mmocap's ground-truth reader."""
 
 from __future__ import annotations
 
+import ast
 import errno
 import json
+import logging
 import math
+import subprocess
 import sys
+import warnings
+import xml.etree.ElementTree as ET
+import zipfile
 from pathlib import Path
 
 import bvhio
+import c3d
 import ezc3d
 import numpy as np
 import pandas as pd
 import pytest
+from hydra.errors import InstantiationException
 from omegaconf import OmegaConf
 
 from mmocap.body import skeleton
 from mmocap.body.model import BodyModel
 from mmocap.config import compose
+from mmocap.data.recording.commands import POSE2SIM_WHEEL
+from mmocap.data.recording.reader import UP_AXES
 from mmocap.data.sequence import read_markers
 from mmocap.errors import ConfigError, DataError
 from mmocap.io import WriteError
 from mmocap.preflight import check_config
 from mmocap.stages.accuracy import FrameLog
 from mmocap.writers import export
-from mmocap.writers.export import FORMATS, export_motion, export_run, read_poses, write_c3d, write_trc
+from mmocap.writers.export import (
+    FORMATS,
+    NAMINGS,
+    POSE2SIM_NAMES,
+    ExportOptions,
+    export_motion,
+    export_run,
+    read_poses,
+    write_c3d,
+    write_trc,
+)
 from tests.helpers import Outcome, assert_clean_error, mmocap, run_cli
 
 FPS = 50.0
@@ -54,16 +75,16 @@ def poses(body) -> np.ndarray:
     return np.round(X, 6)
 
 
-def write_run(folder, poses, *, fps: float | None = FPS, body_facts: dict | None = None):
+def write_run(folder, poses, *, fps: float | None = FPS, body_facts: dict | None = None, overrides=()):
     """A finished run folder as a tracking run leaves it: frames.csv (by FrameLog) and a
-    summary.json with the composed config (body.vertices=1000)."""
+    summary.json with the composed config (body.vertices=1000 and ``overrides``)."""
     log = FrameLog(folder / "frames.csv")
     for frame, pose in enumerate(poses):
         log.write(frame, 1.0, 0.5, 60, 0.01, pose)
     log.close()
     summary = {
         **json.loads(SUMMARY_EXAMPLE.read_text()),
-        "config": OmegaConf.to_container(compose(["body.vertices=1000"]), resolve=True),
+        "config": OmegaConf.to_container(compose(["body.vertices=1000", *overrides]), resolve=True),
         "fps": fps,
         "body": body_facts,
     }
@@ -136,7 +157,7 @@ def test_trc_has_opensim_header_names_and_the_model_points(exported, body, poses
 def test_trc_writes_a_missing_value_as_nan(tmp_path):
     points = np.arange(2 * 2 * 3, dtype=float).reshape(2, 2, 3)
     points[1, 1] = np.nan  # the last marker of the last frame: its row must keep every field
-    write_trc(tmp_path / "m.trc", points, ["a", "b"], 100.0)
+    write_trc(tmp_path / "m.trc", points, ["a", "b"], 100.0, "mm")
     assert (tmp_path / "m.trc").read_text().splitlines()[-1].split("\t")[-3:] == ["NaN"] * 3
     np.testing.assert_array_equal(parse_trc(tmp_path / "m.trc")[2], points)
 
@@ -155,13 +176,30 @@ def test_c3d_read_back_with_ezc3d(exported, body, poses):
     np.testing.assert_allclose(got, expected, atol=1e-3, rtol=0)
 
 
-def test_c3d_missing_point_round_trips_as_nan(tmp_path):
+def test_c3d_missing_point_is_zeros_with_residual_minus_one_on_disk(tmp_path):
+    """Point b is present in frame 1, missing in frame 2: the c3d package's frame buffer held
+    frame 1's coordinates there, which a reader that ignores the residual (as Pose2Sim's
+    c3d_to_trc does, through the c3d package's reader) took for a position."""
     points = np.array([[[1.0, 2.0, 3.0], [4.0, 5.0, 6.0]], [[7.0, 8.0, 9.0], [np.nan, 0.0, 1.0]]])
-    write_c3d(tmp_path / "m.c3d", points, ["a", "b"], 120.0)
-    got = ezc3d.c3d(str(tmp_path / "m.c3d"))["data"]["points"][:3].transpose(2, 1, 0)
+    write_c3d(tmp_path / "m.c3d", points, ["a", "b"], 120.0, "mm", ("+X", "+Y"))
+    data = ezc3d.c3d(str(tmp_path / "m.c3d"))["data"]
+    got = data["points"][:3].transpose(2, 1, 0)
     expected = points.copy()
     expected[1, 1] = np.nan  # a point with any coordinate missing is invalid as a whole
     np.testing.assert_array_equal(got, expected)
+    np.testing.assert_array_equal(data["meta_points"]["residuals"][0].T, [[0.0, 0.0], [0.0, -1.0]])
+    with open(tmp_path / "m.c3d", "rb") as handle, warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message="No analog data", category=UserWarning)
+        raw = [frame_points[:, :4] for _, frame_points, _ in c3d.Reader(handle).read_frames()]
+    np.testing.assert_array_equal(raw, [[[1, 2, 3, 0], [4, 5, 6, 0]], [[7, 8, 9, 0], [0, 0, 0, -1]]])
+
+
+def test_c3d_in_metres(tmp_path):
+    points = np.array([[[1000.0, -2500.0, 30.0]]])
+    write_c3d(tmp_path / "m.c3d", points, ["a"], 60.0, "m", ("+X", "+Y"))
+    c = ezc3d.c3d(str(tmp_path / "m.c3d"))
+    assert c["parameters"]["POINT"]["UNITS"]["value"] == ["m"]
+    np.testing.assert_allclose(c["data"]["points"][:3, 0, 0], [1.0, -2.5, 0.03], rtol=1e-6)
 
 
 def test_bvh_read_with_bvhio_gives_the_joint_centres(exported, body, poses):
@@ -289,6 +327,12 @@ def _drop_pose_column(run):
     table.to_csv(run / "frames.csv", index=False)
 
 
+def _edit_config(run, edit):
+    summary = json.loads((run / "summary.json").read_text())
+    edit(summary["config"])
+    (run / "summary.json").write_text(json.dumps(summary))
+
+
 def _stopped_run(run):
     (run / "frames.csv").rename(run / "frames.csv.partial")
     (run / "summary.json").unlink()
@@ -306,6 +350,14 @@ BAD_EXPORTS = {
     "fps-zero": (lambda run: None, ["--fps", "0"], ["--fps"]),
     "summary-not-json": (lambda run: (run / "summary.json").write_text("{"), [], ["summary.json", "JSON"]),
     "c3d-not-installed": (None, ["--format", "c3d"], ["c3d", "pip install 'mmocap[export]'"]),
+    "units-unknown": (lambda run: None, ["--units", "km"], ["--units", "km"]),
+    "names-unknown": (lambda run: None, ["--names", "vicon"], ["--names", "vicon"]),
+    "frame-unknown": (lambda run: None, ["--frame", "lab"], ["--frame", "lab"]),
+    "summary-bad-up": (
+        lambda run: _edit_config(run, lambda config: config["dataset"].update(up="up")),
+        ["--frame", "calibration"],
+        ["summary.json", "dataset.up"],
+    ),
 }
 
 
@@ -338,7 +390,9 @@ def test_a_tracking_run_writes_its_exports(tiny_sequence, tmp_path):
             "overlays=0",
             "progress=false",
             "foreground_cache=null",
-            "export=[csv,bvh]",
+            "export=[csv,bvh,trc]",
+            "export_options.units=m",
+            "export_options.names=pose2sim",
         ]
     )
     summary = run(cfg, tmp_path)
@@ -347,10 +401,13 @@ def test_a_tracking_run_writes_its_exports(tiny_sequence, tmp_path):
         "joints_mm.csv",
         "markers_mm.csv",
         "motion.bvh",
+        "motion.trc",
         "pose.csv",
     ]
-    # the same files as an export of the finished run
-    again = export_run(tmp_path, ["csv", "bvh"], out_dir=tmp_path / "again")
+    header, names, *_ = parse_trc(tmp_path / "export" / "motion.trc")
+    assert (header["Units"], names[-1]) == ("m", "Hip")
+    # the same files as an export of the finished run, with the run's export options
+    again = export_run(tmp_path, ["csv", "bvh", "trc"], out_dir=tmp_path / "again")
     for path in again:
         assert path.read_text() == (tmp_path / "export" / path.name).read_text()
 
@@ -366,3 +423,195 @@ def test_a_run_starting_again_removes_the_exports_of_the_one_before(tmp_path):
         (folder / name).write_text("x")
     clear_outputs(tmp_path)
     assert [p.name for p in folder.iterdir()] == ["notes.txt"]
+
+
+# --- the round trip to Pose2Sim, OpenSim and a lab's own frame ---
+
+
+@pytest.fixture(scope="module")
+def standing(body) -> np.ndarray:
+    """(10, 51) poses of a person standing at the rest pose, every rotation jittered by 0.05
+    rad: what Pose2Sim's height estimate measures (it keeps the frames with straight legs)."""
+    X = np.tile(body.rest_pose(), (10, 1))
+    X[:, 3:] += np.random.default_rng(3).normal(0.0, 0.05, (10, 48))
+    return X
+
+
+@pytest.fixture(scope="module")
+def pose2sim_wheel(tmp_path_factory) -> Path:
+    """Pose2Sim's wheel, downloaded from the package index as ``mmocap pose2sim-demo`` gets it
+    (pip's cache keeps it for the next run); skipped where the index cannot be reached."""
+    folder = tmp_path_factory.mktemp("pose2sim")
+    command = [sys.executable, "-m", "pip", "download", "--no-deps", "--quiet", POSE2SIM_WHEEL, "-d", str(folder)]
+    done = subprocess.run(command, capture_output=True, text=True, timeout=600, check=False)
+    wheels = sorted(folder.glob("pose2sim-*.whl"))
+    if done.returncode != 0 or not wheels:
+        pytest.skip(f"cannot download {POSE2SIM_WHEEL} from the package index: {done.stderr.strip()[-300:]}")
+    return wheels[0]
+
+
+@pytest.fixture(scope="module")
+def pose2sim(pose2sim_wheel) -> dict:
+    """Pose2Sim's own functions, read from Pose2Sim/common.py in its wheel and run as they are
+    (nothing of Pose2Sim is kept in this repository): the module's function definitions and
+    its constant tables (``angle_dict``, which the height estimate uses), in a namespace
+    holding the modules that ``read_trc`` and ``compute_height`` call, numpy, pandas and
+    logging. The module's other top-level statements, its imports of matplotlib (opening a Qt
+    figure), rtoml, OpenCV, c3d and anytree and the lookup of Pose2Sim's installed version,
+    are left out: neither function uses them, and none of them is installed here."""
+    source = zipfile.ZipFile(pose2sim_wheel).read("Pose2Sim/common.py").decode()
+
+    def kept(node) -> bool:
+        if isinstance(node, ast.FunctionDef):
+            return True
+        if not isinstance(node, ast.Assign):
+            return False
+        try:
+            ast.literal_eval(node.value)
+        except ValueError:
+            return False
+        return True
+
+    module = ast.Module([node for node in ast.parse(source).body if kept(node)], type_ignores=[])
+    namespace = {"np": np, "pd": pd, "logging": logging, "__name__": "Pose2Sim.common"}
+    exec(compile(module, "Pose2Sim/common.py", "exec"), namespace)  # Pose2Sim's code, as it ships
+    return namespace
+
+
+def pose2sim_halpe26_markers(wheel: Path) -> list[str]:
+    """The marker names of Pose2Sim's OpenSim marker set for HALPE_26, from its wheel."""
+    xml = zipfile.ZipFile(wheel).read("Pose2Sim/OpenSim_Setup/Markers_Halpe26.xml")
+    return [marker.get("name") for marker in ET.fromstring(xml).iter("Marker")]
+
+
+def test_trc_in_metres_holds_the_same_points(tmp_path, body, poses):
+    export_motion(tmp_path / "mm", ["trc"], body, poses, FPS)
+    export_motion(tmp_path / "m", ["trc"], body, poses, FPS, options=ExportOptions(units="m"))
+    header_mm, names_mm, data_mm, *_ = parse_trc(tmp_path / "mm" / "motion.trc")
+    header_m, names_m, data_m, *_ = parse_trc(tmp_path / "m" / "motion.trc")
+    assert header_m == {**header_mm, "Units": "m"}
+    assert names_m == names_mm
+    np.testing.assert_allclose(data_m * 1000.0, data_mm, atol=1e-3, rtol=0)
+
+
+def test_pose2sim_names_rename_the_head_and_add_the_hip(tmp_path, body, poses):
+    export_motion(tmp_path, ["trc", "c3d"], body, poses, FPS, options=ExportOptions(names="pose2sim"))
+    _, names, data, *_ = parse_trc(tmp_path / "motion.trc")
+    expected = [POSE2SIM_NAMES.get(n, n) for n in [*body.marker_names, *skeleton.JOINTS]] + ["Hip"]
+    assert names == expected
+    assert names[body.marker_names.index("head")] == "Head"
+    joints = body.joint_positions(poses)
+    hip = (joints[:, skeleton.JOINTS.index("LHip")] + joints[:, skeleton.JOINTS.index("RHip")]) / 2
+    np.testing.assert_allclose(data[:, -1], hip, atol=1e-3, rtol=0)
+    points = np.concatenate([body.markers(poses), joints], axis=1)
+    np.testing.assert_allclose(data[:, :-1], points, atol=1e-3, rtol=0)
+    assert ezc3d.c3d(str(tmp_path / "motion.c3d"))["parameters"]["POINT"]["LABELS"]["value"] == expected
+
+
+def test_pose2sim_names_match_its_halpe26_marker_set(pose2sim_wheel, body):
+    halpe26 = pose2sim_halpe26_markers(pose2sim_wheel)
+    assert len(halpe26) == 22
+    mmocap_names = [*body.marker_names, *skeleton.JOINTS]
+    pose2sim_names = [*(POSE2SIM_NAMES.get(n, n) for n in mmocap_names), "Hip"]
+    assert len(set(mmocap_names) & set(halpe26)) == 13
+    assert len(set(pose2sim_names) & set(halpe26)) == 15
+    assert sorted(set(halpe26) - set(pose2sim_names)) == sorted(
+        ["Nose", "LBigToe", "LSmallToe", "LHeel", "RBigToe", "RSmallToe", "RHeel"]
+    )
+
+
+def test_pose2sim_reads_the_trc_in_metres_and_estimates_the_height(tmp_path, pose2sim, body, standing):
+    """Pose2Sim's read_trc gives the points in metres, and its compute_height (10 cm from heel
+    to ankle, as mmocap has no heel; shank, thigh, hip to shoulder, and 1.008 times mid-shoulder
+    to Head) gives 1.82 m for the 1.78 m body: its estimate, not a unit off. On the mm files it
+    gives 1725 (Pose2Sim's names) and 1769 (mmocap's), and in metres with mmocap's names (no
+    Head, no Hip) it falls back on the legs' length / 0.485, 1.98 m."""
+    height_m = body.subject.height_mm / 1000.0
+    estimates = {}
+    for units, names in (("m", "pose2sim"), ("mm", "pose2sim"), ("m", "mmocap"), ("mm", "mmocap")):
+        folder = tmp_path / f"{units}-{names}"
+        export_motion(folder, ["trc"], body, standing, FPS, options=ExportOptions(units=units, names=names))
+        coordinates, frames, times, markers, _ = pose2sim["read_trc"](str(folder / "motion.trc"))
+        points, labels = export.named_points(body, standing, names)
+        assert markers == labels
+        assert list(frames) == list(range(1, len(standing) + 1))
+        np.testing.assert_allclose(times, np.arange(len(standing)) / FPS, atol=1e-6)
+        scale = 1000.0 if units == "m" else 1.0
+        np.testing.assert_allclose(
+            coordinates.to_numpy().reshape(points.shape), points / scale, atol=1e-6 * 1000 / scale
+        )
+        estimates[units, names] = pose2sim["compute_height"](coordinates)
+    assert abs(estimates["m", "pose2sim"] - height_m) < 0.03 * height_m
+    for names in NAMINGS:  # mm read as metres: about a thousand times off
+        assert estimates["mm", names] > 500 * height_m
+    assert abs(estimates["m", "pose2sim"] - height_m) < abs(estimates["m", "mmocap"] - height_m)
+
+
+def test_calibration_frame_turns_every_point_back(tmp_path, body, poses):
+    """A recording tracked with dataset.up=+z: with frame=calibration every point, and the BVH,
+    is in the calibration's z-up world, as the lab's own marker data are."""
+    (tmp_path / "world").mkdir()
+    world = write_run(tmp_path / "world", poses, overrides=["dataset=recording", "dataset.root=/lab", "dataset.up=+z"])
+    lab = tmp_path / "lab"
+    export_run(world, FORMATS, out_dir=lab, frame="calibration")
+    export_run(world, FORMATS)
+    turn = UP_AXES["+z"].T  # mmocap's world -> the calibration's
+    _, _, w, *_ = parse_trc(world / "export" / "motion.trc")
+    _, _, lab_trc, *_ = parse_trc(lab / "motion.trc")
+    # the lab's z is mmocap's y (up), its y mmocap's -z, its x mmocap's x
+    np.testing.assert_allclose(lab_trc, np.stack([w[..., 0], -w[..., 2], w[..., 1]], axis=-1), atol=1e-5, rtol=0)
+    point = ezc3d.c3d(str(lab / "motion.c3d"))["parameters"]["POINT"]
+    np.testing.assert_allclose(
+        ezc3d.c3d(str(lab / "motion.c3d"))["data"]["points"][:3].transpose(2, 1, 0), lab_trc, atol=1e-3
+    )
+    assert (point["X_SCREEN"]["value"], point["Y_SCREEN"]["value"]) == (["+X"], ["+Z"])
+    markers = read_markers(lab / "markers_mm.csv", len(poses), list(body.marker_names))
+    np.testing.assert_allclose(markers, body.markers(poses) @ turn.T, atol=1e-3, rtol=0)
+    joints = pd.read_csv(lab / "joints_mm.csv")[["x_mm", "y_mm", "z_mm"]].to_numpy().reshape(len(poses), 16, 3)
+    np.testing.assert_allclose(joints, body.joint_positions(poses) @ turn.T, atol=1e-3, rtol=0)
+    assert (lab / "pose.csv").read_text() == (world / "export" / "pose.csv").read_text()  # the model's parameters
+    root = bvhio.readAsHierarchy(str(lab / "motion.bvh"))
+    expected = body.joint_positions(poses) @ turn.T / 1000.0
+    for frame in range(len(poses)):
+        root.loadPose(frame, recursive=True)
+        got = {joint.Name: np.array(joint.PositionWorld) for joint, _, _ in root.layout()}
+        np.testing.assert_allclose([got[n] for n in skeleton.JOINTS], expected[frame], atol=1e-4, rtol=0)
+
+
+def test_calibration_frame_of_a_y_up_dataset_is_its_world(tmp_path, exported):
+    """A synthetic sequence has no dataset.up: it was tracked in its calibration's world."""
+    run, _ = exported
+    export_run(run, ["trc", "bvh"], out_dir=tmp_path, frame="calibration")
+    for name in ("motion.trc", "motion.bvh"):
+        assert (tmp_path / name).read_text() == (run / "export" / name).read_text()
+
+
+def test_export_keeps_the_run_s_options_unless_told(tmp_path, poses):
+    run = write_run(tmp_path, poses[:2], overrides=["export_options.units=m", "export_options.names=pose2sim"])
+    export_run(run, ["trc"])
+    header, names, *_ = parse_trc(run / "export" / "motion.trc")
+    assert (header["Units"], names[-1]) == ("m", "Hip")
+    export_run(run, ["trc"], out_dir=tmp_path / "mm", units="mm")
+    header, names, *_ = parse_trc(tmp_path / "mm" / "motion.trc")
+    assert (header["Units"], names[-1]) == ("mm", "Hip")
+
+
+def test_cli_export_options(exported, tmp_path):
+    run, _ = exported
+    args = ["--format", "trc", "--out", tmp_path, "--units", "m", "--names", "pose2sim", "--frame", "calibration"]
+    done = mmocap("export", run, *args, timeout=120)
+    assert done.returncode == 0, done.stderr
+    header, names, *_ = parse_trc(tmp_path / "motion.trc")
+    assert (header["Units"], names[-1]) == ("m", "Hip")
+
+
+def test_bad_export_options_are_config_errors():
+    for key, value, choices in (
+        ("units", "km", "mm, m"),
+        ("names", "vicon", "mmocap, pose2sim"),
+        ("frame", "lab", "world, calibration"),
+    ):
+        with pytest.raises(InstantiationException) as raised:
+            check_config(compose([f"export_options.{key}={value}"]))
+        assert isinstance(raised.value.__cause__, ConfigError)
+        assert str(raised.value.__cause__) == f"export_options.{key} must be one of {choices}, got {value!r}"
