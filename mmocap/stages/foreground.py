@@ -41,8 +41,8 @@ import logging
 import warnings
 import zipfile
 from collections.abc import Callable
-from typing import Any
 from pathlib import Path
+from typing import Any
 
 import cv2
 import numpy as np
