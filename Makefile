@@ -10,7 +10,7 @@ PLUGINS       := plugins/mmocap-pycma plugins/template-optimizer plugins/templat
 PLUGIN_FILES  := $(shell find $(PLUGINS) -name '*.py' -o -name '*.toml' -o -name '*.yaml')
 
 .DEFAULT_GOAL := help
-.PHONY: help install demo foreground optimizers test test-slow test-all test-wheel lint typecheck docs golden clean bench table1 table2 autostart
+.PHONY: help install demo foreground optimizers test test-slow test-all test-wheel lint typecheck docs golden clean bench table1 table2 autostart lossy
 .PHONY: tables table4 table5 table6 table7 fig7 fig10 cano_table3 fig4 fig5
 
 help: ## Show this help
@@ -105,6 +105,12 @@ fig4: $(STAMP) ## Cano Fig. 4: time vs error per mesh x evaluations x backend, P
 
 autostart: $(STAMP) ## The automatic start against the true first pose and body per sequence (paper: 9, 20 min)
 	$(call paper_sweep,autostart)
+
+# The recordings (mmocap lossy prepare) are written before the sweep and kept while their sequence is.
+lossy: $(STAMP) ## Each sequence as a crf 23 and a lossless recording, tracked from nothing; error ratio per sequence (paper: 9)
+	$(MMOCAP) lossy prepare scale@lossy=$(SCALE)
+	$(MMOCAP) -m +experiment=lossy scale@lossy=$(SCALE) $(SWEEP_ARGS)
+	$(MMOCAP) lossy table outputs/sweeps/lossy/$(SCALE) $(if $(filter-out smoke,$(SCALE)),--page docs/results/lossy.md --target 'lossy SCALE=$(SCALE)')
 
 fig5: $(STAMP) ## Cano Fig. 5: the tracked model over S1 walking, first and last of 20 frames (one run, any SCALE)
 	rm -rf outputs/fig5
