@@ -82,22 +82,29 @@ def prepare(overrides: list[str], progress: bool = False, out=print) -> list[Pat
             sequence = Sequence.open(sequence.root, list(synthetic.dataset.cameras))
             for crf in crfs:
                 folder = Path(lossy.recordings) / recording_name(subject, action, crf)
-                source = {
-                    "sequence": str(sequence.root),
-                    "digest": sequence.meta["generator"]["digest"],
-                    "cameras": [c.name for c in sequence.cameras],
-                    "crf": crf,
-                    "yaw_deg": float(lossy.yaw_deg),
-                }
-                stamp = folder.with_suffix(".json")
-                if stamp.is_file() and folder.is_dir() and read_json_object(stamp) == source:
-                    out(f"recording {folder}: up to date")
-                else:
-                    write_recording(sequence, folder, yaw_deg=float(lossy.yaw_deg), crf=crf, progress=progress)
-                    write_json_atomic(stamp, source)
-                    out(f"recording {folder}: written (crf {crf})")
+                fresh = ensure_recording(sequence, folder, crf, float(lossy.yaw_deg), progress)
+                out(f"recording {folder}: {'written' if fresh else 'up to date'} (crf {crf})")
                 written.append(folder)
     return written
+
+
+def ensure_recording(sequence: Sequence, folder: Path, crf: int, yaw_deg: float = 0.0, progress: bool = False) -> bool:
+    """Write ``sequence`` (its cameras) as the recording ``folder`` at ``crf`` with its world
+    turned by ``yaw_deg`` degrees, unless ``folder`` already holds it: ``folder.json`` names
+    the sequence's settings digest, cameras, crf and yaw it was written from. True if written."""
+    source = {
+        "sequence": str(sequence.root),
+        "digest": sequence.meta["generator"]["digest"],
+        "cameras": [c.name for c in sequence.cameras],
+        "crf": crf,
+        "yaw_deg": yaw_deg,
+    }
+    stamp = Path(folder).with_suffix(".json")
+    if stamp.is_file() and Path(folder).is_dir() and read_json_object(stamp) == source:
+        return False
+    write_recording(sequence, Path(folder), yaw_deg=yaw_deg, crf=crf, progress=progress)
+    write_json_atomic(stamp, source)
+    return True
 
 
 def foreground_fraction(run_config: dict, frames: int) -> float:
