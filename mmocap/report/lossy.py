@@ -148,7 +148,7 @@ def runs_table(folder: Path) -> pd.DataFrame:
 def lossy_table(runs: pd.DataFrame) -> pd.DataFrame:
     """Per sequence: the error of the lossless run (the lowest crf), of each other crf, their
     ratio and whether it meets :data:`LOSSY_GOAL`, and each run's foreground fraction (%)."""
-    crfs = sorted(runs.crf.unique())
+    crfs = sorted(int(c) for c in runs.crf.unique())
     if len(crfs) < 2:
         raise DataError(f"the lossy table compares recordings of two crf values at least; the runs hold {crfs}")
     reference, *others = crfs
