@@ -10,7 +10,7 @@ PLUGINS       := plugins/mmocap-pycma plugins/template-optimizer plugins/templat
 PLUGIN_FILES  := $(shell find $(PLUGINS) -name '*.py' -o -name '*.toml' -o -name '*.yaml')
 
 .DEFAULT_GOAL := help
-.PHONY: help install demo foreground optimizers test test-slow test-all test-wheel lint typecheck docs golden clean bench table1 table2 autostart lossy
+.PHONY: help install demo foreground foreground-crf optimizers test test-slow test-all test-wheel lint typecheck docs golden clean bench table1 table2 autostart lossy
 .PHONY: tables table4 table5 table6 table7 fig7 fig10 cano_table3 fig4 fig5
 
 help: ## Show this help
@@ -35,6 +35,13 @@ FOREGROUND_ARGS ?=
 foreground: $(STAMP) ## Precision, recall and IoU of each background method per camera on the demo sequence; outputs/tables/foreground.*
 	$(MMOCAP) foreground-quality progress=false 'dataset.cameras=$${dataset.all_cameras}' $(FOREGROUND_ARGS)
 	$(MMOCAP) results-page docs/results/foreground.md --target foreground outputs/tables/foreground.md
+
+# The tracked cameras of the demo sequence, written as recordings at each crf (outputs/recordings/foreground/).
+FOREGROUND_CRF ?= 0,16,23,28
+foreground-crf: $(STAMP) ## Precision, recall and IoU of each background method on the demo sequence written as H.264 at each crf; outputs/tables/foreground_crf.*
+	$(MMOCAP) foreground-quality progress=false --crf $(FOREGROUND_CRF) --csv outputs/tables/foreground_crf.csv \
+		--md outputs/tables/foreground_crf.md $(FOREGROUND_ARGS)
+	$(MMOCAP) results-page docs/results/foreground_crf.md --target foreground-crf outputs/tables/foreground_crf.md
 
 # The OpenCL evaluator counts exactly as numpy does (the conformance suite) and is faster.
 optimizers: $(STAMP) ## Demo sequence with every built-in optimiser, holistic and hierarchical (about 3 min); table in outputs/tables/
