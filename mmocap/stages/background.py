@@ -228,7 +228,7 @@ class HorprasertBackground(BackgroundModel):
     frame to frame, so the background frames' spread and RMS leave out the codec's error,
     while the video of the person was encoded apart, with its own error: heavy-tailed,
     largest at edges and texture. Measured on a synthetic sequence at ``crf`` 23, 29 % of
-    the background's pixels exceed ``tau_cd`` (0.1 % lossless). So each image's noise is
+    a camera's background pixels exceed ``tau_cd`` (0.1 % lossless). So each image's noise is
     also measured, robustly over the whole image (mostly background): ``n`` =
     1.4826 median(``CD s``), ``CD`` times the pixel's spread, in grey levels, against the
     largest such value ``n_0`` of the background frames (each against the mean of the
