@@ -113,7 +113,7 @@ def foreground_fraction(run_config: dict, frames: int) -> float:
     cfg = OmegaConf.create(run_config)
     sequence = instantiate(cfg.dataset).open(progress=False)
     foreground = Foreground(sequence, instantiate(cfg.background), cache_dir=cfg.foreground_cache)
-    fractions = [mask.area / mask.size for frame in range(frames) for mask in foreground.masks(frame)]
+    fractions = [np.count_nonzero(mask) / mask.size for frame in range(frames) for mask in foreground.masks(frame)]
     return float(np.mean(fractions))
 
 
