@@ -262,7 +262,10 @@ class HorprasertBackground(BackgroundModel):
     RMS_SMOOTHING_PX = 2.0  # sigma of the averaging of s^2 and of the RMS, pixels
     # an image's noise up to this multiple of the background frames' is not the codec's: a
     # person covering a fifth of the image raises the median by about as much
-    NOISE_MARGIN = 1.2
+    NOISE_MARGIN = 1.1
+    NOISE_QUANTILE = 0.9
+    TILES = 8  # the image's noise is measured per tile of a TILES x TILES grid
+    TILE_QUANTILE = 0.75  # of the tiles' ratios: a person in fewer than a quarter of the tiles does not count
 
     def __init__(
         self,
@@ -271,7 +274,7 @@ class HorprasertBackground(BackgroundModel):
         shadow_min_alpha: float = 0.55,
         highlight_max_alpha: float = 1.5,
         grey_window_px: int = 5,
-        codec_threshold: float = 20.0,
+        codec_threshold: float = 10.0,
         open_px: int = 0,
         close_px: int = 3,
         min_area_px: int = 50,
@@ -299,7 +302,7 @@ class HorprasertBackground(BackgroundModel):
         self.tau_cd: float | None = None
         self.tau_alpha_low: float | None = None
         self.tau_alpha_high: float | None = None
-        self.noise: float | None = None  # n_0: the background frames' largest noise, grey levels
+        self.noise: np.ndarray | None = None  # (TILES^2,) n_0 per tile: the background frames' largest, grey levels
 
     def _smooth(self, x: np.ndarray) -> np.ndarray:
         """(H, W) per-pixel mean squares -> their mean over about RMS_SMOOTHING_PX around."""
@@ -369,12 +372,23 @@ class HorprasertBackground(BackgroundModel):
             float(q) for q in np.quantile((alphas - 1) / self.alpha_rms, [(1 - r) / 2, (1 + r) / 2])
         )
         self.tau_cd = float(np.quantile(cds / self.cd_rms, r))
-        self.noise = max(self.image_noise(cd) for cd in cds)
+        self.noise = np.max([self.image_noise(cd) for cd in cds], axis=0)
 
-    def image_noise(self, cd: np.ndarray) -> float:
-        """Robust noise of one image, grey levels: 1.4826 times the median over its pixels
-        of ``CD s`` (``cd``: (H, W), in units of the spread)."""
-        return 1.4826 * float(np.median(cd * self._spread))
+    def image_noise(self, cd: np.ndarray) -> np.ndarray:
+        """Noise of one image per tile, grey levels: the ``NOISE_QUANTILE`` of ``CD s`` over
+        each of ``TILES`` x ``TILES`` tiles (``cd``: (H, W), in units of the spread; the last
+        rows and columns that do not fill a tile are left out); (TILES^2,)."""
+        values = cd * self._spread
+        h, w = (n - n % self.TILES for n in values.shape)
+        tiles = values[:h, :w].reshape(self.TILES, h // self.TILES, self.TILES, w // self.TILES).swapaxes(1, 2)
+        return np.quantile(tiles.reshape(self.TILES * self.TILES, -1), self.NOISE_QUANTILE, axis=1)
+
+    def codec_noise(self, cd: np.ndarray) -> float:
+        """The codec's noise in an image, grey levels (0 if none): from the median over the
+        tiles of the image's noise over the background frames', ``r``, beyond ``NOISE_MARGIN``:
+        ``sqrt(r^2 - m^2)`` times the background frames' median noise."""
+        ratio = float(np.quantile(self.image_noise(cd) / np.maximum(self.noise, 1e-6), self.TILE_QUANTILE))  # type: ignore[arg-type]
+        return float(np.sqrt(max(ratio**2 - self.NOISE_MARGIN**2, 0.0)) * np.median(self.noise))  # type: ignore[arg-type]
 
     def classify(self, image: np.ndarray, name: str | None = None) -> np.ndarray:
         """(H, W) uint8 labels: BACKGROUND, SHADOW, HIGHLIGHT or FOREGROUND (module constants)."""
@@ -384,7 +398,7 @@ class HorprasertBackground(BackgroundModel):
         labels = np.full(alpha.shape, BACKGROUND, np.uint8)
         labels[alpha_n < self.tau_alpha_low] = SHADOW
         labels[alpha_n > self.tau_alpha_high] = HIGHLIGHT
-        codec_noise = np.sqrt(max(self.image_noise(cd) ** 2 - (self.NOISE_MARGIN * self.noise) ** 2, 0.0))  # type: ignore[operator]
+        codec_noise = self.codec_noise(cd)
         chromatic = cd / self.cd_rms > self.tau_cd
         if codec_noise > 0:
             chromatic &= cd * self._spread > self.codec_threshold * codec_noise
