@@ -229,13 +229,15 @@ class HorprasertBackground(BackgroundModel):
     while the video of the person was encoded apart, with its own error: heavy-tailed,
     largest at edges and texture. Measured on a synthetic sequence at ``crf`` 23, 29 % of
     a camera's background pixels exceed ``tau_cd`` (0.1 % lossless). So each image's noise is
-    also measured, robustly over the whole image (mostly background): ``n`` =
-    1.4826 median(``CD s``), ``CD`` times the pixel's spread, in grey levels, against the
-    largest such value ``n_0`` of the background frames (each against the mean of the
-    others). The excess, the codec's noise ``sqrt(n^2 - (m n_0)^2)`` (0 when ``n <= m n_0``,
-    ``m`` = ``NOISE_MARGIN``), must also be exceeded ``codec_threshold`` times by ``CD s``
-    for a pixel to be foreground on its chromaticity. An image about as noisy as the
-    background frames (lossless video, a camera's own images) is classified as before.
+    also measured: ``n_t``, the ``NOISE_QUANTILE`` (0.9: the codec's error is in the tail) of
+    ``CD s``, ``CD`` times the pixel's spread, in grey levels, over each tile ``t`` of a
+    ``TILES`` x ``TILES`` grid, against the largest ``n0_t`` of the background frames (each
+    against the mean of the others). The ``TILE_QUANTILE`` (0.75) of the ratios ``n_t /
+    n0_t`` over the tiles, ``r``, ignores a person in fewer than a quarter of the tiles;
+    beyond ``m`` = ``NOISE_MARGIN``, the codec's noise is ``sqrt(r^2 - m^2)`` times the
+    median ``n0_t``, and ``CD s`` must also exceed it ``codec_threshold`` times for a pixel
+    to be foreground on its chromaticity. An image about as noisy as the background frames
+    (lossless video, a camera's own images) is classified as before.
 
     Departures from the paper: the bounds on ``alpha`` are in raw brightness (the paper's
     ``tau_alpha_lo`` is on the normalised one) and there is also an upper bound, so a white
