@@ -182,7 +182,9 @@ def table_main(args) -> None:
     written = write_table(table, args.out / "tables" / "lossy", title=title, source=source, floatfmt=".2f")
     print(Path(written[1]).read_text(), end="")
     if args.page is not None:
-        update_page(args.page, args.target, None, {"lossy": Path(written[1]).read_text().strip("\n")})
+        # the page's stamp says when and where: the title as a sentence, then the table
+        body = Path(written[1]).read_text().split("\n\n", 2)[2].strip("\n")
+        update_page(args.page, args.target, None, {"lossy": f"{title}.\n\n{body}"})
         print(f"written: {args.page}")
 
 

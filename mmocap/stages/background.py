@@ -266,6 +266,9 @@ class HorprasertBackground(BackgroundModel):
     # person covering a fifth of the image raises the median by about as much
     NOISE_MARGIN = 1.1
     NOISE_QUANTILE = 0.9
+    # floor of n0_t, grey levels: the rounding of 8-bit values (a plate whose frames the codec
+    # copies bit for bit differs by nothing else)
+    MIN_NOISE = 1 / np.sqrt(12)
     TILES = 8  # the image's noise is measured per tile of a TILES x TILES grid
     TILE_QUANTILE = 0.75  # of the tiles' ratios: a person in fewer than a quarter of the tiles does not count
 
@@ -374,7 +377,7 @@ class HorprasertBackground(BackgroundModel):
             float(q) for q in np.quantile((alphas - 1) / self.alpha_rms, [(1 - r) / 2, (1 + r) / 2])
         )
         self.tau_cd = float(np.quantile(cds / self.cd_rms, r))
-        self.noise = np.max([self.image_noise(cd) for cd in cds], axis=0)
+        self.noise = np.maximum(np.max([self.image_noise(cd) for cd in cds], axis=0), self.MIN_NOISE)
 
     def image_noise(self, cd: np.ndarray) -> np.ndarray:
         """Noise of one image per tile, grey levels: the ``NOISE_QUANTILE`` of ``CD s`` over
@@ -389,7 +392,7 @@ class HorprasertBackground(BackgroundModel):
         """The codec's noise in an image, grey levels (0 if none): from the median over the
         tiles of the image's noise over the background frames', ``r``, beyond ``NOISE_MARGIN``:
         ``sqrt(r^2 - m^2)`` times the background frames' median noise."""
-        ratio = float(np.quantile(self.image_noise(cd) / np.maximum(self.noise, 1e-6), self.TILE_QUANTILE))  # type: ignore[arg-type]
+        ratio = float(np.quantile(self.image_noise(cd) / self.noise, self.TILE_QUANTILE))
         return float(np.sqrt(max(ratio**2 - self.NOISE_MARGIN**2, 0.0)) * np.median(self.noise))  # type: ignore[arg-type]
 
     def classify(self, image: np.ndarray, name: str | None = None) -> np.ndarray:
