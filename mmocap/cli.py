@@ -212,6 +212,10 @@ SUBCOMMANDS = {
     ),
     "results-page": (_main_of("mmocap.report.results_page"), "put Markdown tables on a stamped docs/results page"),
     "bench": (_main_of("mmocap.bench.cli"), "evaluator benchmark: Cano Tables 1 and 2 and Fig. 3 here"),
+    "lossy": (
+        _main_of("mmocap.report.lossy"),
+        "recordings of synthetic sequences at several crf, and the table of `make lossy`",
+    ),
     "foreground-quality": (
         _main_of("mmocap.report.foreground_quality"),
         "precision, recall and IoU of each background method per camera",

@@ -48,6 +48,8 @@ def test_a_silhouette_of_another_size_names_the_camera_and_frame():
     [
         (["--methods", ""], "--methods '' has an empty name"),
         (["--methods", "horprasert,,knn"], "--methods 'horprasert,,knn' has an empty name"),
+        (["--crf", "0,x"], "--crf '0,x': give H.264 qualities from 0 (lossless) to 51"),
+        (["--crf", "60"], "--crf '60': give H.264 qualities"),
         (["--csv", "{tmp}"], "--csv {tmp} is a folder"),
         (["--md", "{tmp}"], "--md {tmp} is a folder"),
         (["--csv", "{tmp}/notes/q.csv"], "cannot write {tmp}/notes: {tmp}/notes is a file"),

@@ -165,6 +165,36 @@ def test_horprasert_greyscale_without_window_uses_brightness_only():
     assert label_fractions(model, shaded, rng, light < 0.9)[SHADOW] > 0.95
 
 
+@pytest.mark.parametrize("channels", [3, 1])
+def test_horprasert_holds_on_images_noisier_than_a_frozen_plate(channels):
+    # as a codec leaves them: the empty scene encoded once and copied frame to frame (its
+    # frames differ by far less than the sensor's noise), each image of the person with its own noise
+    rng = np.random.default_rng(3)
+    background = scene(rng, channels)
+    frozen = noisy(background, rng).astype(float)
+    plate = [noisy(frozen, rng, sigma=0.5) for _ in range(10)]
+    person = background.copy()
+    person[REGION] = 0.4 * scene(np.random.default_rng(99), channels)[REGION]
+    image = noisy(person, rng)
+    model = HorprasertBackground().fit(plate)
+    assert model.codec_noise(model.distortions(image)[1]) > 0
+    assert model.codec_noise(model.distortions(noisy(frozen, rng, sigma=0.5))[1]) == 0  # as the plate's frames
+    assert iou(model.apply(image), REGION_TRUTH) > 0.9
+    ungated = HorprasertBackground(codec_threshold=1e-9).fit(plate)
+    assert ungated.apply(image).mean() > 0.5  # the plate's spread alone: noise everywhere is foreground
+
+
+@pytest.mark.parametrize("channels", [3, 1])
+def test_horprasert_images_as_noisy_as_the_background_frames_are_not_gated(channels):
+    model, background, rng = fitted(HorprasertBackground(), channels)
+    ungated, *_ = fitted(HorprasertBackground(codec_threshold=1e9), channels)
+    person = background.copy()
+    other = scene(np.random.default_rng(99), channels)
+    person[REGION] = (other[..., ::-1] if channels == 3 else 0.8 * other)[REGION]
+    for image in (noisy(background, rng), noisy(person, rng)):
+        np.testing.assert_array_equal(model.classify(image), ungated.classify(image))
+
+
 @pytest.mark.parametrize("method", ["mog2", "knn"])
 @pytest.mark.parametrize("channels", [3, 1])
 def test_opencv_subtractors_find_the_person_and_do_not_learn_it(method, channels):
@@ -219,6 +249,7 @@ def test_short_or_inconsistent_background_sets_name_the_camera(make):
         (HorprasertBackground, {"shadow_min_alpha": 1.2}),
         (HorprasertBackground, {"highlight_max_alpha": 0.9}),
         (HorprasertBackground, {"grey_window_px": 4}),
+        (HorprasertBackground, {"codec_threshold": 0}),
         (HorprasertBackground, {"open_px": -1}),
         (HorprasertBackground, {"largest_only": "yes"}),
         (OpenCVBackground, {"method": "vibe"}),
