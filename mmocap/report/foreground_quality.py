@@ -17,7 +17,8 @@ tracking run of that recording does; the table then has one row per crf and meth
 cameras pooled (and one per camera in the CSV).
 
 ``overrides`` are Hydra overrides of ``conf/config.yaml`` (``dataset.action=boxing``,
-``dataset.cameras=[C1,BW1]``); each method is ``background=<method>`` composed with them.
+``dataset.cameras=[C1,BW1]``); each method is ``background=<method>`` composed with them, but
+``segmentation``: person segmentation (``foreground.segmentation``), which ignores the plate.
 Before anything is computed: an empty or unknown method, and a ``--csv`` or ``--md`` that is a
 folder or cannot be written, end the command with one line; a method named twice counts once.
 A true silhouette of another size than its image is an error naming the camera and frame.
@@ -42,6 +43,8 @@ from mmocap.report.lossy import ensure_recording
 from mmocap.video import CRF_RANGE
 
 METHODS = ("horprasert", "gaussian", "mog2", "knn")
+#: the name in ``--methods`` of person segmentation (``foreground.segmentation``, no plate)
+SEGMENTATION = "segmentation"
 COLUMNS = ["method", "camera", "precision", "recall", "iou"]
 
 
@@ -59,16 +62,20 @@ def scores(counts: np.ndarray) -> tuple[float, float, float]:
 
 
 def evaluate(sequence, make_background, frames=None, progress: bool = False, label: str = "") -> np.ndarray:
-    """(C, 3) pooled TP, FP, FN per camera of ``sequence`` for one background factory.
+    """(C, 3) pooled TP, FP, FN per camera of ``sequence`` for one factory of foreground
+    models: a background model's (fit on the plate) or the person segmenter's.
 
     ``frames``: iterable of frame indices (default: all).
     """
     frames = range(sequence.n_frames) if frames is None else list(frames)
-    models = [make_background().fit(sequence.background(cam), name=cam.name) for cam in sequence.cameras]
+    models = [make_background() for _ in sequence.cameras]
+    for cam, model in zip(sequence.cameras, models):
+        if model.needs_plate:
+            model.fit(sequence.background(cam), name=cam.name)
     counts = np.zeros((len(sequence.cameras), 3), np.int64)
     for frame in tqdm(frames, desc=f"foreground {label}".strip(), unit="frame", disable=not progress):
         for c, (cam, model, image) in enumerate(zip(sequence.cameras, models, sequence.images(frame))):
-            mask, truth = model.apply(image, name=cam.name), sequence.silhouette(frame, cam)
+            mask, truth = model.find_person(image, name=cam.name)[0], sequence.silhouette(frame, cam)
             if truth.shape != mask.shape:
                 raise DataError(
                     f"camera {cam.name}, frame {frame}: the true silhouette is {truth.shape[1]}x"
@@ -175,7 +182,9 @@ def main(argv: list[str], prog: str) -> None:
     recall and IoU of each background method per camera."""
     parser = argparse.ArgumentParser(prog=prog, description=__doc__.splitlines()[0])
     parser.add_argument(
-        "--methods", default=",".join(METHODS), help="comma-separated background configs (conf/background/*.yaml)"
+        "--methods",
+        default=",".join(METHODS),
+        help="comma-separated background configs (conf/background/*.yaml), and segmentation",
     )
     parser.add_argument("--csv", type=Path, default=Path("outputs/tables/foreground.csv"))
     parser.add_argument("--md", type=Path, default=Path("outputs/tables/foreground.md"))
@@ -203,7 +212,7 @@ def main(argv: list[str], prog: str) -> None:
     configs = {}
     for m in methods:
         try:
-            configs[m] = config.compose([*args.overrides, f"background={m}"])
+            configs[m] = config.compose([*args.overrides, *([] if m == SEGMENTATION else [f"background={m}"])])
         except ConfigCompositionException as exc:
             raise ConfigError(
                 f"background={m}: {str(exc).splitlines()[0]} (the overrides apply to every method of --methods)"
@@ -212,7 +221,9 @@ def main(argv: list[str], prog: str) -> None:
     sequence = instantiate(cfg.dataset).open(progress=cfg.progress)
     if not (sequence.root / "silhouettes").is_dir():
         raise DataError(f"sequence {sequence.root} has no true silhouettes to compare with")
-    factories = {m: instantiate(c.background) for m, c in configs.items()}
+    factories = {
+        m: instantiate(c.foreground.segmentation if m == SEGMENTATION else c.background) for m, c in configs.items()
+    }
     what = f"{sequence.subject} {sequence.meta.get('action')} ({sequence.n_frames} frames"
     if crfs is None:
         table = quality_table(sequence, factories, progress=cfg.progress)

@@ -5,21 +5,25 @@ from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from mmocap.errors import DataError
 from mmocap.report.foreground_quality import evaluate
-from tests.helpers import run_cli
+from mmocap.stages import segmentation
+from tests.helpers import TINY, run_cli
 
 
 class AllForeground:
     """A background model that calls every pixel foreground."""
 
+    needs_plate = True
+
     def fit(self, frames, name):
         return self
 
-    def apply(self, image, name):
-        return np.ones(image.shape[:2], bool)
+    def find_person(self, image, name):
+        return np.ones(image.shape[:2], bool), None
 
 
 def fake_sequence(truth_shape):
@@ -61,3 +65,18 @@ def test_bad_options_fail_before_any_work(tmp_path, capsys, options, message):
     defaults = ["--csv", tmp_path / "q.csv", "--md", tmp_path / "q.md"]
     assert run_cli("foreground-quality", *defaults, *options) == 2
     assert capsys.readouterr().err.startswith(f"mmocap: error: {message.format(tmp=tmp_path)}")
+
+
+@pytest.mark.skipif(not segmentation.available(), reason="the segment extra is not installed")
+def test_person_segmentation_is_measured_beside_the_background_models(tmp_path):
+    csv, md = tmp_path / "fg.csv", tmp_path / "fg.md"
+    settings = {"frames": 2, "width": 640, "height": 480, "background_frames": 3, "seed": TINY["seed"]}
+    overrides = [f"dataset.root={tmp_path / 'data'}", "progress=false", "dataset.cameras=[C1,C2,BW1]"]
+    overrides += [f"dataset.{key}={value}" for key, value in settings.items()]
+    methods = ["--methods", "horprasert,segmentation"]
+    assert run_cli("foreground-quality", *methods, "--csv", csv, "--md", md, *overrides) == 0
+    table = pd.read_csv(csv).set_index(["method", "camera"])
+    # measured 0.77: it finds nobody in one of C1's two frames (recall 0.49), 0.96-0.97 elsewhere
+    assert table.loc[("segmentation", "all"), "iou"] > 0.7
+    assert table.loc[("horprasert", "all"), "iou"] > 0.85
+    assert "segmentation P / R / IoU" in md.read_text()
