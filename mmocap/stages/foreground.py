@@ -347,9 +347,10 @@ class ForegroundCoverage:
     camera from the following frames with a :class:`~mmocap.errors.MmocapWarning`.
 
     A camera whose mask is empty in a frame (person segmentation found nobody, or a given
-    mask is blank) is left out of that frame only: an empty mask would pull the model out of
-    that camera's view. :attr:`skipped` records the frames per camera, and :meth:`warn_skipped`
-    says so in one warning per camera at the end of the run.
+    mask is blank) is left out of that frame only, and that frame does not count towards its
+    streak: an empty mask would pull the model out of that camera's view, and a person missed
+    for a few frames is no faulty camera. :attr:`skipped` records the frames per camera, and
+    :meth:`warn_skipped` says so in one warning per camera at the end of the run.
 
     Args:
         action: ``stop`` or ``drop``.
@@ -383,6 +384,9 @@ class ForegroundCoverage:
             if cam.name in self.dropped:
                 continue
             fraction = float(np.count_nonzero(mask)) / mask.size
+            if fraction == 0:  # nobody found: left out of this frame only, not a faulty camera
+                self.skipped.setdefault(cam.name, []).append(frame)
+                continue
             low, high = fraction < self.min_fraction, fraction > self.max_fraction
             self._streak[cam.name] = self._streak.get(cam.name, 0) + 1 if low or high else 0
             streak = self._streak[cam.name]
@@ -408,9 +412,6 @@ class ForegroundCoverage:
                     stacklevel=2,
                 )
                 self.dropped.append(cam.name)
-                continue
-            if fraction == 0:
-                self.skipped.setdefault(cam.name, []).append(frame)
                 continue
             kept_cameras.append(cam)
             kept_masks.append(mask)
