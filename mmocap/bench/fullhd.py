@@ -17,6 +17,7 @@ shrinking the frames, background subtraction, undistortion, and the rest.
 
 from __future__ import annotations
 
+import os
 import tempfile
 import time
 from pathlib import Path
@@ -110,8 +111,11 @@ def run_overrides(recording: Path, scale: float, frames: int, seed: int) -> list
 
 def track_at(recording: Path, scale: float, frames: int, seed: int, folder: Path) -> dict:
     """Track ``frames`` frames of ``recording`` from nothing at ``scale`` in a fresh folder
-    under ``folder``; one row of :func:`fullhd_table` (without the ratios)."""
+    under ``folder``; one row of :func:`fullhd_tables` (without the ratios), with the
+    machine's load (1-minute average of runnable processes) when the run began, since
+    the times are wall times."""
     cfg = compose(run_overrides(recording, scale, frames, seed))
+    load = os.getloadavg()[0]
     with tempfile.TemporaryDirectory(dir=folder) as run_dir:
         summary = run(cfg, Path(run_dir))
     camera = instantiate(cfg.dataset).open(progress=False).cameras[0]
@@ -125,6 +129,7 @@ def track_at(recording: Path, scale: float, frames: int, seed: int, folder: Path
     }
     row["frame_s"] = row["foreground_s_per_frame"] + row["search_s_per_frame"]
     row["mean_marker_error_mm"] = summary["mean_marker_error_mm"]
+    row["load_1min"] = load
     print(
         f"fullhd: scale {scale:g} ({camera.width}x{camera.height}): start {row['start_s']:.1f} s, "
         f"foreground {row['foreground_s_per_frame']:.3f} + search {row['search_s_per_frame']:.3f} s per frame, "

@@ -27,6 +27,7 @@ def test_fullhd_tracks_a_recording_at_each_scale_with_ratios_to_full_resolution(
         "search_s_per_frame",
         "frame_s",
         "mean_marker_error_mm",
+        "load_1min",
         "error_ratio",
         "time_ratio",
         "goal_met",
@@ -45,7 +46,8 @@ def test_fullhd_tracks_a_recording_at_each_scale_with_ratios_to_full_resolution(
     assert profile[steps].ge(0).all().all()
     assert profile.total_s.tolist() == pytest.approx(profile[steps].sum(axis=1).tolist())
     text = page.read_text()
-    assert "<!-- table: fullhd -->" in text and "<!-- table: fullhd_foreground -->" in text
+    assert "<!-- table: fullhd -->" in text
+    assert "<!-- table: fullhd_foreground -->" in text
     assert text.index("<!-- table: fidelity -->\n## Kept\n\nkept table") < text.index("<!-- table: fullhd -->")
     assert not [p for p in tmp_path.iterdir() if p.is_dir()]  # the recording and runs were temporary
 
