@@ -50,6 +50,7 @@ from mmocap.report.results_page import machine
 from mmocap.stages.tracking import MAX_EVALUATIONS, START_EVALUATIONS
 from mmocap.testing.scene import Scene
 from mmocap.validate import check_number
+from mmocap.video import CRF_RANGE
 
 #: frames tracked per run of ``fidelity`` unless ``--track-frames`` says (the demo sequence's)
 FIDELITY_FRAMES = 60
@@ -122,6 +123,9 @@ def build_parser(prog: str) -> argparse.ArgumentParser:
     parser.add_argument("--width", type=int, default=fullhd.FULLHD_WIDTH, help="image width, px (fullhd)")
     parser.add_argument("--height", type=int, default=fullhd.FULLHD_HEIGHT, help="image height, px (fullhd)")
     parser.add_argument(
+        "--crf", type=int, default=fullhd.FULLHD_CRF, help="the recording's H.264 quality, 0 lossless (fullhd)"
+    )
+    parser.add_argument(
         "--seeds",
         default="0,1,2,3,4",
         help="search seeds each search is run with, its error and time averaged (fidelity)",
@@ -187,9 +191,11 @@ def fullhd_command(args: argparse.Namespace, tables: TableWriter) -> None:
     width = check_number("--width", args.width, 64, 8192, integer=True)
     height = check_number("--height", args.height, 64, 8192, integer=True)
     frames = check_number("--track-frames", args.track_frames or fullhd.FULLHD_FRAMES, 1, 10_000, integer=True)
+    crf = check_number("--crf", args.crf, *CRF_RANGE, integer=True)
     args.out.mkdir(parents=True, exist_ok=True)
-    runs, profile = fullhd.fullhd_tables(scales, width, height, frames, fullhd.FULLHD_SEED, args.out)
-    what = f"S1 walking, realistic, 4 cameras, {width}x{height}, {frames} frames, lossless recording"
+    runs, profile = fullhd.fullhd_tables(scales, width, height, frames, fullhd.FULLHD_SEED, args.out, crf)
+    coding = "lossless" if crf == 0 else f"H.264 crf {crf}"
+    what = f"S1 walking, realistic, 4 cameras, {width}x{height}, {frames} frames, {coding} recording"
     tables.write(
         runs,
         "fullhd",

@@ -1,6 +1,7 @@
 """Full HD at interactive speed (``mmocap bench fullhd``): a full-HD synthetic sequence (S1
-walking, ``realistic``, 4 cameras, 1920x1080 by default) written as a lossless recording
-(:func:`mmocap.data.recording.reader.write_recording`, ``crf=0``) into a temporary folder,
+walking, ``realistic``, 4 cameras, 1920x1080 by default) written as a recording
+(:func:`mmocap.data.recording.reader.write_recording`, lossless by default: ``crf=0``) into
+a temporary folder,
 then tracked from nothing by the real pipeline, as a user's recording is (no first pose, no
 body size: the automatic start), with the default foreground (the plate, Horprasert) and
 holistic CMA-ES at 1500 evaluations per frame, once per working scale (``dataset.scale``):
@@ -37,6 +38,8 @@ from mmocap.validate import check_number
 DEFAULT_SCALES = "1,0.5,0.333"
 #: the sequence's size, px (full HD) and frames unless ``--width``, ``--height``, ``--track-frames`` say
 FULLHD_WIDTH, FULLHD_HEIGHT, FULLHD_FRAMES = 1920, 1080, 20
+#: the recording's H.264 quality unless ``--crf`` says (0: lossless, the rendered pixels)
+FULLHD_CRF = 0
 #: the search seed of every run
 FULLHD_SEED = 0
 #: the goal: foreground and search per frame, s ...
@@ -81,9 +84,10 @@ def parse_scales(text: str) -> list[float]:
     return scales
 
 
-def write_fullhd_recording(folder: Path, width: int, height: int, frames: int) -> Path:
+def write_fullhd_recording(folder: Path, width: int, height: int, frames: int, crf: int = FULLHD_CRF) -> Path:
     """Render :data:`FULLHD_SEQUENCE` at ``width`` x ``height`` px, ``frames`` frames, into
-    ``folder/data`` and write it as a lossless recording ``folder/recording``; returns it."""
+    ``folder/data`` and write it as a recording ``folder/recording`` in H.264 of quality
+    ``crf`` (0: lossless); returns it."""
     cfg = compose(
         [
             *FULLHD_SEQUENCE,
@@ -94,7 +98,7 @@ def write_fullhd_recording(folder: Path, width: int, height: int, frames: int) -
         ]
     )
     sequence = instantiate(cfg.dataset).open(progress=False)
-    return write_recording(sequence, folder / "recording", crf=0, progress=False)
+    return write_recording(sequence, folder / "recording", crf=crf, progress=False)
 
 
 def run_overrides(recording: Path, scale: float, frames: int, seed: int) -> list[str]:
@@ -186,15 +190,15 @@ def foreground_profile(recording: Path, scale: float, frames: int) -> dict:
 
 
 def fullhd_tables(
-    scales: list[float], width: int, height: int, frames: int, seed: int, out: Path
+    scales: list[float], width: int, height: int, frames: int, seed: int, out: Path, crf: int = FULLHD_CRF
 ) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """The recording (``width`` x ``height`` px, ``frames`` frames) tracked at each of
+    """The recording (``width`` x ``height`` px, ``frames`` frames, H.264 quality ``crf``) tracked at each of
     ``scales`` (one of them 1) with search seed ``seed``, one run after the other: the runs'
     table (:func:`track_at`, :func:`with_ratios`) and the foregrounds' profile
     (:func:`foreground_profile`), one row per scale each."""
     with tempfile.TemporaryDirectory(dir=out) as folder:
-        print(f"fullhd: rendering {width}x{height}, {frames} frames, as a lossless recording", flush=True)
-        recording = write_fullhd_recording(Path(folder), width, height, frames)
+        print(f"fullhd: rendering {width}x{height}, {frames} frames, as a recording (crf {crf})", flush=True)
+        recording = write_fullhd_recording(Path(folder), width, height, frames, crf)
         runs = pd.DataFrame([track_at(recording, scale, frames, seed, Path(folder)) for scale in scales])
         profile = pd.DataFrame([foreground_profile(recording, scale, frames) for scale in scales])
     profile["total_s"] = profile.drop(columns="scale").sum(axis=1)

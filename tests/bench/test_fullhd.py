@@ -71,3 +71,12 @@ def test_a_run_meets_the_goal_only_fast_enough_accurate_enough_and_started_in_ti
 def test_scales_are_fractions_and_include_full_resolution(text):
     with pytest.raises(ConfigError, match="--scales"):
         fullhd.parse_scales(text)
+
+
+@pytest.mark.parametrize(
+    ("option", "value"), [("--crf", "52"), ("--width", "10"), ("--track-frames", "0"), ("--scales", "0.5")]
+)
+def test_fullhd_refuses_bad_options_before_rendering_anything(option, value, tmp_path, capsys):
+    assert run_cli("bench", "fullhd", option, value, "--out", tmp_path) == 2
+    assert option in capsys.readouterr().err
+    assert not list(tmp_path.iterdir())
