@@ -163,7 +163,9 @@ def fidelity_command(args: argparse.Namespace, tables: TableWriter) -> None:
     searches = fidelity.parse_exact(args.exact) + [
         fidelity.parse_schedule(text) for text in args.schedule or fidelity.DEFAULT_SCHEDULES
     ]
-    frames = check_number("--track-frames", args.track_frames or FIDELITY_FRAMES, 1, 10_000, integer=True)
+    frames = check_number(
+        "--track-frames", FIDELITY_FRAMES if args.track_frames is None else args.track_frames, 1, 10_000, integer=True
+    )
     seeds = integer_list("--seeds", args.seeds, 0, 2**32 - 1)
     args.out.mkdir(parents=True, exist_ok=True)
     table = fidelity.fidelity_table(searches, frames, seeds, args.out)
@@ -190,7 +192,13 @@ def fullhd_command(args: argparse.Namespace, tables: TableWriter) -> None:
     scales = fullhd.parse_scales(args.scales)
     width = check_number("--width", args.width, 64, 8192, integer=True)
     height = check_number("--height", args.height, 64, 8192, integer=True)
-    frames = check_number("--track-frames", args.track_frames or fullhd.FULLHD_FRAMES, 1, 10_000, integer=True)
+    frames = check_number(
+        "--track-frames",
+        fullhd.FULLHD_FRAMES if args.track_frames is None else args.track_frames,
+        1,
+        10_000,
+        integer=True,
+    )
     crf = check_number("--crf", args.crf, *CRF_RANGE, integer=True)
     args.out.mkdir(parents=True, exist_ok=True)
     runs, profile = fullhd.fullhd_tables(scales, width, height, frames, fullhd.FULLHD_SEED, args.out, crf)
