@@ -203,7 +203,7 @@ def fullhd_command(args: argparse.Namespace, tables: TableWriter) -> None:
     args.out.mkdir(parents=True, exist_ok=True)
     runs, profile = fullhd.fullhd_tables(scales, width, height, frames, fullhd.FULLHD_SEED, args.out, crf)
     coding = "lossless" if crf == 0 else f"H.264 crf {crf}"
-    what = f"S1 walking, realistic, 4 cameras, {width}x{height}, {frames} frames, {coding} recording"
+    what = f"S1 walking, 4 cameras, {width}x{height}, {frames} frames, {coding} recording"
     tables.write(
         runs,
         "fullhd",
