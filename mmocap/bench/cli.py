@@ -9,7 +9,9 @@
   beside the floor of this device's measured rates (:mod:`mmocap.bench.roofline`);
 - ``all``: ``table2`` then ``table1``;
 - ``fidelity``: multi-fidelity against exact search on the demo sequence
-  (:mod:`mmocap.bench.fidelity`).
+  (:mod:`mmocap.bench.fidelity`);
+- ``fullhd``: a full-HD recording tracked from nothing at full resolution and at reduced
+  working scales, with where the foreground's time goes (:mod:`mmocap.bench.fullhd`).
 
 The vertex levels and budgets default to the Cano paper's, as the paper scale of the sweeps
 gives them (``scale.meshes`` and ``scale.cano_budgets`` of ``conf/scale/paper.yaml``). The
@@ -24,6 +26,7 @@ Usage::
     mmocap bench roofline --backends opencl --vertices 27393
     mmocap bench all --vertices 27393 --budgets 500,1500 --prefix bench_
     mmocap bench fidelity --exact 500,1000,1500 --schedule 0.25:3000:1200+300
+    mmocap bench fullhd --scales 1,0.5,0.333 --track-frames 20
 """
 
 from __future__ import annotations
@@ -35,7 +38,7 @@ import pandas as pd
 
 from mmocap import registry
 from mmocap.analysis.figures import plot_frames_per_second, plot_pareto_front
-from mmocap.bench import fidelity, roofline
+from mmocap.bench import fidelity, fullhd, roofline
 from mmocap.bench.backends import backends
 from mmocap.bench.output import TableWriter, update_bench_page
 from mmocap.bench.tables import MAX_FRAMES, table1, table2
@@ -47,6 +50,10 @@ from mmocap.report.results_page import machine
 from mmocap.stages.tracking import MAX_EVALUATIONS, START_EVALUATIONS
 from mmocap.testing.scene import Scene
 from mmocap.validate import check_number
+from mmocap.video import CRF_RANGE
+
+#: frames tracked per run of ``fidelity`` unless ``--track-frames`` says (the demo sequence's)
+FIDELITY_FRAMES = 60
 
 #: the tables each subcommand makes, by name: its sections of a ``--page``
 TABLES = {
@@ -55,6 +62,7 @@ TABLES = {
     "roofline": ("roofline",),
     "all": ("table2", "roofline", "table1"),
     "fidelity": ("fidelity",),
+    "fullhd": ("fullhd", "fullhd_foreground"),
 }
 
 
@@ -101,7 +109,22 @@ def build_parser(prog: str) -> argparse.ArgumentParser:
         help="a multi-fidelity run, SCALE:VERTICES:EVALUATIONS[:POPSIZE][,...]+EXACT[:POPSIZE] "
         f"(fidelity; repeat for more; default: {' and '.join(fidelity.DEFAULT_SCHEDULES)})",
     )
-    parser.add_argument("--track-frames", type=int, default=60, help="frames tracked per run (fidelity)")
+    parser.add_argument(
+        "--track-frames",
+        type=int,
+        default=None,
+        help=f"frames tracked per run (fidelity: {FIDELITY_FRAMES}; fullhd: {fullhd.FULLHD_FRAMES}, as many rendered)",
+    )
+    parser.add_argument(
+        "--scales",
+        default=fullhd.DEFAULT_SCALES,
+        help="working scales (dataset.scale) tracked at, 1 among them (fullhd)",
+    )
+    parser.add_argument("--width", type=int, default=fullhd.FULLHD_WIDTH, help="image width, px (fullhd)")
+    parser.add_argument("--height", type=int, default=fullhd.FULLHD_HEIGHT, help="image height, px (fullhd)")
+    parser.add_argument(
+        "--crf", type=int, default=fullhd.FULLHD_CRF, help="the recording's H.264 quality, 0 lossless (fullhd)"
+    )
     parser.add_argument(
         "--seeds",
         default="0,1,2,3,4",
@@ -127,6 +150,8 @@ def main(argv: list[str], prog: str) -> None:
     tables = TableWriter(args.out, args.prefix)
     if args.table == "fidelity":
         fidelity_command(args, tables)
+    elif args.table == "fullhd":
+        fullhd_command(args, tables)
     else:
         timings_command(args, tables, parser)
     if args.page is not None:
@@ -138,7 +163,9 @@ def fidelity_command(args: argparse.Namespace, tables: TableWriter) -> None:
     searches = fidelity.parse_exact(args.exact) + [
         fidelity.parse_schedule(text) for text in args.schedule or fidelity.DEFAULT_SCHEDULES
     ]
-    frames = check_number("--track-frames", args.track_frames, 1, 10_000, integer=True)
+    frames = check_number(
+        "--track-frames", FIDELITY_FRAMES if args.track_frames is None else args.track_frames, 1, 10_000, integer=True
+    )
     seeds = integer_list("--seeds", args.seeds, 0, 2**32 - 1)
     args.out.mkdir(parents=True, exist_ok=True)
     table = fidelity.fidelity_table(searches, frames, seeds, args.out)
@@ -157,6 +184,39 @@ def fidelity_command(args: argparse.Namespace, tables: TableWriter) -> None:
         title=f"Multi-fidelity against exact search, {frames} frames\n{machine()}",
     )
     print(f"figure: {figure}")
+
+
+def fullhd_command(args: argparse.Namespace, tables: TableWriter) -> None:
+    """``fullhd``: the full-HD recording tracked at each of ``--scales``, and the profile of
+    its foreground (:mod:`mmocap.bench.fullhd`)."""
+    scales = fullhd.parse_scales(args.scales)
+    width = check_number("--width", args.width, 64, 8192, integer=True)
+    height = check_number("--height", args.height, 64, 8192, integer=True)
+    frames = check_number(
+        "--track-frames",
+        fullhd.FULLHD_FRAMES if args.track_frames is None else args.track_frames,
+        1,
+        10_000,
+        integer=True,
+    )
+    crf = check_number("--crf", args.crf, *CRF_RANGE, integer=True)
+    args.out.mkdir(parents=True, exist_ok=True)
+    runs, profile = fullhd.fullhd_tables(scales, width, height, frames, fullhd.FULLHD_SEED, args.out, crf)
+    coding = "lossless" if crf == 0 else f"H.264 crf {crf}"
+    what = f"S1 walking, 4 cameras, {width}x{height}, {frames} frames, {coding} recording"
+    tables.write(
+        runs,
+        "fullhd",
+        f"Full HD tracked from nothing ({what}): automatic start, holistic CMA-ES 1500 evaluations, "
+        f"at each working scale; ratios to scale 1; goal: at most {fullhd.GOAL_FRAME_SECONDS:g} s per frame "
+        f"(foreground and search) at {fullhd.GOAL_ERROR_RATIO:g}x the error, start within "
+        f"{fullhd.GOAL_START_SECONDS:g} s",
+    )
+    tables.write(
+        profile,
+        "fullhd_foreground",
+        f"Where the foreground's time goes ({what}), s per frame, 4 cameras, at each working scale",
+    )
 
 
 def chosen_backends(text: str | None, parser: argparse.ArgumentParser) -> list[str]:

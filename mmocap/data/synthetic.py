@@ -55,7 +55,10 @@ def camera_rig(
 ) -> list[Camera]:
     """Cameras on a ring looking at the centre of the capture volume (y up, mm).
 
-    ``distortion`` scales the lens distortion (0 gives ideal pin-holes).
+    ``distortion`` scales the lens distortion (0 gives ideal pin-holes). The focal length
+    keeps a 640x480 image's field of view inside any ``width`` x ``height``: an image of
+    another shape sees more at its sides (16:9) or above and below, never less, so the
+    person stays in view.
     """
     ring = {name: (colour, az) for name, colour, az in CAMERA_RING}
     unknown = [n for n in names if n not in ring]
@@ -68,7 +71,7 @@ def camera_rig(
         r = radius_mm * rng.uniform(0.93, 1.07)
         eye = (r * np.sin(az), rng.uniform(1700, 2300), r * np.cos(az))
         target = (rng.uniform(-150, 150), 950, rng.uniform(-150, 150))
-        focal = rng.uniform(580, 640) * width / 640
+        focal = rng.uniform(580, 640) * min(width / 640, height / 480)
         dist = distortion * np.array(
             [
                 rng.uniform(-0.25, -0.15),

@@ -8,7 +8,7 @@ import pytest
 from mmocap.body.model import MARKER_NAMES, BodyModel
 from mmocap.data.motion import ACTIONS, generate_motion
 from mmocap.data.sequence import Sequence
-from mmocap.data.synthetic import generate
+from mmocap.data.synthetic import camera_rig, generate
 from mmocap.errors import ConfigError, DataError
 from mmocap.stages.accuracy import marker_error
 
@@ -146,3 +146,24 @@ def test_a_damaged_sequence_json_is_rendered_again(tmp_path):
     dataset.open(progress=False)
     (dataset.path / "sequence.json").write_text('{"format": "mmocap-seq')
     assert dataset.open(progress=False).n_frames == 1
+
+
+@pytest.mark.parametrize(("width", "height"), [(1920, 1080), (640, 720)])
+def test_any_image_shape_keeps_the_640x480_field_of_view(width, height):
+    names = ["C1", "C2", "C3", "BW1"]
+    base = camera_rig(names, 640, 480, np.random.default_rng(0))
+    other = camera_rig(names, width, height, np.random.default_rng(0))
+    for small, large in zip(base, other):
+        np.testing.assert_allclose(large.R, small.R)
+        # the tangents of the half fields of view, across and up
+        wide, tall = width / 2 / large.K[0, 0], height / 2 / large.K[1, 1]
+        small_wide, small_tall = 320 / small.K[0, 0], 240 / small.K[1, 1]
+        assert wide >= small_wide - 1e-12  # sees at least as far to the sides
+        assert tall >= small_tall - 1e-12  # and up and down
+        assert min(wide / small_wide, tall / small_tall) == pytest.approx(1)  # and no further in one of them
+
+
+def test_a_4_by_3_image_keeps_its_focal_length_per_pixel():
+    base = camera_rig(["C1"], 640, 480, np.random.default_rng(0))[0]
+    half = camera_rig(["C1"], 320, 240, np.random.default_rng(0))[0]
+    assert half.K[0, 0] == base.K[0, 0] / 2

@@ -128,19 +128,27 @@ class FrameSource:
 
     def read(self, index: int) -> np.ndarray:
         """Frame ``index`` (0-based) of the camera, as the class's docstring says."""
+        return self.prepared(self.decoded(index), index)
+
+    def decoded(self, index: int) -> np.ndarray:
+        """Frame ``index`` (0-based) as stored: a video's (H, W, 3) BGR, or an image file read
+        in colour or greyscale as the camera is."""
+        if self.video is not None:
+            return self.video.read(index)
+        path = self.files[index]
+        image = cv2.imread(str(path), cv2.IMREAD_COLOR if self.camera.colour else cv2.IMREAD_GRAYSCALE)
+        if image is None:
+            raise DataError(f"camera {self.camera.name}: cannot read image {path} (damaged, or not an image file)")
+        return image
+
+    def prepared(self, image: np.ndarray, index: int) -> np.ndarray:
+        """The :meth:`decoded` frame ``index`` converted to greyscale for a greyscale camera,
+        its size checked against the calibration's, and shrunk by ``scale``."""
         cam = self.camera
-        if self.video is None:
-            path = self.files[index]
-            image = cv2.imread(str(path), cv2.IMREAD_COLOR if cam.colour else cv2.IMREAD_GRAYSCALE)
-            if image is None:
-                raise DataError(f"camera {cam.name}: cannot read image {path} (damaged, or not an image file)")
-            where = f"image {path}"
-        else:
-            image = self.video.read(index)
-            if not cam.colour:
-                image = cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
-            where = f"frame {index} of video {self.path}"
+        if self.video is not None and not cam.colour:
+            image = cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
         if image.shape[:2] != (cam.height, cam.width):
+            where = f"image {self.files[index]}" if self.video is None else f"frame {index} of video {self.path}"
             raise DataError(
                 f"camera {cam.name}: {where} is {image.shape[1]}x{image.shape[0]}, its calibration "
                 f"says {cam.width}x{cam.height}: the calibration of another resolution?"
