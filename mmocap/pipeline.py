@@ -271,13 +271,14 @@ def find_start(
     the summary records about it."""
     x0, start_facts = sequence.x0, {"method": "given"}
     start_pose = parts.body.rest_pose() if x0 is None else x0
-    parts.evaluator.warm_up(parts.body, foreground, start_pose)
-    parts.fidelity.warm_up(parts.body, foreground.cameras, foreground.masks(0), start_pose)
+    first_masks = foreground.masks(0)  # once: without a cache, each call reads and segments the frame again
+    parts.evaluator.warm_up(parts.body, foreground.cameras, first_masks, start_pose)
+    parts.fidelity.warm_up(parts.body, foreground.cameras, first_masks, start_pose)
     if parts.start.wanted(has_x0=x0 is not None):
         found = parts.start.find(
             parts.body,
             foreground.cameras,
-            foreground.masks(0),
+            first_masks,
             parts.evaluator,
             parts.optimizer,
             parts.strategy,

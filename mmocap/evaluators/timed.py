@@ -14,10 +14,11 @@ class TimedEvaluator:
         self.evaluator = evaluator
         self.seconds = 0.0
 
-    def warm_up(self, body, foreground, x0: np.ndarray) -> None:
-        """One untimed evaluation of the start pose (51,) on frame 0, so that building
-        kernels, starting worker pools and filling caches do not count as tracking time."""
-        self.evaluator.setup(body, foreground.cameras, foreground.masks(0))
+    def warm_up(self, body, cameras, masks, x0: np.ndarray) -> None:
+        """One untimed evaluation of the start pose (51,) on frame 0's ``masks`` seen by
+        ``cameras``, so that building kernels, starting worker pools and filling caches do not
+        count as tracking time."""
+        self.evaluator.setup(body, cameras, masks)
         self.evaluator(body.clip(np.asarray(x0)[None]))
 
     def __call__(self, X: np.ndarray) -> np.ndarray:
