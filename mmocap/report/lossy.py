@@ -168,23 +168,38 @@ def lossy_table(runs: pd.DataFrame) -> pd.DataFrame:
     return table.rename_axis("Sequence").reset_index()
 
 
-def table_main(args) -> None:
-    """``mmocap lossy table``: the table of the sweep ``args.folder``, on ``args.page`` if given."""
-    runs = runs_table(args.folder)
+def _section(runs: pd.DataFrame, what: str, name: str, args) -> str:
+    """The lossy table of ``runs`` written to ``args.out/tables/<name>.*`` and printed; returns
+    its page section: a title naming ``what`` was tracked and how many sequences met the goal."""
     table = lossy_table(runs)
     met = int((table["goal met"] == "yes").sum())
     title = (
-        f"Lossy video: mean marker error (mm) tracked from nothing on each recording, and the mean foreground "
-        f"fraction of its tracked frames; goal: ratio <= {LOSSY_GOAL} to the lossless run (met on {met} of "
-        f"{len(table)} sequences)"
+        f"Lossy video, {what}: mean marker error (mm) tracked from nothing on each recording, and the mean "
+        f"foreground fraction of its tracked frames; goal: ratio <= {LOSSY_GOAL} to the lossless run (met on "
+        f"{met} of {len(table)} sequences)"
     )
-    source = f"{args.folder}: {len(runs)} runs"
-    written = write_table(table, args.out / "tables" / "lossy", title=title, source=source, floatfmt=".2f")
+    source = f"{len(runs)} runs"
+    written = write_table(table, args.out / "tables" / name, title=title, source=source, floatfmt=".2f")
     print(Path(written[1]).read_text(), end="")
+    # the page's stamp says when and where: the title as a sentence, then the table
+    body = Path(written[1]).read_text().split("\n\n", 2)[2].strip("\n")
+    return f"{title}.\n\n{body}"
+
+
+def table_main(args) -> None:
+    """``mmocap lossy table``: the table of the sweep ``args.folder`` and, with
+    ``args.segmentation``, a second one whose compressed recordings were segmented instead
+    (their runs against the same lossless ones); on ``args.page`` if given."""
+    runs = runs_table(args.folder)
+    sections = {"lossy": _section(runs, "the plate's foreground (Horprasert)", "lossy", args)}
+    if args.segmentation is not None:
+        reference = runs[runs.crf == runs.crf.min()]
+        segmented = runs_table(args.segmentation)
+        segmented = segmented[segmented.crf != reference.crf.min()]
+        what = "the compressed recordings segmented (foreground.method=segmentation), the lossless ones as above"
+        sections["lossy_segmentation"] = _section(pd.concat([reference, segmented]), what, "lossy_segmentation", args)
     if args.page is not None:
-        # the page's stamp says when and where: the title as a sentence, then the table
-        body = Path(written[1]).read_text().split("\n\n", 2)[2].strip("\n")
-        update_page(args.page, args.target, None, {"lossy": f"{title}.\n\n{body}"})
+        update_page(args.page, args.target, None, sections, order=["lossy", "lossy_segmentation"])
         print(f"written: {args.page}")
 
 
@@ -202,6 +217,11 @@ def main(argv: list[str], prog: str) -> None:
         "--out", type=Path, default=Path("outputs"), help="writes OUT/tables/lossy.* (default: %(default)s)"
     )
     last.add_argument("--page", type=Path, help="also put the table on this results page (docs/results/lossy.md)")
+    last.add_argument(
+        "--segmentation",
+        type=Path,
+        help="a sweep of the compressed recordings with foreground.method=segmentation: a second table",
+    )
     last.add_argument("--target", default="lossy", help="the make target the page's stamp names")
     args = parser.parse_args(argv)
     if args.step == "prepare":

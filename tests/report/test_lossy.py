@@ -1,11 +1,14 @@
 """`make lossy` (mmocap.report.lossy): recordings written once per crf, the sweep that tracks
 them from nothing, and the table that compares each compressed run with the lossless one."""
 
+from types import SimpleNamespace
+
 import numpy as np
 import pandas as pd
 import pytest
 
 from mmocap.errors import DataError
+from mmocap.report import lossy
 from mmocap.report.lossy import LOSSY_GOAL, lossy_table, prepare
 from mmocap.video import VideoReader, count_frames
 from tests.helpers import mmocap
@@ -108,3 +111,21 @@ def test_the_table_compares_each_crf_with_the_lossless_run():
 def test_the_table_needs_two_crf_values():
     with pytest.raises(DataError, match=r"two crf values at least; the runs hold \[23\]"):
         lossy_table(runs({("S1_walking", 23): 14.0}))
+
+
+def test_a_segmented_sweep_is_a_second_table_against_the_same_lossless_runs(tmp_path, monkeypatch, capsys):
+    plate = runs({("S1_walking", 0): 10.0, ("S1_walking", 23): 30.0})
+    segmented = runs({("S1_walking", 23): 12.0})
+    monkeypatch.setattr(lossy, "runs_table", lambda folder: {"plate": plate, "seg": segmented}[folder.name])
+    page = tmp_path / "lossy.md"
+    args = SimpleNamespace(
+        folder=tmp_path / "plate", segmentation=tmp_path / "seg", out=tmp_path, page=page, target="lossy"
+    )
+    lossy.table_main(args)
+    first = pd.read_csv(tmp_path / "tables" / "lossy.csv", comment="#").iloc[0]
+    second = pd.read_csv(tmp_path / "tables" / "lossy_segmentation.csv", comment="#").iloc[0]
+    assert (first["ratio crf 23"], first["goal met"]) == (3.0, "no")
+    assert (second["lossless (mm)"], second["ratio crf 23"], second["goal met"]) == (10.0, 1.2, "yes")
+    text = page.read_text()
+    assert text.index("<!-- table: lossy -->") < text.index("<!-- table: lossy_segmentation -->")
+    assert "met on 1 of 1 sequences" in text
