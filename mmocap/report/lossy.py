@@ -37,6 +37,7 @@ from mmocap.data.recording.reader import write_recording
 from mmocap.data.sequence import Sequence
 from mmocap.errors import ConfigError, DataError
 from mmocap.io import read_json_object, write_json_atomic
+from mmocap.pipeline import open_foreground
 from mmocap.report.results_page import update_page
 from mmocap.stages.foreground import Foreground
 
@@ -109,10 +110,14 @@ def ensure_recording(sequence: Sequence, folder: Path, crf: int, yaw_deg: float 
 
 def foreground_fraction(run_config: dict, frames: int) -> float:
     """Mean fraction of the image that the run's foreground covers over its first ``frames``
-    frames and its cameras (the masks the run tracked against, from its cache)."""
+    frames and its cameras (the masks the run tracked against, by its foreground method, from
+    its cache)."""
     cfg = OmegaConf.create(run_config)
     sequence = instantiate(cfg.dataset).open(progress=False)
-    foreground = Foreground(sequence, instantiate(cfg.background), cache_dir=cfg.foreground_cache)
+    if "foreground" in cfg:
+        foreground = open_foreground(cfg, sequence, cache_dir=cfg.foreground_cache)
+    else:  # a run recorded before foreground.method, when the plate was the only foreground
+        foreground = Foreground(sequence, instantiate(cfg.background), cache_dir=cfg.foreground_cache)
     fractions = [np.count_nonzero(mask) / mask.size for frame in range(frames) for mask in foreground.masks(frame)]
     return float(np.mean(fractions))
 
