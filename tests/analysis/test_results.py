@@ -21,6 +21,9 @@ from tests.helpers import compose_config, record_of
 
 SINGLE_RUNS = ("demo", "fig5")  # experiments that are one run, not a sweep
 EXPERIMENTS = [name for name in mmocap_config.options("experiment") if name not in SINGLE_RUNS]
+#: experiments whose scale is chosen under their own package (its dataset settings describe the
+#: synthetic sequences their recordings are written from)
+SCALE_PACKAGES = {"lossy": "scale@lossy"}
 
 
 def test_run_key_ignores_outputs_and_presentation_only():
@@ -285,10 +288,14 @@ JOBS = {
 @pytest.mark.parametrize("experiment", EXPERIMENTS)
 @pytest.mark.parametrize("scale", ["smoke", "default", "paper"])
 def test_every_experiment_composes_at_every_scale(experiment, scale):
-    cfg = compose_config(f"+experiment={experiment}", f"scale={scale}", hydra=True)
+    key = SCALE_PACKAGES.get(experiment, "scale")
+    cfg = compose_config(f"+experiment={experiment}", f"{key}={scale}", hydra=True)
     values = sweep_overrides(cfg)
     assert cfg.hydra.sweep.dir == f"outputs/sweeps/{experiment}/{scale}"
-    assert cfg.dataset.root == f"outputs/data/{scale}"
+    if experiment in SCALE_PACKAGES:  # its dataset is a recording written from the scale's sequences
+        assert cfg.dataset.root.startswith(f"outputs/recordings/{experiment}/{scale}/")
+    else:
+        assert cfg.dataset.root == f"outputs/data/{scale}"
     assert all(v and "$" not in "".join(v) for v in values.values()), values
     jobs = math.prod(len(v) for v in values.values())
     if (experiment, scale) in JOBS:
