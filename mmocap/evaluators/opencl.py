@@ -303,12 +303,12 @@ class OpenCLEvaluator(SilhouetteEvaluator):
         """The OpenCL devices the population is split over."""
         return [device_queue.device for device_queue in self._device_queues]
 
-    def setup(self, body, cameras, foreground) -> None:
+    def setup(self, body, cameras, foreground, keypoints=None) -> None:
         """As the base class; masks of the foreground stage (``ForegroundMask``) bring their
         rows packed in this evaluator's layout, which are uploaded without repacking."""
         given = foreground if isinstance(foreground, (list, tuple)) else []
         self._packed = [getattr(m, "packed", None) for m in given]
-        super().setup(body, cameras, foreground)
+        super().setup(body, cameras, foreground, keypoints)
 
     def _prepare(self) -> None:
         # the body's arrays only when the body is another object than last frame's (making and

@@ -70,7 +70,9 @@ from typing import Any, Self
 import numpy as np
 from threadpoolctl import threadpool_limits
 
+from mmocap.body.keypoints import model_points
 from mmocap.errors import ConfigError, DataError
+from mmocap.evaluators.keypoint_term import Keypoints, person_height_px
 
 NEAR_MM = 1.0
 MAX_SIDE = 2**30  # patch sides are capped here (far beyond any image)
@@ -183,6 +185,41 @@ def project(coefficients: np.ndarray, table: np.ndarray) -> tuple[np.ndarray, ..
         cx = np.floor((a[0] * x + a[1] * y + a[2] * z + a[3]) * r + half)
         cy = np.floor((a[4] * x + a[5] * y + a[6] * z + a[7]) * r + half)
     return keep, cx, cy
+
+
+def keypoint_pixels(coefficients: np.ndarray, joint: np.ndarray, rest: np.ndarray) -> np.ndarray:
+    """Project model points with the silhouette rule's float32 arithmetic.
+
+    With ``a`` the float32 coefficients of the point's joint in a view
+    (:func:`view_geometry`) and ``x, y, z`` its rest position
+    rounded to float32, in IEEE single precision, each operation rounded, no fused
+    multiply-add, sums left to right::
+
+        depth = a20 * x + a21 * y + a22 * z + a23
+        r = 1 / depth
+        u = (a00 * x + a01 * y + a02 * z + a03) * r
+        v = (a10 * x + a11 * y + a12 * z + a13) * r
+
+    and NaN for both where ``depth <= NEAR_MM``.
+
+    Args:
+        coefficients: (n, C, J, 16) float32.
+        joint: (K,) int joint of each point.
+        rest: (K, 3) rest positions, mm.
+
+    Returns:
+        (n, C, K, 2) float32 pixel coordinates.
+    """
+    a = np.moveaxis(coefficients[:, :, joint, :], -1, 0)  # (16, n, C, K)
+    x, y, z = np.asarray(rest, np.float32).T
+    depth = a[8] * x + a[9] * y + a[10] * z + a[11]
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        r = np.float32(1) / depth
+        u = (a[0] * x + a[1] * y + a[2] * z + a[3]) * r
+        v = (a[4] * x + a[5] * y + a[6] * z + a[7]) * r
+    out = np.stack([u, v], axis=-1)
+    out[~(depth > np.float32(NEAR_MM))] = np.nan
+    return out
 
 
 def fitness_from_counts(model_px: np.ndarray, overlap_px: np.ndarray, fg_px: np.ndarray) -> np.ndarray:
@@ -345,10 +382,13 @@ class SilhouetteEvaluator:
         self.cameras: list = []
         self.foreground: list[np.ndarray] = []
         self.fg_px = np.zeros(0, dtype=np.int64)
+        self.keypoints: Keypoints | None = None
         self._claimed_cores = False
 
-    def setup(self, body, cameras, foreground) -> None:
-        """Upload one frame: the body, C cameras and C (H_c, W_c) bool-like foreground masks."""
+    def setup(self, body, cameras, foreground, keypoints: Keypoints | None = None) -> None:
+        """Upload one frame: the body, C cameras, C (H_c, W_c) bool-like foreground masks and
+        optionally the C cameras' 2-D keypoints, which add the keypoint term to the fitness
+        (:mod:`mmocap.evaluators.keypoint_term`)."""
         cameras = list(cameras)
         if not cameras:
             raise DataError("the evaluator needs at least one camera")
@@ -357,10 +397,20 @@ class SilhouetteEvaluator:
         self.fg_px = np.array([np.count_nonzero(m) for m in self.foreground], dtype=np.int64)
         self.cameras = cameras
         self.body = body
+        self._set_keypoints(keypoints)
         if self.owns_cores and not self._claimed_cores:
             _BLAS.claim()
             self._claimed_cores = True
         self._prepare()
+
+    def _set_keypoints(self, keypoints: Keypoints | None) -> None:
+        self.keypoints = keypoints
+        if keypoints is None:
+            return
+        if len(keypoints.observed) != len(self.cameras):
+            raise DataError(f"got keypoints of {len(keypoints.observed)} cameras for {len(self.cameras)} cameras")
+        self._point_joint, self._point_rest = model_points(self.body, keypoints.points, keypoints.offsets_mm)
+        self._height_px = np.array([person_height_px(m) for m in self.foreground])
 
     def _prepare(self) -> None:
         """Backend hook: per-frame precomputation after :meth:`setup` stored its inputs."""
@@ -379,9 +429,35 @@ class SilhouetteEvaluator:
         return self._counts(X)
 
     def __call__(self, X: np.ndarray) -> np.ndarray:
-        """(n, P) poses -> (n,) fitness in [0, 1] (0 = perfect match)."""
-        model_px, overlap_px = self.counts(X)
-        return fitness_from_counts(model_px, overlap_px, self.fg_px)
+        """(n, P) poses -> (n,) fitness (0 = perfect match): the silhouettes' in [0, 1], plus
+        the weighted keypoint term when the frame has keypoints."""
+        if self.keypoints is None or self.keypoints.term.weight == 0:
+            model_px, overlap_px = self.counts(X)
+            return fitness_from_counts(model_px, overlap_px, self.fg_px)
+        model_px, overlap_px, pixels = self.counts_and_pixels(X)
+        term = self.keypoints.term
+        silhouette = fitness_from_counts(model_px, overlap_px, self.fg_px)
+        return silhouette + term.weight * term.value(pixels, self.keypoints.observed, self._height_px)
+
+    def counts_and_pixels(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(n, P) poses -> the counts of :meth:`counts` and the model points' pixels
+        (n, C, K, 2) float32 (:func:`~mmocap.evaluators.keypoint_term.keypoint_pixels`),
+        equal for every backend; K = 0 without keypoints."""
+        self._require_setup()
+        X = check_poses(X)
+        if self.keypoints is None:
+            return *self.counts(X), np.zeros((len(X), len(self.cameras), 0, 2), np.float32)
+        if len(X) == 0:
+            empty = np.zeros((0, len(self.cameras)), dtype=np.int64)
+            return empty, empty.copy(), np.zeros((0, len(self.cameras), len(self._point_joint), 2), np.float32)
+        return self._counts_and_pixels(X)
+
+    def _counts_and_pixels(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Backend hook: counts and keypoint pixels in one pass; by default the counts, then
+        the pixels from :func:`view_geometry` on the host."""
+        model_px, overlap_px = self._counts(X)
+        coefficients, _ = view_geometry(self.body, self.cameras, X, self.patch_scale)
+        return model_px, overlap_px, keypoint_pixels(coefficients, self._point_joint, self._point_rest)
 
     def render(self, x: np.ndarray, camera_index: int) -> np.ndarray:
         """(P,) pose -> (H, W) bool model silhouette ``M_c`` in camera ``camera_index``."""
@@ -403,6 +479,7 @@ class SilhouetteEvaluator:
         self.cameras = []
         self.foreground = []
         self.fg_px = np.zeros(0, dtype=np.int64)
+        self.keypoints = None
         if self._claimed_cores:
             _BLAS.release()
             self._claimed_cores = False

@@ -186,9 +186,9 @@ class Fidelity:
             self._bodies[key] = body.resampled(vertices)
         return self._bodies[key]
 
-    def setup(self, body, cameras, masks) -> None:
-        """Upload one frame to every level: the body at the level's vertices, C cameras and
-        their C (H_c, W_c) masks shrunk by the level's scale."""
+    def setup(self, body, cameras, masks, keypoints=None) -> None:
+        """Upload one frame to every level: the body at the level's vertices, C cameras,
+        their C (H_c, W_c) masks and their keypoints (or None), shrunk by the level's scale."""
         if not self._evaluators:
             self._evaluators = [self._new_evaluator() for _ in self.levels]
         for level, evaluator in zip(self.levels, self._evaluators):
@@ -197,6 +197,7 @@ class Fidelity:
                 self.level_body(body, level.vertices),
                 small,
                 [shrunk_mask(m, cam.width, cam.height) for m, cam in zip(masks, small)],
+                None if keypoints is None else keypoints.on(cameras, small),
             )
 
     def warm_up(self, body, cameras, masks, x0: np.ndarray) -> None:
