@@ -6,7 +6,7 @@ STAMP  := $(VENV)/.installed
 MMOCAP := $(VENV)/bin/mmocap
 # Example plugins and the templates, installed (not editable: Hydra finds their configs in site-packages) so
 # that the test suite runs them like a user's own plugin.
-PLUGINS       := plugins/mmocap-pycma plugins/template-optimizer plugins/template-evaluator
+PLUGINS       := plugins/mmocap-pycma plugins/template-optimizer plugins/template-evaluator plugins/template-detector
 PLUGIN_FILES  := $(shell find $(PLUGINS) -name '*.py' -o -name '*.toml' -o -name '*.yaml')
 # Person segmentation (the segment extra brings what it imports; see pyproject.toml for why
 # MediaPipe comes without its declared dependencies).

@@ -149,3 +149,21 @@ class Evaluator(Protocol):
 
     def __exit__(self, *exc: object) -> None:
         """Close."""
+
+
+@runtime_checkable
+class Detector(Protocol):
+    """A 2-D keypoint detector (``keypoints.source=detector``, ``keypoints.detector=<name>``).
+
+    Attributes:
+        skeleton: the name of the skeleton it finds, one of
+            :data:`mmocap.data.skeletons.SKELETONS` (its joints' order is the rows').
+    """
+
+    @property
+    def skeleton(self) -> str: ...
+
+    def __call__(self, image: np.ndarray) -> np.ndarray:
+        """(H, W, 3) BGR or (H, W) grey 8-bit image, as the camera recorded it (with its
+        lens distortion) -> (J, 3) float: ``u, v`` px in that image and the confidence in
+        [0, 1] per joint of the skeleton; all 0 for a joint (or a person) not found."""

@@ -44,6 +44,7 @@ from mmocap.preflight import check_config
 from mmocap.run_folder import ERROR_PLOT, EXPORT_FOLDER, FRAMES, OVERLAYS, RUN_LOCK, RUN_OUTPUTS, TRACES, Summary
 from mmocap.stages.accuracy import FrameLog, marker_error
 from mmocap.stages.foreground import Foreground, choose_method
+from mmocap.stages.keypoints import KeypointStream
 from mmocap.stages.tracking import track
 from mmocap.writers.export import export_motion, exported_files, read_poses
 from mmocap.writers.overlays import write_overlays
@@ -133,6 +134,7 @@ class Components:
     recovery: Any
     fidelity: Any
     plausibility: Any
+    keypoints: Any
 
 
 @dataclass
@@ -175,11 +177,13 @@ def _run(cfg: DictConfig, output_dir: Path, warning_messages: list[str]) -> dict
     started = provenance.now()
     parts = build_components(cfg)  # first: a bad value fails before any data is rendered or read
     sequence, truth, foreground = open_sequence(cfg, parts.body)
+    keypoints = parts.keypoints.open(sequence, foreground)
     rng = np.random.default_rng(int(cfg.seed))
-    x0, start_facts = find_start(cfg, parts, sequence, foreground, rng)
-    tracking = track_frames(cfg, output_dir, parts, sequence, foreground, truth, x0, rng)
+    x0, start_facts = find_start(cfg, parts, sequence, foreground, rng, keypoints)
+    tracking = track_frames(cfg, output_dir, parts, sequence, foreground, truth, x0, rng, keypoints)
     parts.plausibility.check_run(tracking.mean_best_fitness)
     summary = make_summary(cfg, run_id, parts, sequence, tracking, start_facts, warning_messages)
+    summary.keypoints = None if keypoints is None else keypoints.summary()
     write_outputs(cfg, output_dir, parts, sequence, foreground, truth, tracking, summary)
     summary.write(output_dir)  # the last output: the run is complete
     parts.evaluator.close()
@@ -229,6 +233,7 @@ def build_components(cfg: DictConfig) -> Components:
             optimizer=lambda **settings: instantiate(cfg.optimizer, **settings),
         ),
         plausibility=instantiate(cfg.plausibility),
+        keypoints=instantiate(cfg.keypoints),
     )
     parts.strategy.check(parts.body, parts.optimizer, int(cfg.tracking.evaluations))
     parts.fidelity.check(parts.strategy)
@@ -263,15 +268,25 @@ def open_foreground(cfg: DictConfig, sequence, cache_dir) -> Foreground:
 
 
 def find_start(
-    cfg: DictConfig, parts: Components, sequence, foreground: Foreground, rng: np.random.Generator
+    cfg: DictConfig,
+    parts: Components,
+    sequence,
+    foreground: Foreground,
+    rng: np.random.Generator,
+    keypoints: KeypointStream | None = None,
 ) -> tuple[np.ndarray | None, dict]:
     """Warm the evaluators up and find the first frame's pose: the sequence's own (``x0``,
     mm and rad), or, when the automatic start is wanted, the one it finds (its body, fitted,
-    replaces ``parts.body``). Returns the start pose (None: the tracker's default) and the facts
-    the summary records about it."""
+    replaces ``parts.body``), from the first frame's ``keypoints`` too when there are any and
+    ``keypoints.use_for_start``. Returns the start pose (None: the tracker's default) and the
+    facts the summary records about it."""
     x0, start_facts = sequence.x0, {"method": "given"}
     start_pose = parts.body.rest_pose() if x0 is None else x0
-    first_masks = foreground.masks(0)  # once: without a cache, each call reads and segments the frame again
+    # once: without a cache, each call reads and segments the frame again
+    first_masks, first_landmarks = foreground.detections(0)
+    first_keypoints = None
+    if keypoints is not None and parts.keypoints.use_for_start:
+        first_keypoints = keypoints.frame(0, first_landmarks)
     parts.evaluator.warm_up(parts.body, foreground.cameras, first_masks, start_pose)
     parts.fidelity.warm_up(parts.body, foreground.cameras, first_masks, start_pose)
     if parts.start.wanted(has_x0=x0 is not None):
@@ -285,6 +300,7 @@ def find_start(
             rng,
             fit_height=cfg.body.get("height_mm") is None,
             fit_girth=cfg.body.get("girth") is None,
+            keypoints=first_keypoints,
         )
         parts.body, x0, start_facts = found.body, found.pose, found.summary()
         parts.plausibility.check_start(found)
@@ -308,9 +324,11 @@ def track_frames(
     truth: np.ndarray,
     x0: np.ndarray | None,
     rng: np.random.Generator,
+    keypoints: KeypointStream | None = None,
 ) -> Tracking:
-    """Track the frames of ``truth`` ((frames, M, 3) mm) from ``x0``, writing each frame's row
-    to ``frames.csv`` as it is tracked (``frames.csv.partial`` until the last one, where a
+    """Track the frames of ``truth`` ((frames, M, 3) mm) from ``x0``, with each frame's
+    ``keypoints`` in the fitness when there are any, writing each frame's row to
+    ``frames.csv`` as it is tracked (``frames.csv.partial`` until the last one, where a
     stopped run leaves it)."""
     body = parts.body
     frame_log = FrameLog(output_dir / FRAMES)
@@ -352,6 +370,7 @@ def track_frames(
             rng=rng,
             recovery=parts.recovery,
             fidelity=parts.fidelity,
+            keypoints=keypoints,
         )
     except BaseException:
         frame_log.close(complete=False)  # the frames tracked stay in frames.csv.partial

@@ -1,7 +1,7 @@
-"""Discovery of optimisers and evaluators through entry points.
+"""Discovery of optimisers, evaluators and keypoint detectors through entry points.
 
 Built-in components are registered in mmocap's own ``pyproject.toml`` under the groups
-``mmocap.optimizers`` and ``mmocap.evaluators``, exactly as a third-party plugin registers
+``mmocap.optimizers``, ``mmocap.evaluators`` and ``mmocap.detectors``, exactly as a third-party plugin registers
 its own; Hydra configs build them with ``_target_: mmocap.registry.make_optimizer``.
 
 A registered class may say that it cannot run here with a classmethod
@@ -10,7 +10,7 @@ when it can run): ``mmocap list`` shows the reason, and building it is a ConfigE
 gives it. A class without that method is taken to be available.
 
 What is built is typed as the Protocol of its kind (:class:`mmocap.api.Optimizer`,
-:class:`mmocap.api.Evaluator`): a plugin is not checked against it statically, the
+:class:`mmocap.api.Evaluator`, :class:`mmocap.api.Detector`): a plugin is not checked against it statically, the
 built-in components are (``tests/test_api_types.py``).
 """
 
@@ -19,14 +19,14 @@ from __future__ import annotations
 from importlib.metadata import EntryPoint, entry_points
 from typing import Any, cast
 
-from mmocap.api import Evaluator, Optimizer
+from mmocap.api import Detector, Evaluator, Optimizer
 from mmocap.errors import ConfigError
 
-GROUPS = {"optimizer": "mmocap.optimizers", "evaluator": "mmocap.evaluators"}
+GROUPS = {"optimizer": "mmocap.optimizers", "evaluator": "mmocap.evaluators", "detector": "mmocap.detectors"}
 
 
 def available(kind: str) -> dict[str, EntryPoint]:
-    """Installed entry points of one kind (``optimizer`` or ``evaluator``), by name."""
+    """Installed entry points of one kind (``optimizer``, ``evaluator`` or ``detector``), by name."""
     return {ep.name: ep for ep in entry_points(group=GROUPS[kind])}
 
 
@@ -75,8 +75,13 @@ def make_evaluator(name: str, **params: Any) -> Evaluator:
     return cast(Evaluator, _build("evaluator", name, params))
 
 
+def make_detector(name: str, **params: Any) -> Detector:
+    """Build the keypoint detector registered as ``name`` with its parameters."""
+    return cast(Detector, _build("detector", name, params))
+
+
 def describe() -> str:
-    """Text listing every installed optimiser and evaluator with where it comes from, and
+    """Text listing every installed optimiser, evaluator and detector with where it comes from, and
     for one that cannot be used here, why (see :func:`unavailable`)."""
     lines = []
     for kind in GROUPS:

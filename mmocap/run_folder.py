@@ -97,6 +97,9 @@ class Summary:
     body: dict | None = None
     #: how the first pose was found (:meth:`mmocap.stages.initialisation.Start.summary`)
     start: dict | None = None
+    #: the 2-D keypoints in the fitness: source, skeleton, weight, how often each point was
+    #: seen (:meth:`mmocap.stages.keypoints.KeypointStream.summary`); null: silhouettes only
+    keypoints: dict | None = None
     #: the plausibility checks that failed (:meth:`mmocap.stages.plausibility.Plausibility.findings`)
     plausibility: list | None = None
     #: the recoveries (:meth:`mmocap.stages.recovery.RecoveryEvent.summary`)

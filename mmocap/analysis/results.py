@@ -93,12 +93,15 @@ FRAME_COLUMNS = ["run_id", "frame", "marker_error_mm", "fitness"]
 
 
 def key_config(cfg: DictConfig) -> dict:
-    """The resolved config that identifies a run: everything but ``NOT_IN_KEY``, and
-    ``fidelity`` when it has no levels (an exact search, as before that stage existed, so
-    that the records made then still match)."""
+    """The resolved config that identifies a run: everything but ``NOT_IN_KEY``, and the
+    blocks of stages that the run does not use, so that the records made before those
+    stages existed still match: ``fidelity`` when it has no levels (an exact search), and
+    ``keypoints`` when its source is ``none`` (silhouettes only)."""
     kept = {}
     for key in cfg:
         if key == "fidelity" and not cfg[key].get("levels"):
+            continue
+        if key == "keypoints" and cfg[key].get("source") == "none":
             continue
         if key not in NOT_IN_KEY:
             node = cfg[key]  # interpolations resolve against the whole config

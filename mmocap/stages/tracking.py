@@ -18,6 +18,7 @@ import math
 import time
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -273,6 +274,15 @@ def check_budget(evaluations) -> int:
     return check_number("tracking.evaluations", evaluations, START_EVALUATIONS + 1, MAX_EVALUATIONS, integer=True)
 
 
+def frame_views(foreground, keypoints, frame: int) -> tuple[list, Any]:
+    """The masks of ``frame`` (C) and its keypoints (None without a ``keypoints`` stream),
+    the foreground read once."""
+    if keypoints is None:
+        return foreground.masks(frame), None
+    masks, landmarks = foreground.detections(frame)
+    return masks, keypoints.frame(frame, landmarks)
+
+
 def track(
     sequence,
     body,
@@ -289,6 +299,7 @@ def track(
     rng: np.random.Generator | None = None,
     recovery=None,
     fidelity=None,
+    keypoints=None,
 ) -> list[FrameResult]:
     """Track ``frames`` frames (default: all) of ``sequence`` from the first frame's pose
     ``x0`` ((51,) mm and rad; default: the sequence's).
@@ -301,7 +312,8 @@ def track(
     is lost again; its evaluations are added to the frame's. ``fidelity`` (a
     :class:`mmocap.stages.fidelity.Fidelity` with levels) spends each frame's first
     evaluations on cheaper fitness levels and its last ``evaluations`` exactly; theirs are
-    added to the frame's. Every result's ``trace`` records all of its frame's exact
+    added to the frame's. ``keypoints`` (a :class:`mmocap.stages.keypoints.KeypointStream`)
+    adds each frame's 2-D keypoints to the fitness. Every result's ``trace`` records all of its frame's exact
     evaluations (:class:`Trace`), a recovery's included, and counts the cheaper ones.
     """
     evaluations = check_budget(evaluations)
@@ -310,6 +322,7 @@ def track(
         raise ConfigError(f"tracking.frames must be in [1, {sequence.n_frames}], got {frames}")
     rng = np.random.default_rng(seed) if rng is None else rng
     cameras = foreground.cameras
+    names = [cam.name for cam in cameras]
     x0 = sequence.x0 if x0 is None else x0
     if x0 is None:
         raise ConfigError(
@@ -320,13 +333,16 @@ def track(
     results = []
     for frame in range(n):
         read = time.perf_counter()
-        masks = foreground.masks(frame)
+        masks, frame_keypoints = frame_views(foreground, keypoints, frame)
         start = time.perf_counter()
         views = (cameras, masks) if coverage is None else coverage.select(frame, cameras, masks, last_frame=n - 1)
-        evaluator.setup(body, *views)
+        if frame_keypoints is not None and len(views[0]) < len(cameras):
+            frame_keypoints = frame_keypoints.select([names.index(cam.name) for cam in views[0]])
+        with_keypoints = {} if frame_keypoints is None else {"keypoints": frame_keypoints}
+        evaluator.setup(body, *views, **with_keypoints)
         trace = Trace(evaluator)
         if fidelity is not None and fidelity.enabled:
-            fidelity.setup(body, *views)
+            fidelity.setup(body, *views, **with_keypoints)
             x, f, used = fidelity.estimate(strategy, body, x_prev, trace, optimizer, evaluations, rng)
         else:
             x, f, used = strategy.estimate(body, x_prev, trace, optimizer, evaluations, rng)

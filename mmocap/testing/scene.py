@@ -34,3 +34,17 @@ class Scene:
     def candidates(self, n: int, seed: int = 1) -> np.ndarray:
         """(n, 51) poses around the reference pose."""
         return self.pose + self.noise(np.random.default_rng(seed), n, 0.05)
+
+
+#: the synthetic sequence the detector conformance suite renders (:func:`mmocap.data.synthetic.generate`
+#: settings): 640x480, a colour and a greyscale camera, 2 frames
+CONFORMANCE_SEQUENCE = dict(
+    subject="S1",
+    action="walking",
+    frames=2,
+    cameras=("C1", "BW1"),
+    width=640,
+    height=480,
+    background_frames=2,
+    seed=5,
+)
