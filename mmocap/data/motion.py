@@ -125,11 +125,19 @@ def boxing(t: np.ndarray, p: _Pose, rng: np.random.Generator) -> None:
 
 
 def generate_motion(
-    action: str, n_frames: int, fps: float, floor_offset_mm: float, seed: int = 0, variation_rad: float = 0.05
+    action: str,
+    n_frames: int,
+    fps: float,
+    floor_offset_mm: float,
+    seed: int = 0,
+    variation_rad: float = 0.05,
+    turn_deg: float = 0.0,
 ) -> np.ndarray:
     """(n_frames, 51) ground-truth poses of one action, clipped to the joint limits.
 
-    ``floor_offset_mm`` is the root height of the standing rest pose (feet on y = 0).
+    ``floor_offset_mm`` is the root height of the standing rest pose (feet on y = 0);
+    ``turn_deg`` turns the whole motion about the vertical axis through the world's origin
+    (the person faces and moves that many degrees further round, the cameras stay).
     """
     generators = {"walking": walking, "gestures": gestures, "boxing": boxing}
     if action not in generators:
@@ -144,5 +152,10 @@ def generate_motion(
     rotations = dof_mask(39).copy()
     rotations[:3] = False
     p.X[:, rotations] += _smooth_noise(t, rng, variation_rad)[:, rotations]
+    turn = np.radians(turn_deg)
+    x, z = p["Root.tx"].copy(), p["Root.tz"].copy()
+    p["Root.tx"] = x * np.cos(turn) + z * np.sin(turn)
+    p["Root.tz"] = -x * np.sin(turn) + z * np.cos(turn)
+    p["Root.ry"] = p["Root.ry"] + turn
     lower, upper = limits()
     return np.clip(p.X, lower, upper)
