@@ -13,7 +13,10 @@ key), ``run_dir_busy``, Hydra's own settings).
 - ``runs``: one row per run: run_id, subject, action, sequence, seed, optimizer, strategy,
   algorithm (``"<optimizer>-<strategy>"``), settings (the optimiser settings preset the run
   named, ``paper`` or ``tuned`` (``conf/settings/``), empty if none), realism (the synthetic
-  data's ``realism`` level, ``conf/realism/``; empty for other datasets), dof, evaluations (per
+  data's ``realism`` level, ``conf/realism/``; empty for other datasets), keypoints (where the
+  fitness's 2-D keypoints came from: ``files``, ``segmentation``, ``detector``, or ``none``
+  for silhouettes only), keypoint_weight (the keypoint term's weight, 0 without keypoints),
+  dof, evaluations (per
   frame), vertices, backend, frames, mean_marker_error_mm, mean_best_fitness (the mean over
   the frames of each frame's best silhouette fitness, Yeguas Eq. 5: in [0, 1], 0 = the model
   covers the foreground exactly), seconds_per_frame (wall time of the search, the foreground
@@ -75,6 +78,8 @@ RUN_COLUMNS = [
     "algorithm",
     "settings",
     "realism",
+    "keypoints",
+    "keypoint_weight",
     "dof",
     "evaluations",
     "vertices",
@@ -325,6 +330,7 @@ def run_row(record: dict, source: str = "record") -> dict:
     evaluation = t.get("evaluation_seconds_per_frame")
     start = s.get("start") if isinstance(s.get("start"), dict) else {}  # records before the automatic start
     settings, realism = variant_names(record.get("config"))
+    keypoints = s.get("keypoints") if isinstance(s.get("keypoints"), dict) else {}  # silhouettes only, or older
     return {
         "run_id": record["run_id"],
         "subject": s["subject"],
@@ -336,6 +342,8 @@ def run_row(record: dict, source: str = "record") -> dict:
         "algorithm": f"{s['optimizer']}-{s['strategy']}",
         "settings": settings,
         "realism": realism,
+        "keypoints": keypoints.get("source", "none"),  # type: ignore[union-attr]
+        "keypoint_weight": float(keypoints.get("weight", 0.0)),  # type: ignore[union-attr]
         "dof": int(s["dof"]),
         "evaluations": int(s["evaluations_per_frame"]),
         "vertices": int(s["vertices"]),
