@@ -16,11 +16,12 @@ outside the hip joint), so the joint distance has a floor above zero even for a 
 
 Command line::
 
-    mmocap held-out RUN --camera NAME [--csv FILE] [--md FILE] [--page PAGE --target T --runs RUN...]
+    mmocap held-out RUN [RUN...] --camera NAME [--md FILE] [--page PAGE --target T --runs RUN...]
 
-writes one row per frame to ``--csv`` (default ``RUN/held_out_<camera>.csv``) and prints the
-summary table (also written to ``--md``; ``--page`` puts it on a stamped results page, after
-a table of the runs: RUN and those of ``--runs``, with their times, fitness and body).
+writes one row per frame to ``RUN/held_out_<camera>.csv`` and prints the summary table, with
+a mean and a median column per RUN side by side (say, tracked with and without the keypoint
+term); ``--md`` writes it too, and ``--page`` puts it on a stamped results page, after a table
+of the runs: those of ``--runs`` and each RUN, with their times, fitness and body.
 """
 
 from __future__ import annotations
@@ -111,7 +112,8 @@ def held_out_frames(run_dir: str | Path, camera: str, progress: bool = False) ->
 
 def summary_table(frames: pd.DataFrame, camera: str) -> pd.DataFrame:
     """The per-frame rows of :func:`held_out_frames` summed up: one row per measure (IoU, each
-    joint group, all joints), its mean and median, and the frames it was measured on."""
+    joint group, all joints), its mean and median (columns named after ``camera``, or a run),
+    and the frames it was measured on."""
     height = frames["person_height_px"]
     measures = {"silhouette IoU": frames["iou"]}
     for group, names in JOINT_GROUPS.items():
@@ -123,13 +125,27 @@ def summary_table(frames: pd.DataFrame, camera: str) -> pd.DataFrame:
         {
             "measure": name,
             f"mean ({camera})": values.mean(),
-            "median": values.median(),
+            f"median ({camera})": values.median(),
             "measured": int(values.notna().sum()),
             "of": len(values),
         }
         for name, values in measures.items()
     ]
     return pd.DataFrame(rows)
+
+
+def side_by_side(tables: dict[str, pd.DataFrame], camera: str) -> pd.DataFrame:
+    """The :func:`summary_table` of each run (by its name), their means and medians side by
+    side; ``measured`` and ``of`` are the first run's."""
+    names = list(tables)
+    merged = tables[names[0]][["measure"]].copy()
+    for name in names:
+        table = tables[name]
+        merged[f"mean ({camera}, {name})"] = table[f"mean ({camera}, {name})"].to_numpy()
+        merged[f"median ({camera}, {name})"] = table[f"median ({camera}, {name})"].to_numpy()
+    first = tables[names[0]]
+    merged["measured"], merged["of"] = first["measured"].to_numpy(), first["of"].to_numpy()
+    return merged
 
 
 def runs_table(run_dirs: list[Path]) -> pd.DataFrame:
@@ -162,9 +178,8 @@ def main(argv: list[str], prog: str) -> None:
     """``mmocap held-out RUN --camera NAME``: agreement of a finished run with a camera it was
     not tracked with (silhouette IoU, joint distance from the camera's landmarks)."""
     parser = argparse.ArgumentParser(prog=prog, description=main.__doc__)
-    parser.add_argument("run", type=Path, help="a finished tracking run's folder")
-    parser.add_argument("--camera", required=True, help="the held-out camera, of the run's recording")
-    parser.add_argument("--csv", type=Path, help="per-frame rows (default RUN/held_out_<camera>.csv)")
+    parser.add_argument("run", type=Path, nargs="+", help="finished tracking runs' folders, compared side by side")
+    parser.add_argument("--camera", required=True, help="the held-out camera, of the runs' recording")
     parser.add_argument("--md", type=Path, help="also write the summary table here")
     parser.add_argument(
         "--runs", type=Path, nargs="*", default=[], help="runs to list beside RUN (times, fitness, body) on the page"
@@ -173,17 +188,20 @@ def main(argv: list[str], prog: str) -> None:
     parser.add_argument("--target", default="real-demo", help="the make target the page's stamp names")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     args = parser.parse_args(argv)
-    if not args.run.is_dir():
-        raise ConfigError(f"run folder {args.run} not found")
-    frames = held_out_frames(args.run, args.camera, progress=not args.no_progress)
-    with atomic_writer(args.csv or args.run / f"held_out_{args.camera}.csv", "w") as f:
-        frames.to_csv(f, index=False, float_format="%.4f")
-    table = summary_table(frames, args.camera).to_markdown(index=False, floatfmt=".3f")
+    tables = {}
+    for run in args.run:
+        if not run.is_dir():
+            raise ConfigError(f"run folder {run} not found")
+        frames = held_out_frames(run, args.camera, progress=not args.no_progress)
+        with atomic_writer(run / f"held_out_{args.camera}.csv", "w") as f:
+            frames.to_csv(f, index=False, float_format="%.4f")
+        tables[run.name] = summary_table(frames, f"{args.camera}, {run.name}")
+    table = side_by_side(tables, args.camera).to_markdown(index=False, floatfmt=".3f")
     print(table)
     if args.md:
         write_text_atomic(args.md, table + "\n")
     if args.page:
-        runs = runs_table([*args.runs, args.run]).to_markdown(index=False, floatfmt=".3g")
+        runs = runs_table([*args.runs, *args.run]).to_markdown(index=False, floatfmt=".3g")
         update_page(
             args.page,
             args.target,

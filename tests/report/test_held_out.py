@@ -10,7 +10,7 @@ import pandas as pd
 import pytest
 
 from mmocap.errors import DataError
-from mmocap.report.held_out import JOINT_GROUPS, held_out_frames, runs_table, summary_table
+from mmocap.report.held_out import JOINT_GROUPS, held_out_frames, runs_table, side_by_side, summary_table
 from mmocap.stages import segmentation
 from mmocap.stages.segmentation import JOINT_LANDMARKS
 from tests.helpers import QUICK_START, overrides, run_cli
@@ -61,6 +61,11 @@ def test_the_held_out_camera_agrees_with_a_good_track_and_less_with_a_wrong_body
         *(f"{group} (px)" for group in JOINT_GROUPS),
     ]
     joints = table.set_index("measure").loc["all joints (% of person height)", "mean (C2)"]
+    both = side_by_side(
+        {"right": summary_table(right, "C2, right"), "tall": summary_table(tall, "C2, tall")}, "C2"
+    ).set_index("measure")
+    assert both.loc["silhouette IoU", "mean (C2, right)"] == pytest.approx(right["iou"].mean())
+    assert both.loc["silhouette IoU", "mean (C2, tall)"] < both.loc["silhouette IoU", "mean (C2, right)"]
     assert 0 < joints < 15  # landmarks are not joint centres: a floor above 0, far below a lost track
     with pytest.raises(DataError, match="camera C1: the run .* was tracked with it"):
         held_out_frames(base / "right", "C1")
