@@ -79,13 +79,16 @@ REAL_DEMO_REC   := $(REAL_DEMO)/Demo_SinglePerson
 REAL_DEMO_ARGS  ?=
 REAL_DEMO_TRACK := $(MMOCAP) track dataset=recording dataset.root=$(REAL_DEMO_REC) dataset.scale=0.5 progress=false \
 	foreground_cache=$(REAL_DEMO)/cache
-real-demo: $(STAMP) ## Pose2Sim's real 4-camera recording from nothing, no plate: exports, video, held-out camera agreement; docs/results/real_demo.md
+real-demo: $(STAMP) ## Pose2Sim's real 4-camera recording from nothing, no plate: exports, video, held-out camera agreement with and without keypoints; docs/results/real_demo.md
 	$(MMOCAP) pose2sim-demo $(REAL_DEMO)
 	$(MMOCAP) check-recording $(REAL_DEMO_REC) dataset.scale=0.5
-	rm -rf $(REAL_DEMO)/all $(REAL_DEMO)/held-out $(REAL_DEMO)/cache
+	rm -rf $(REAL_DEMO)/all $(REAL_DEMO)/held-out $(REAL_DEMO)/held-out-silhouettes $(REAL_DEMO)/cache
 	$(REAL_DEMO_TRACK) export=[csv,trc,c3d,bvh] video=true hydra.run.dir=$(REAL_DEMO)/all $(REAL_DEMO_ARGS)
 	$(REAL_DEMO_TRACK) 'dataset.cameras=[cam01,cam02,cam03]' overlays=0 hydra.run.dir=$(REAL_DEMO)/held-out $(REAL_DEMO_ARGS)
-	$(MMOCAP) held-out $(REAL_DEMO)/held-out --camera cam04 --no-progress --runs $(REAL_DEMO)/all --page docs/results/real_demo.md
+	$(REAL_DEMO_TRACK) 'dataset.cameras=[cam01,cam02,cam03]' overlays=0 keypoints.source=none \
+		hydra.run.dir=$(REAL_DEMO)/held-out-silhouettes $(REAL_DEMO_ARGS)
+	$(MMOCAP) held-out $(REAL_DEMO)/held-out $(REAL_DEMO)/held-out-silhouettes --camera cam04 --no-progress \
+		--runs $(REAL_DEMO)/all --page docs/results/real_demo.md
 	$(PY) -c "import cv2; i = cv2.imread('$(REAL_DEMO)/all/overlays/frame_000099.png'); \
 		assert cv2.imwrite('docs/results/real_demo_fit.jpg', cv2.resize(i, None, fx=0.5, fy=0.5, interpolation=cv2.INTER_AREA))"
 
