@@ -320,21 +320,22 @@ class DetectorJoints:
         return np.array([COCO_SIGMAS[point] for point in self.points])
 
 
-def detector_joints(realism: Realism, rng: np.random.Generator) -> DetectorJoints:
-    """The mapped joints of ``realism.detector`` and their definition offsets, drawn once
-    per sequence (normal per axis, ``keypoint_offset_sd_mm``)."""
-    skeleton = skeleton_joints(realism.detector)
-    mapping = MAPPINGS[realism.detector]
-    names = tuple(name for name in skeleton if name in mapping)
+def detector_joints(skeleton: str, offset_sd_mm: float, rng: np.random.Generator) -> DetectorJoints:
+    """The mapped joints of the skeleton named ``skeleton`` and their definition offsets,
+    drawn once per sequence (normal per axis, ``offset_sd_mm``: the realism's
+    ``keypoint_offset_sd_mm``)."""
+    joints = skeleton_joints(skeleton)
+    mapping = MAPPINGS[skeleton]
+    names = tuple(name for name in joints if name in mapping)
     points = tuple(mapping[name][0] for name in names)
-    offsets = realism.keypoint_offset_sd_mm * rng.standard_normal((len(names), 3))
+    offsets = offset_sd_mm * rng.standard_normal((len(names), 3))
     pairs = [
         (k, points.index("R" + point[1:]))
         for k, point in enumerate(points)
         if point.startswith("L") and "R" + point[1:] in points
     ]
-    index = np.array([skeleton.index(name) for name in names])
-    return DetectorJoints(realism.detector, names, index, points, offsets, np.array(pairs, np.int64).reshape(-1, 2))
+    index = np.array([joints.index(name) for name in names])
+    return DetectorJoints(skeleton, names, index, points, offsets, np.array(pairs, np.int64).reshape(-1, 2))
 
 
 def posed_joints(mesh: SkinMesh, joints: DetectorJoints, skinning: np.ndarray) -> np.ndarray:

@@ -263,10 +263,7 @@ def generate(
             light = dict(gains=frame_gains, shadow_strength=shadow_strength, shadow_softness=shadow_softness)
             frame_numbers = tqdm(range(frames), desc=f"render {subject} {action}", unit="frame", disable=not progress)
             areas = _write_frames(root, mesh, colours, zip(cams, S_of), backgrounds, rng, frame_numbers, light, sensor)
-            keypoints_drawn = None
-            if realism.detector is not None:
-                keypoint_draws = realism_draws.keypoint_rng(seed, subject, action)
-                keypoints_drawn = _write_keypoints(root, mesh, zip(cams, S_of, areas), realism, keypoint_draws)
+            keypoints_drawn = _write_keypoints(root, mesh, zip(cams, S_of, areas), realism, (seed, subject, action))
             write_markers(root / "markers_mm.csv", markers, MARKER_NAMES)
             np.save(root / "poses.npy", poses)
             cameras_drawn = {
@@ -350,23 +347,29 @@ def _write_frames(
     return np.array(areas, np.float64).reshape(-1, len(views)).T
 
 
-def _write_keypoints(root: Path, mesh, views, realism: Realism, rng: np.random.Generator) -> dict:
+def _write_keypoints(root: Path, mesh, views, realism: Realism, sequence: tuple[int, str, str]) -> dict | None:
     """Write the simulated detector's keypoint files (``pose/<camera>_json/``, OpenPose's
-    layout) for every frame and camera, and return what was drawn.
+    layout) for every frame and camera, and return what was drawn (None, and nothing
+    written, without a detector).
 
     Args:
         root: the sequence folder.
         mesh: the true (rendered) body (mm).
         views: (true camera, its (frames, 16, 4, 4) skinning transforms, its silhouettes'
             areas (frames,) px) per camera.
-        realism: the detector's settings (``realism.detector`` set).
-        rng: the detections' own generator (:func:`mmocap.data.realism.keypoint_rng`).
+        realism: the detector's settings.
+        sequence: the sequence's seed, subject and action, which seed the detections' own
+            generator (:func:`mmocap.data.realism.keypoint_rng`).
 
     Returns:
         The skeleton, each mapped joint's drawn definition offset (mm, rest frame) and the
-        counts of missed, outside-image and swapped joints over all frames and cameras.
+        counts of detections (mapped joints x frames x cameras) and of missed,
+        outside-image and swapped joints over all of them.
     """
-    joints = realism_draws.detector_joints(realism, rng)
+    if realism.detector is None:
+        return None
+    rng = realism_draws.keypoint_rng(*sequence)
+    joints = realism_draws.detector_joints(realism.detector, realism.keypoint_offset_sd_mm, rng)
     counts = {"detections": 0, "missed": 0, "outside": 0, "swapped": 0}
     for cam, S_cam, areas in views:
         world = realism_draws.posed_joints(mesh, joints, S_cam)

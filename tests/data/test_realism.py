@@ -118,7 +118,7 @@ def _spread_out(n: int, realism: Realism, seed: int = 0):
     over the middle of the image, with their detections at a scale of 100 px."""
     camera = Camera.look_at("C1", (0, 1000, 3000), (0, 1000, 0), 600.0, 640, 480, np.zeros(5))
     rng = np.random.default_rng(seed)
-    joints = realism_draws.detector_joints(realism, rng)
+    joints = realism_draws.detector_joints(realism.detector, realism.keypoint_offset_sd_mm, rng)
     world = np.stack(
         [rng.uniform(-600, 600, (n, 15)), 1000 + rng.uniform(-500, 500, (n, 15)), rng.uniform(-200, 200, (n, 15))],
         axis=2,
@@ -178,7 +178,7 @@ def test_detections_miss_and_swap_at_the_set_rates():
 
 def test_joints_outside_the_image_are_missed():
     realism = Realism(detector="HALPE_26")
-    joints = realism_draws.detector_joints(realism, np.random.default_rng(0))
+    joints = realism_draws.detector_joints("HALPE_26", 0.0, np.random.default_rng(0))
     camera = Camera.look_at("C1", (0, 1000, 3000), (0, 1000, 0), 600.0, 640, 480, np.zeros(5))
     world = np.zeros((1, 15, 3))
     world[0, :, 1] = 1000
