@@ -129,7 +129,8 @@ COCO_SIGMAS = {
 }
 
 #: the range of confidences, uniform, that the simulated detector gives a joint it reports
-#: (a choice: RTMPose and OpenPose report most joints of a clearly seen person above 0.7)
+#: (a choice, not a published distribution: high, above the 0.3 below which Pose2Sim's
+#: triangulation ignores a joint, its likelihood_threshold_triangulation)
 SEEN_CONFIDENCE = (0.7, 1.0)
 
 
