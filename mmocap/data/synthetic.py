@@ -28,6 +28,7 @@ from mmocap.body.skeleton import JOINTS
 from mmocap.camera import Camera
 from mmocap.data import realism as realism_draws
 from mmocap.data import render
+from mmocap.data.keypoints import openpose_path, write_openpose_json
 from mmocap.data.motion import generate_motion
 from mmocap.data.realism import EXACT, Realism
 from mmocap.data.sequence import FORMAT, Sequence, write_markers
@@ -200,7 +201,10 @@ def generate(
     shadow removes at its core, ``shadow_softness`` angular radius of the area light (rad).
     ``realism``: the departures from the tracker's assumptions (:mod:`mmocap.data.realism`);
     the calibration written is then the calibrated cameras', the images are rendered with
-    the true ones.
+    the true ones. With ``realism.detector`` set, a simulated detector's keypoints are
+    written too, one OpenPose JSON file per frame and camera
+    (:func:`mmocap.data.keypoints.openpose_path`), drawn from a stream of their own so that
+    everything else is as without them.
     """
     settings = dict(
         subject=subject,
@@ -258,7 +262,8 @@ def generate(
             S_of = [S if offset == 0 else skinning(offset) for offset in offsets_frames]
             light = dict(gains=frame_gains, shadow_strength=shadow_strength, shadow_softness=shadow_softness)
             frame_numbers = tqdm(range(frames), desc=f"render {subject} {action}", unit="frame", disable=not progress)
-            _write_frames(root, mesh, colours, zip(cams, S_of), backgrounds, rng, frame_numbers, light, sensor)
+            areas = _write_frames(root, mesh, colours, zip(cams, S_of), backgrounds, rng, frame_numbers, light, sensor)
+            keypoints_drawn = _write_keypoints(root, mesh, zip(cams, S_of, areas), realism, (seed, subject, action))
             write_markers(root / "markers_mm.csv", markers, MARKER_NAMES)
             np.save(root / "poses.npy", poses)
             cameras_drawn = {
@@ -269,7 +274,7 @@ def generate(
                 }
                 for cam, (seen, errors), offset in zip(cams, calibrations, offsets_frames)
             }
-            meta = _sequence_meta(settings, dims, [c.name for c in cams], poses, cameras_drawn)
+            meta = _sequence_meta(settings, dims, [c.name for c in cams], poses, cameras_drawn, keypoints_drawn)
             # Written last: a folder without it is an interrupted generation and is redone.
             write_text_atomic(root / "sequence.json", json.dumps(meta, indent=1))
     except BaseException:
@@ -296,8 +301,11 @@ def _write_backgrounds(root: Path, cams, calibrations, rng: np.random.Generator,
     return backgrounds
 
 
-def _write_frames(root: Path, mesh, colours, views, backgrounds: dict, rng, frame_numbers, light: dict, sensor: dict):
-    """Render and write each frame's image and true silhouette in every view.
+def _write_frames(
+    root: Path, mesh, colours, views, backgrounds: dict, rng, frame_numbers, light: dict, sensor: dict
+) -> np.ndarray:
+    """Render and write each frame's image and true silhouette in every view; returns the
+    silhouettes' areas (cameras, frames), px.
 
     Args:
         root: the sequence folder, its ``images/`` and ``silhouettes/`` camera folders made.
@@ -312,6 +320,7 @@ def _write_frames(root: Path, mesh, colours, views, backgrounds: dict, rng, fram
         sensor: ``noise_sigma`` and ``shot_noise`` (:func:`mmocap.data.render.render_view`).
     """
     views = list(views)
+    areas = []
     for f in frame_numbers:
         posed = {}  # cameras at the same time offset share the posed mesh
         for cam, S_cam in views:
@@ -334,12 +343,53 @@ def _write_frames(root: Path, mesh, colours, views, backgrounds: dict, rng, fram
             )
             write_image(root / "images" / cam.name / f"{f:06d}.png", image)
             write_image(root / "silhouettes" / cam.name / f"{f:06d}.png", silhouette.astype(np.uint8) * 255)
+            areas.append(int(np.count_nonzero(silhouette)))
+    return np.array(areas, np.float64).reshape(-1, len(views)).T
 
 
-def _sequence_meta(settings: dict, dims, cameras: list[str], poses: np.ndarray, cameras_drawn: dict) -> dict:
+def _write_keypoints(root: Path, mesh, views, realism: Realism, sequence: tuple[int, str, str]) -> dict | None:
+    """Write the simulated detector's keypoint files (``pose/<camera>_json/``, OpenPose's
+    layout) for every frame and camera, and return what was drawn (None, and nothing
+    written, without a detector).
+
+    Args:
+        root: the sequence folder.
+        mesh: the true (rendered) body (mm).
+        views: (true camera, its (frames, 16, 4, 4) skinning transforms, its silhouettes'
+            areas (frames,) px) per camera.
+        realism: the detector's settings.
+        sequence: the sequence's seed, subject and action, which seed the detections' own
+            generator (:func:`mmocap.data.realism.keypoint_rng`).
+
+    Returns:
+        The skeleton, each mapped joint's drawn definition offset (mm, rest frame) and the
+        counts of detections (mapped joints x frames x cameras) and of missed,
+        outside-image and swapped joints over all of them.
+    """
+    if realism.detector is None:
+        return None
+    rng = realism_draws.keypoint_rng(*sequence)
+    joints = realism_draws.detector_joints(realism.detector, realism.keypoint_offset_sd_mm, rng)
+    counts = {"detections": 0, "missed": 0, "outside": 0, "swapped": 0}
+    for cam, S_cam, areas in views:
+        world = realism_draws.posed_joints(mesh, joints, S_cam)
+        found, drawn = realism_draws.detections(cam, world, np.sqrt(areas), joints, realism, rng)
+        counts["detections"] += found.shape[0] * len(joints.names)
+        for key, value in drawn.items():
+            counts[key] += value
+        for f, person in enumerate(found):
+            write_openpose_json(openpose_path(root, cam.name, f), [person] if np.any(person[:, 2] > 0) else [])
+    offsets = {name: offset.tolist() for name, offset in zip(joints.names, joints.offsets_mm)}
+    return {"detector": joints.skeleton, "offsets_mm": offsets, **counts}
+
+
+def _sequence_meta(
+    settings: dict, dims, cameras: list[str], poses: np.ndarray, cameras_drawn: dict, keypoints_drawn: dict | None
+) -> dict:
     """The contents of ``sequence.json``: what was rendered with which ``settings``, the
     true body ``dims``, the first pose of ``poses`` ((frames, 51), mm and rad) and what the
-    realism drew per camera (``cameras_drawn``)."""
+    realism drew per camera (``cameras_drawn``) and for the simulated detector
+    (``keypoints_drawn``, None without one)."""
     return {
         "format": FORMAT,
         "subject": settings["subject"],
@@ -352,7 +402,7 @@ def _sequence_meta(settings: dict, dims, cameras: list[str], poses: np.ndarray, 
         "x0": poses[0].tolist(),
         "units": {"length": "mm", "angle": "rad"},
         "generator": {**settings, "digest": settings_digest(settings)},
-        "realism": {"cameras": cameras_drawn},
+        "realism": {"cameras": cameras_drawn, **({} if keypoints_drawn is None else {"keypoints": keypoints_drawn})},
     }
 
 

@@ -5,12 +5,18 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from mmocap.body.keypoints import model_points, posed_points
 from mmocap.body.model import MARKER_NAMES, BodyModel
+from mmocap.camera import Camera
+from mmocap.data.keypoints import openpose_path
 from mmocap.data.motion import ACTIONS, generate_motion
+from mmocap.data.realism import Realism
 from mmocap.data.sequence import Sequence
+from mmocap.data.skeletons import HALPE_26, MAPPINGS
 from mmocap.data.synthetic import camera_rig, generate
 from mmocap.errors import ConfigError, DataError
 from mmocap.stages.accuracy import marker_error
+from tests.helpers import TINY
 
 
 def test_layout_on_disk(tiny_sequence):
@@ -36,6 +42,7 @@ def test_layout_on_disk(tiny_sequence):
     assert list(table.columns) == ["frame", "marker", "x_mm", "y_mm", "z_mm"]
     assert len(table) == 4 * len(MARKER_NAMES)
     assert np.load(root / "poses.npy").shape == (4, 51)
+    assert not (root / "pose").exists()  # exact: no keypoint detector, no keypoint files
 
 
 def test_ground_truth_is_consistent_but_not_the_trackers_model(tiny_sequence):
@@ -167,3 +174,31 @@ def test_a_4_by_3_image_keeps_its_focal_length_per_pixel():
     base = camera_rig(["C1"], 640, 480, np.random.default_rng(0))[0]
     half = camera_rig(["C1"], 320, 240, np.random.default_rng(0))[0]
     assert half.K[0, 0] == base.K[0, 0] / 2
+
+
+def test_keypoints_are_the_true_joints_seen_through_the_real_lens(tmp_path):
+    # a detector without error, and nothing else departing: its keypoints are the body's
+    # joint centres and nose projected through the written (here: true) camera, distorted
+    root = generate(tmp_path / "keypoints", progress=False, realism=Realism(detector="HALPE_26"), **TINY)
+    mapping = MAPPINGS["HALPE_26"]
+    names = [name for name in HALPE_26 if name in mapping]
+    body = BodyModel("S1")
+    joint, rest = model_points(body, [mapping[name][0] for name in names], [mapping[name][1] for name in names])
+    world = posed_points(body, np.load(root / "poses.npy"), joint, rest)
+    index = [HALPE_26.index(name) for name in names]
+    for name in TINY["cameras"]:
+        camera = Camera.load(root / "calibration" / f"{name}.json")
+        assert np.any(camera.dist != 0)
+        for frame in range(TINY["frames"]):
+            path = openpose_path(root, name, frame)
+            assert path == root / "pose" / f"{name}_json" / f"{name}_{frame:06d}.json"
+            (person,) = json.loads(path.read_text())["people"]
+            values = np.array(person["pose_keypoints_2d"]).reshape(len(HALPE_26), 3)
+            np.testing.assert_allclose(values[index, :2], camera.project(world[frame]), atol=1e-3)
+            assert np.all(values[index, 2] >= 0.7)
+            unmapped = np.ones(len(HALPE_26), bool)
+            unmapped[index] = False
+            np.testing.assert_array_equal(values[unmapped], 0.0)  # eyes, ears, feet: not simulated
+    drawn = json.loads((root / "sequence.json").read_text())["realism"]["keypoints"]
+    assert drawn["missed"] == drawn["outside"] == drawn["swapped"] == 0
+    assert all(offset == [0.0, 0.0, 0.0] for offset in drawn["offsets_mm"].values())
