@@ -13,7 +13,8 @@ key), ``run_dir_busy``, Hydra's own settings).
 - ``runs``: one row per run: run_id, subject, action, sequence, seed, optimizer, strategy,
   algorithm (``"<optimizer>-<strategy>"``), settings (the optimiser settings preset the run
   named, ``paper`` or ``tuned`` (``conf/settings/``), empty if none), realism (the synthetic
-  data's ``realism`` level, ``conf/realism/``; empty for other datasets), keypoints (where the
+  data's ``realism`` level, ``conf/realism/``; empty for other datasets), turn_deg (how far the
+  synthetic motion was turned, ``dataset.turn_deg``; 0 for other datasets), keypoints (where the
   fitness's 2-D keypoints came from: ``files``, ``segmentation``, ``detector``, or ``none``
   for silhouettes only), keypoint_weight (the keypoint term's weight, 0 without keypoints),
   dof, evaluations (per
@@ -78,6 +79,7 @@ RUN_COLUMNS = [
     "algorithm",
     "settings",
     "realism",
+    "turn_deg",
     "keypoints",
     "keypoint_weight",
     "dof",
@@ -331,6 +333,8 @@ def run_row(record: dict, source: str = "record") -> dict:
     start = s.get("start") if isinstance(s.get("start"), dict) else {}  # records before the automatic start
     settings, realism = variant_names(record.get("config"))
     keypoints = s.get("keypoints") if isinstance(s.get("keypoints"), dict) else {}  # silhouettes only, or older
+    dataset = (record.get("config") or {}).get("dataset")
+    turn = dataset.get("turn_deg") if isinstance(dataset, dict) else None
     return {
         "run_id": record["run_id"],
         "subject": s["subject"],
@@ -342,6 +346,7 @@ def run_row(record: dict, source: str = "record") -> dict:
         "algorithm": f"{s['optimizer']}-{s['strategy']}",
         "settings": settings,
         "realism": realism,
+        "turn_deg": float(turn) if is_real(turn) else 0.0,
         "keypoints": keypoints.get("source", "none"),  # type: ignore[union-attr]
         "keypoint_weight": float(keypoints.get("weight", 0.0)),  # type: ignore[union-attr]
         "dof": int(s["dof"]),

@@ -139,6 +139,7 @@ def check_settings(
     shadow_strength,
     shadow_softness,
     distortion,
+    turn_deg,
 ) -> None:
     """ConfigError naming the ``dataset.*`` key of the first bad generator setting (before
     anything is rendered or allocated)."""
@@ -149,6 +150,7 @@ def check_settings(
     check_number("dataset.fps", fps, 0, 10_000, low_open=True)
     check_number("dataset.seed", seed, 0, 2**32 - 1, integer=True)
     check_number("dataset.background_frames", background_frames, 2, 10_000, integer=True)
+    check_number("dataset.turn_deg", turn_deg, -360, 360)
     for name, value, high in (
         ("noise_sigma", noise_sigma, 50),
         ("shot_noise", shot_noise, 5),
@@ -185,6 +187,7 @@ def generate(
     shadow_strength: float = 0.4,
     shadow_softness: float = 0.15,
     distortion: float = 1.0,
+    turn_deg: float = 0.0,
     realism: Realism = EXACT,
     progress: bool = True,
 ) -> Path:
@@ -199,6 +202,8 @@ def generate(
     deviation of the light's gain from frame to frame (background frames included; every
     camera sees the same light), ``shadow_strength`` fraction of the light the person's floor
     shadow removes at its core, ``shadow_softness`` angular radius of the area light (rad).
+    ``turn_deg`` turns the motion about the vertical axis through the origin
+    (:func:`~mmocap.data.motion.generate_motion`): 180 faces the person the other way.
     ``realism``: the departures from the tracker's assumptions (:mod:`mmocap.data.realism`);
     the calibration written is then the calibrated cameras', the images are rendered with
     the true ones. With ``realism.detector`` set, a simulated detector's keypoints are
@@ -222,6 +227,7 @@ def generate(
         shadow_strength=shadow_strength,
         shadow_softness=shadow_softness,
         distortion=distortion,
+        turn_deg=turn_deg,
     )
     check_settings(**settings)
     settings = {**settings, "cameras": list(cameras), "realism": realism.as_dict()}
@@ -234,7 +240,7 @@ def generate(
     calibrations = [realism_draws.calibrated(cam, realism, drawn) for cam in cams]
     offsets_frames = realism_draws.time_offsets(len(cams), realism, drawn)
     floor = float(-mesh.vertices[:, 1].min())
-    poses = generate_motion(action, frames, fps, floor, seed=int(rng.integers(2**31)))
+    poses = generate_motion(action, frames, fps, floor, seed=int(rng.integers(2**31)), turn_deg=turn_deg)
     colours = face_colours(mesh, rng)
     markers_idx = marker_vertices(mesh)
     marker_offsets = realism_draws.marker_offsets(mesh, markers_idx, realism, drawn)
@@ -434,6 +440,7 @@ class SyntheticDataset:
         shadow_strength: float = 0.4,
         shadow_softness: float = 0.15,
         distortion: float = 1.0,
+        turn_deg: float = 0.0,
         realism=None,
     ):
         self.realism = Realism.from_config(realism)
@@ -453,6 +460,7 @@ class SyntheticDataset:
             shadow_strength=shadow_strength,
             shadow_softness=shadow_softness,
             distortion=distortion,
+            turn_deg=turn_deg,
         )
         missing = [c for c in cameras if c not in all_cameras]
         if missing:
@@ -461,7 +469,8 @@ class SyntheticDataset:
                 f"({', '.join(all_cameras)}); add them there"
             )
         level = "" if self.realism.name == "exact" else f"_{self.realism.name}"
-        self.path = Path(root) / f"{subject}_{action}{level}"
+        turned = f"_turn{float(turn_deg):g}" if turn_deg else ""
+        self.path = Path(root) / f"{subject}_{action}{turned}{level}"
         self.cameras = list(cameras)
         self.settings: dict[str, Any] = dict(
             subject=subject,
@@ -479,6 +488,7 @@ class SyntheticDataset:
             shadow_strength=shadow_strength,
             shadow_softness=shadow_softness,
             distortion=distortion,
+            turn_deg=turn_deg,
         )
 
     def open(self, progress: bool = True) -> Sequence:
