@@ -69,7 +69,8 @@ def test_openpose_files_read_back_with_their_skeleton_told_by_the_value_count(tm
     assert files.joints == SKELETONS[skeleton]
     for k in range(FRAMES):
         got = files.frame(k)
-        assert got.shape == (len(CAMERAS), len(SKELETONS[skeleton]), 3) and got.dtype == np.float64
+        assert got.shape == (len(CAMERAS), len(SKELETONS[skeleton]), 3)
+        assert got.dtype == np.float64
         np.testing.assert_array_equal(got, data[k])
 
 
@@ -116,7 +117,8 @@ def test_of_several_people_the_most_confident_is_taken_with_one_warning_per_came
     with pytest.warns(MmocapWarning) as caught:
         files = KeypointFiles(tmp_path, CAMERAS, FRAMES)
     assert len(caught) == 1
-    assert "camera C1:" in str(caught[0].message) and "3 of 4 frames (0-1, 3)" in str(caught[0].message)
+    assert "camera C1:" in str(caught[0].message)
+    assert "3 of 4 frames (0-1, 3)" in str(caught[0].message)
     np.testing.assert_array_equal(files.frame(0)[0], data[0, 0])
     np.testing.assert_array_equal(files.frame(1)[0], stronger)
     np.testing.assert_array_equal(files.frame(3)[0], data[3, 0])
