@@ -165,7 +165,8 @@ class Camera:
         xd = (pixels[:, 0] - K[0, 2] - K[0, 1] * yd) / K[0, 0]
         criteria = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, UNDISTORT_ITERATIONS, 1e-12)
         lens = np.stack([xd, yd], axis=1)[:, None, :]
-        x, y = cv2.undistortPointsIter(lens, np.eye(3), self.dist, None, None, criteria).reshape(-1, 2).T
+        identity = np.eye(3)
+        x, y = cv2.undistortPointsIter(lens, identity, self.dist, identity, identity, criteria).reshape(-1, 2).T
         return np.stack([K[0, 0] * x + K[0, 1] * y + K[0, 2], K[1, 1] * y + K[1, 2]], axis=1)
 
     def undistort_mask(self, mask: np.ndarray) -> np.ndarray:

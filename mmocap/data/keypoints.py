@@ -377,24 +377,21 @@ class KeypointFiles:
         values = np.stack([pd.to_numeric(table[c], errors="coerce").to_numpy(np.float64) for c in CSV_COLUMNS[3:]], 1)
         data = np.zeros((self.n_frames, len(self.cameras), len(joints), 3))
         for c, name in enumerate(self.cameras):
-            rows = (table["camera"] == name).to_numpy()
-            k = frames.to_numpy()[rows].astype(np.int64) - self.first_frames[c]
-            inside = (k >= 0) & (k < self.n_frames)
-            absent = sorted(set(range(self.n_frames)) - set(k[inside].tolist()))
-            if absent:
+            lines = np.flatnonzero((table["camera"] == name).to_numpy())
+            k = frames.to_numpy()[lines].astype(np.int64) - self.first_frames[c]
+            lines, k = lines[(k >= 0) & (k < self.n_frames)], k[(k >= 0) & (k < self.n_frames)]
+            gaps = np.setdiff1d(np.arange(self.n_frames), k)
+            if gaps.size:
                 raise DataError(
-                    f"camera {name}: {path} lacks frame {absent[0] + self.first_frames[c]} "
-                    f"({len(absent)} of the sequence's {self.n_frames} frames are missing); give every frame at "
+                    f"camera {name}: {path} lacks frame {gaps[0] + self.first_frames[c]} "
+                    f"({gaps.size} of the sequence's {self.n_frames} frames are missing); give every frame at "
                     "least one row (confidence 0 where nobody was found)"
                 )
-            lines = np.flatnonzero(rows)[inside]
-            cells = (k[inside], joint.to_numpy()[lines].astype(np.int64))
-            repeated = pd.Series(list(zip(*cells))).duplicated()
-            if repeated.any():
-                raise DataError(
-                    f"{path}: line {lines[repeated.to_numpy().argmax()] + 2} repeats frame, camera and joint; "
-                    "give each one row"
-                )
-            labels = [f"line {line + 2}, joint {joints[j]}" for line, j in zip(lines, cells[1])]
-            data[cells[0], c, cells[1]] = checked_joints(values[lines], labels, str(path))
+            j = joint.to_numpy()[lines].astype(np.int64)
+            _, first, counts = np.unique(k * len(joints) + j, return_index=True, return_counts=True)
+            if (counts > 1).any():
+                line = lines[first[np.argmax(counts > 1)]] + 2
+                raise DataError(f"{path}: line {line}: frame, camera and joint appear again below; give each one row")
+            labels = [f"line {line + 2}, joint {joints[i]}" for line, i in zip(lines, j)]
+            data[k, c, j] = checked_joints(values[lines], labels, str(path))
         return data

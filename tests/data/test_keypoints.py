@@ -203,3 +203,16 @@ def test_a_sequence_folder_reports_the_keypoint_files_of_its_root(tiny_sequence,
     assert sequence.has_keypoints
     files = sequence.keypoint_files("COCO_17")
     np.testing.assert_array_equal(files.frame(3), [observed["BW1", 3], observed["C1", 3]])
+
+
+def test_a_table_with_a_row_twice_or_a_frame_short_is_refused_naming_the_line_or_frame(tmp_path):
+    data = detections("COCO_17")
+    write_csv(tmp_path, data, SKELETONS["COCO_17"])
+    lines = (tmp_path / KEYPOINTS_CSV).read_text().splitlines()
+    (tmp_path / KEYPOINTS_CSV).write_text("\n".join([*lines, lines[40]]) + "\n")
+    with pytest.raises(DataError, match=r"keypoints.csv: line 41: frame, camera and joint appear again"):
+        KeypointFiles(tmp_path, CAMERAS, FRAMES)
+    table = pd.DataFrame([line.split(",") for line in lines[1:]], columns=lines[0].split(","))
+    table[~((table["frame"] == "2") & (table["camera"] == "C2"))].to_csv(tmp_path / KEYPOINTS_CSV, index=False)
+    with pytest.raises(DataError, match=r"camera C2: .*keypoints.csv lacks frame 2 \(1 of the sequence's 4"):
+        KeypointFiles(tmp_path, CAMERAS, FRAMES)
