@@ -132,6 +132,14 @@ def checked_joints(values: np.ndarray, labels, where: str) -> np.ndarray:
     return out
 
 
+def json_folders(folder: Path) -> dict[str, Path]:
+    """Camera name -> its ``<camera>_json/`` folder in ``folder`` (a ``pose/`` folder; empty
+    if there is none). Pose2Sim's other outputs there (``_pose.mp4``, ``_img/``) are not."""
+    if not folder.is_dir():
+        return {}
+    return {p.name[: -len("_json")]: p for p in folder.iterdir() if p.is_dir() and p.name.endswith("_json")}
+
+
 def read_people(path: Path) -> list[np.ndarray]:
     """The ``pose_keypoints_2d`` of every person in the OpenPose JSON file ``path``, each a
     flat float64 array; a DataError naming the file when it is not one."""
@@ -198,8 +206,10 @@ class KeypointFiles:
         self.skeleton = skeleton
         self.first_frames = list(first_frames) if first_frames is not None else [0] * len(self.cameras)
         json_folder, table = self.root / POSE_FOLDER, self.root / KEYPOINTS_CSV
-        if json_folder.is_dir() and table.is_file():
+        if json_folders(json_folder) and table.is_file():
             raise DataError(f"{self.root} holds keypoints twice, {json_folder}/ and {table}; keep one")
+        if not KeypointFiles.has(self.root):
+            raise DataError(f"{self.root} holds no keypoint files (no {json_folder}/<camera>_json/, no {table})")
         self.source = table if table.is_file() else json_folder
         if self.source == table:
             data = self._read_csv(table, set(calibrated or self.cameras))
@@ -215,11 +225,7 @@ class KeypointFiles:
     def has(root: Path) -> bool:
         """True when ``root`` holds keypoint files: ``pose/<camera>_json/`` folders or
         :data:`KEYPOINTS_CSV`."""
-        root = Path(root)
-        folder = root / POSE_FOLDER
-        return (root / KEYPOINTS_CSV).is_file() or (
-            folder.is_dir() and any(p.is_dir() and p.name.endswith("_json") for p in folder.iterdir())
-        )
+        return (Path(root) / KEYPOINTS_CSV).is_file() or bool(json_folders(Path(root) / POSE_FOLDER))
 
     @property
     def joints(self) -> tuple[str, ...]:
@@ -248,7 +254,7 @@ class KeypointFiles:
 
     def _read_json(self, folder: Path, calibrated: list[str]) -> np.ndarray:
         """(n_frames, C, J, 3) from ``folder``'s ``<camera>_json/`` folders (class docstring)."""
-        found = sorted(p.name[: -len("_json")] for p in folder.iterdir() if p.is_dir() and p.name.endswith("_json"))
+        found = sorted(json_folders(folder))
         strangers = [name for name in found if name not in calibrated]
         if strangers:
             raise DataError(

@@ -216,3 +216,12 @@ def test_a_table_with_a_row_twice_or_a_frame_short_is_refused_naming_the_line_or
     table[~((table["frame"] == "2") & (table["camera"] == "C2"))].to_csv(tmp_path / KEYPOINTS_CSV, index=False)
     with pytest.raises(DataError, match=r"camera C2: .*keypoints.csv lacks frame 2 \(1 of the sequence's 4"):
         KeypointFiles(tmp_path, CAMERAS, FRAMES)
+
+
+def test_a_table_beside_pose2sim_s_videos_is_read_and_no_files_at_all_are_refused(tmp_path):
+    with pytest.raises(DataError, match="holds no keypoint files"):
+        KeypointFiles(tmp_path, CAMERAS, FRAMES)
+    data = detections("BODY_25")
+    write_csv(tmp_path, data, SKELETONS["BODY_25"])
+    (tmp_path / "pose" / "C1_img").mkdir(parents=True)  # not keypoints: no "holds keypoints twice"
+    np.testing.assert_array_equal(KeypointFiles(tmp_path, CAMERAS, FRAMES).frame(3), data[3])
