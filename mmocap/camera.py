@@ -39,6 +39,8 @@ JSON_KEYS = ("K", "dist", "R", "t_mm", "width", "height")
 SHAPES = {"K": (3, 3), "dist": (5,), "R": (3, 3), "t_mm": (3,)}
 #: :func:`checked_camera`'s keys under the names of a HumanEva-I ``.cal`` file.
 CAL_KEYS = {"K": "fc, cc, alpha_c", "dist": "kc", "t_mm": "T"}
+#: The most steps :meth:`Camera.ideal_pixels` takes to invert the lens distortion.
+UNDISTORT_ITERATIONS = 100
 
 
 @dataclass(frozen=True)
@@ -145,6 +147,27 @@ class Camera:
                 map_x = (map_x + (self.K[0, 1] / self.K[1, 1]) * (map_y - self.K[1, 2])).astype(np.float32)
             self._maps["undistort"] = (map_x, map_y)
         return self._maps["undistort"]
+
+    def ideal_pixels(self, pixels: np.ndarray) -> np.ndarray:
+        """(N, 2) pixels of the image seen through the lens -> (N, 2) pixels of the ideal
+        pin-hole camera (:meth:`ideal`): the inverse of :meth:`project`'s distortion, as
+        :meth:`undistort_maps` is for images.
+
+        The skew is taken out before ``cv2.undistortPointsIter`` (which reads ``fx, fy, cx,
+        cy`` only) and put back by ``K``; the iteration runs until it moves by under 1e-12 of
+        a normalised coordinate (at most :data:`UNDISTORT_ITERATIONS` steps).
+        """
+        pixels = np.asarray(pixels, np.float64).reshape(-1, 2)
+        if not np.any(self.dist) or len(pixels) == 0:
+            return pixels.copy()
+        K = self.K
+        yd = (pixels[:, 1] - K[1, 2]) / K[1, 1]
+        xd = (pixels[:, 0] - K[0, 2] - K[0, 1] * yd) / K[0, 0]
+        criteria = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, UNDISTORT_ITERATIONS, 1e-12)
+        lens = np.stack([xd, yd], axis=1)[:, None, :]
+        identity = np.eye(3)
+        x, y = cv2.undistortPointsIter(lens, identity, self.dist, identity, identity, criteria).reshape(-1, 2).T
+        return np.stack([K[0, 0] * x + K[0, 1] * y + K[0, 2], K[1, 1] * y + K[1, 2]], axis=1)
 
     def undistort_mask(self, mask: np.ndarray) -> np.ndarray:
         """(H, W) bool mask seen through the lens -> (H, W) bool mask of the ideal camera."""

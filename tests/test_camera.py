@@ -330,3 +330,24 @@ def test_a_shrunk_camera_keeps_pixel_centres_at_integers():
     np.testing.assert_allclose(  # the lens acts before K: a distorted camera shrinks alike
         lens.shrunk(0.5).project(points), (lens.project(points) + 0.5) * 0.5 - 0.5, atol=1e-9
     )
+
+
+@pytest.mark.parametrize("which", ["camera", "skewed"])
+def test_ideal_pixels_invert_the_lens_over_the_whole_image(request, which):
+    """Every raw pixel of the image (a 16-pixel grid, corners included) goes to the ideal
+    pixel whose ray :meth:`Camera.project` puts back on it, to well under 0.01 px."""
+    cam = request.getfixturevalue(which)
+    rows, cols = np.mgrid[0 : cam.height : 16, 0 : cam.width : 16]
+    raw = np.stack([cols.ravel(), rows.ravel()], axis=1).astype(float)
+    raw = np.r_[raw, [[cam.width - 1, cam.height - 1], [0, cam.height - 1], [cam.width - 1, 0]]]
+    ideal = cam.ideal_pixels(raw)
+    rays = np.c_[ideal, np.ones(len(ideal))] @ np.linalg.inv(cam.K).T
+    world = (rays * 2500.0 - cam.t) @ cam.R
+    assert np.abs(cam.project(world) - raw).max() < 0.01
+    assert np.abs(ideal - raw).max() > 20  # the lens moves the corners: nothing was left as it was
+
+
+def test_ideal_pixels_of_a_camera_without_distortion_are_the_pixels(camera):
+    pixels = np.array([[0.0, 0.0], [320.5, 240.25], [639.0, 479.0]])
+    np.testing.assert_array_equal(camera.ideal().ideal_pixels(pixels), pixels)
+    assert camera.ideal_pixels(np.zeros((0, 2))).shape == (0, 2)

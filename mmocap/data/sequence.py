@@ -10,6 +10,8 @@ A sequence folder holds::
     silhouettes/<camera>/NNNNNN.png  true silhouettes, 255 = person (synthetic data only)
     markers_mm.csv                ground-truth markers: frame, marker, x_mm, y_mm, z_mm
     poses.npy                     (frames, 51) ground-truth pose vectors (synthetic only)
+    pose/<camera>_json/           optional 2-D keypoints, OpenPose JSON per frame, or a
+      or keypoints.csv            keypoint table (mmocap.data.keypoints)
 
 ``x0`` in ``sequence.json`` is the first frame's pose (51 numbers, mm and rad): the
 initialisation the tracker is given, as the papers initialise by hand.
@@ -40,6 +42,7 @@ import pandas as pd
 from mmocap.body.model import MARKER_NAMES
 from mmocap.body.skeleton import N_FULL
 from mmocap.camera import Camera
+from mmocap.data.keypoints import AUTO, KeypointFiles
 from mmocap.errors import ConfigError, DataError, MmocapWarning
 from mmocap.io import atomic_writer, read_json_object
 from mmocap.validate import is_integer, is_real
@@ -217,6 +220,17 @@ class SequenceBase(ABC):
         person; a DataError for a sequence without (:attr:`has_given_masks`)."""
         raise DataError(f"sequence {self.root} has no given masks (masks/<camera>/)")
 
+    @property
+    def has_keypoints(self) -> bool:
+        """True when :meth:`keypoint_files` has 2-D keypoint files to give."""
+        return False
+
+    def keypoint_files(self, skeleton: str = AUTO) -> KeypointFiles:
+        """The sequence's 2-D keypoints of :class:`mmocap.data.keypoints.KeypointFiles` (frame
+        ``k`` its frame ``k``, its cameras in order), read whole and checked, in ``skeleton`` (a
+        name, or ``auto``); a DataError for a sequence without (:attr:`has_keypoints`)."""
+        raise DataError(f"sequence {self.root} has no keypoint files (pose/<camera>_json/ or keypoints.csv)")
+
     @abstractmethod
     def markers(self) -> np.ndarray:
         """(frames, M, 3) ground-truth marker positions in mm, M = len(meta['marker_names']),
@@ -310,6 +324,16 @@ class Sequence(SequenceBase):
         if not paths:
             raise DataError(f"camera {camera.name}: no background frames in {folder}")
         return [read_image(p, camera) for p in paths]
+
+    @property
+    def has_keypoints(self) -> bool:
+        return KeypointFiles.has(self.root)
+
+    def keypoint_files(self, skeleton: str = AUTO) -> KeypointFiles:
+        if not self.has_keypoints:
+            return super().keypoint_files(skeleton)
+        names = [c.name for c in self.cameras]
+        return KeypointFiles(self.root, names, self.n_frames, skeleton, calibrated=list(self.meta["cameras"]))
 
     def silhouette(self, frame: int, camera: Camera) -> np.ndarray:
         """(H, W) bool true silhouette (synthetic sequences only)."""

@@ -6,8 +6,9 @@
 the calibration (file, format, units and how they were decided), each camera (source,
 frames, frame rate, offset, resolution, position), the frames that will be tracked, where the
 foreground will come from and why (the recording's masks, the empty-scene plate, or person
-segmentation: :func:`mmocap.stages.foreground.choose_method`), the ground truth, and these
-sanity checks on the first frame:
+segmentation: :func:`mmocap.stages.foreground.choose_method`), the 2-D keypoint files (read
+whole and checked: their skeleton, ``keypoints.skeleton`` or ``auto``, and frames), the ground
+truth, and these sanity checks on the first frame:
 
 - the foreground of every camera (fraction of the image): a camera that sees nobody, or
   nearly only foreground, has a wrong background or is out of sync;
@@ -50,9 +51,11 @@ import cv2
 import numpy as np
 from hydra.errors import ConfigCompositionException
 from hydra.utils import instantiate
+from omegaconf import OmegaConf
 
 from mmocap import config
 from mmocap.body.mesh import HEIGHT_RANGE_MM
+from mmocap.data.keypoints import AUTO
 from mmocap.data.recording.reader import write_recording
 from mmocap.data.sequence import Sequence
 from mmocap.errors import ConfigError, DataError, MmocapWarning
@@ -108,6 +111,15 @@ def check_recording(root: str, overrides: list[str], out=print) -> dict:
     if sequence.has_given_masks:
         for camera, source in zip(sequence.cameras, sequence.mask_sources):
             out(f"  masks {camera.name}: {source.kind} {source.path} ({source.count} masks)")
+    keypoints = None
+    if sequence.has_keypoints:
+        keypoints = sequence.keypoint_files(OmegaConf.select(cfg, "keypoints.skeleton", default=AUTO))
+        out(
+            f"  keypoints: {keypoints.source}: {keypoints.skeleton} ({len(keypoints.joints)} joints), "
+            f"{keypoints.n_frames} frames of {len(keypoints.cameras)} camera(s)"
+        )
+    else:
+        out("  keypoints: none (no pose/<camera>_json/ folders, no keypoints.csv)")
     foreground = open_foreground(cfg, sequence, cache_dir=None)
     out(f"  foreground: {foreground.method}")
     truth = sequence.markers()
@@ -122,6 +134,7 @@ def check_recording(root: str, overrides: list[str], out=print) -> dict:
         "frames": sequence.n_frames,
         "fps": sequence.fps,
         "frames_with_markers": scored,
+        "keypoints": None if keypoints is None else {"skeleton": keypoints.skeleton, "frames": keypoints.n_frames},
     }
     facts["foreground_method"] = foreground.method
     facts.update(_first_frame_checks(foreground, float(cfg.start.voxel_mm), out))

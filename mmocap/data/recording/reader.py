@@ -16,6 +16,10 @@ A recording folder holds::
       or masks/<camera>/     a matting tool), a video or image folder of 8-bit masks (255 the
                              person), one per frame of the camera's video, at its size; used
                              as the foreground as they are
+    pose/<camera>_json/      optional: 2-D keypoints of a detector (Pose2Sim, OpenPose,
+      or keypoints.csv       RTMPose...), OpenPose JSON per frame of the camera's video, or one
+                             table (mmocap.data.keypoints); in the pixels of the frames as
+                             stored, like the videos read with dataset.scale and offsets
     markers_mm.csv           optional ground truth: frame, marker, x_mm, y_mm, z_mm (frames
                              numbered from the synchronised frame 0, as the tracker's)
 
@@ -55,6 +59,7 @@ import numpy as np
 from mmocap.body.model import MARKER_NAMES
 from mmocap.camera import Camera
 from mmocap.data.calibration import UP_AXIS_OF_FORMAT, calibration_suffix, read_calibration, write_opencv_yaml
+from mmocap.data.keypoints import AUTO, KeypointFiles
 from mmocap.data.sequence import Sequence, SequenceBase, listed, read_markers, write_markers
 from mmocap.errors import ConfigError, DataError, MmocapWarning
 from mmocap.validate import check_choice, check_number
@@ -199,7 +204,8 @@ class RecordingSequence(SequenceBase):
     camera, ``offsets`` per camera the source frame of the synchronised frame 0 (frame ``k``
     read is source frame ``meta["start"] + k + offset``), the background's sources and frame
     indices per camera, ``markers_path`` the ground truth or None, ``world`` the (3, 3) turn
-    applied to the calibration's world."""
+    applied to the calibration's world, ``calibrated`` the names of every camera of the
+    calibration."""
 
     # None only as dataclass defaults after SequenceBase's: open() gives every one
     sources: list = None  # type: ignore[assignment]
@@ -209,6 +215,7 @@ class RecordingSequence(SequenceBase):
     mask_sources: list | None = None
     markers_path: Path | None = None
     world: np.ndarray = None  # type: ignore[assignment]
+    calibrated: list[str] | None = None
 
     @property
     def subject(self):
@@ -244,6 +251,32 @@ class RecordingSequence(SequenceBase):
         self.check_frame(frame)
         first = int(self.meta["start"])
         return [source.read(first + frame + offset) for source, offset in zip(self.mask_sources, self.offsets)]
+
+    @property
+    def has_keypoints(self) -> bool:
+        return KeypointFiles.has(self.root)
+
+    def keypoint_files(self, skeleton: str = AUTO) -> KeypointFiles:
+        """The recording's keypoints (:class:`mmocap.data.keypoints.KeypointFiles`): frame ``k``
+        is frame ``meta["start"] + k + offset`` of each camera's files, as of its video, and the
+        pixels are those of the cameras as tracked (shrunk by ``dataset.scale``; a codec's
+        padding, cropped at the right and bottom, moves no pixel)."""
+        if not self.has_keypoints:
+            return super().keypoint_files(skeleton)
+        first = int(self.meta["start"])
+        scales = [
+            (small.width / source.camera.width, small.height / source.camera.height)
+            for small, source in zip(self.cameras, self.sources)
+        ]
+        return KeypointFiles(
+            self.root,
+            [c.name for c in self.cameras],
+            self.n_frames,
+            skeleton,
+            first_frames=[first + offset for offset in self.offsets],
+            calibrated=self.calibrated,
+            pixel_scales=scales,
+        )
 
     @property
     def markers_source(self) -> str:
@@ -446,6 +479,7 @@ class RecordingDataset:
             mask_sources=mask_sources,
             markers_path=markers if markers.is_file() else None,
             world=world,
+            calibrated=list(by_name),
         )
 
     def _up(self, calibration) -> str:

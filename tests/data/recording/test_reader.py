@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from mmocap.data.calibration import read_calibration
+from mmocap.data.keypoints import openpose_path, write_openpose_json
 from mmocap.data.recording.reader import CODEC_PADDING_PX, UP_AXES, RecordingDataset, turned, write_recording
 from mmocap.data.sequence import Sequence
 from mmocap.errors import ConfigError, DataError, MmocapWarning
@@ -279,3 +280,28 @@ def test_a_scale_shrinks_the_frames_and_the_cameras_together(recording):
         np.testing.assert_allclose(small.project(points), (big.project(points) + 0.5) * 0.5 - 0.5, atol=1e-9)
     np.testing.assert_array_equal(half.markers(), full.markers())  # the world, in mm, is unchanged
     assert half.background(half.cameras[0])[0].shape[:2] == (120, 160)
+
+
+def test_keypoints_follow_the_offsets_start_and_scale_of_the_frames(recording_copy):
+    """Keypoint files numbered by each camera's video frames (C2's two early frames
+    included) give, for the tracked frame k, the projections of that frame's points in the
+    cameras as tracked: shrunk by the scale, started at ``start``."""
+    full = RecordingDataset(str(recording_copy), offsets=OFFSETS).open(progress=False)
+    assert not full.has_keypoints
+    points = np.random.default_rng(4).uniform([-400, 100, -400], [400, 1800, 400], size=(full.n_frames, 17, 3))
+    for camera, source, offset in zip(full.cameras, full.sources, full.offsets):
+        for frame in range(source.count):
+            synchronised = min(max(frame - offset, 0), full.n_frames - 1)
+            uv = camera.project(points[synchronised])
+            write_openpose_json(openpose_path(recording_copy, camera.name, frame), [np.c_[uv, np.full(17, 0.9)]])
+    half = RecordingDataset(str(recording_copy), offsets=OFFSETS, scale=0.5, start=1, frames=2).open(progress=False)
+    assert half.has_keypoints
+    files = half.keypoint_files()
+    assert (files.skeleton, files.n_frames, files.cameras) == ("COCO_17", 2, [c.name for c in half.cameras])
+    for k in range(2):
+        got = files.frame(k)
+        for c, small in enumerate(half.cameras):
+            np.testing.assert_allclose(got[c, :, :2], small.project(points[1 + k]), atol=1e-3)
+            np.testing.assert_allclose(
+                files.ideal_frame(k, half.cameras)[c, :, :2], small.ideal().project(points[1 + k]), atol=2e-3
+            )
