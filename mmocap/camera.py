@@ -94,6 +94,12 @@ class Camera:
         """The same camera without lens distortion (what the evaluators use)."""
         return replace(self, dist=np.zeros(5), _maps={})
 
+    def shrunk_pixels(self, pixels: np.ndarray, shrunk: Camera) -> np.ndarray:
+        """(..., 2) pixels of this camera -> the same points' pixels in ``shrunk``, this
+        camera's :meth:`shrunk` (``u' = (u + 0.5) s - 0.5`` per axis)."""
+        scale = np.array([shrunk.width / self.width, shrunk.height / self.height])
+        return (np.asarray(pixels, np.float64) + 0.5) * scale - 0.5
+
     def shrunk(self, scale: float, min_side_px: int = 1) -> Camera:
         """The camera imaging a ``scale`` times smaller picture (lens distortion, which acts
         before ``K``, unchanged): the size rounded to whole pixels (at least ``min_side_px``),

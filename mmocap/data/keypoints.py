@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from mmocap.camera import Camera
 from mmocap.data.skeletons import SKELETONS, skeleton_joints
 from mmocap.errors import ConfigError, DataError, MmocapWarning
 from mmocap.io import read_json_object, write_json_atomic
@@ -182,8 +183,8 @@ class KeypointFiles:
         first_frames: per camera, the file frame of the sequence's frame 0 (None: 0 each).
         calibrated: every camera of the calibration (None: ``cameras``); files of another
             camera are refused.
-        pixel_scales: per camera, ``(sx, sy)``: the pixels are those of the camera shrunk by
-            :meth:`mmocap.camera.Camera.shrunk`, ``u' = (u + 0.5) sx - 0.5`` (None: as read).
+        shrunk: per camera, ``(camera, shrunk camera)``: the files' pixels are the first's,
+            returned as the second's (:meth:`mmocap.camera.Camera.shrunk_pixels`; None: as read).
 
     Raises:
         DataError: one line naming the file (and the camera, frame or joint) and the fix.
@@ -198,7 +199,7 @@ class KeypointFiles:
         skeleton: str = AUTO,
         first_frames: list[int] | None = None,
         calibrated: list[str] | None = None,
-        pixel_scales: list[tuple[float, float]] | None = None,
+        shrunk: list[tuple[Camera, Camera]] | None = None,
     ):
         self.root, self.cameras, self.n_frames = Path(root), list(cameras), int(n_frames)
         if skeleton != AUTO:
@@ -215,10 +216,9 @@ class KeypointFiles:
             data = self._read_csv(table, set(calibrated or self.cameras))
         else:
             data = self._read_json(json_folder, calibrated or self.cameras)
-        for c, (sx, sy) in enumerate(pixel_scales or []):
-            seen = data[:, c, :, 2] > 0
-            data[:, c, :, 0] = np.where(seen, (data[:, c, :, 0] + 0.5) * sx - 0.5, 0.0)
-            data[:, c, :, 1] = np.where(seen, (data[:, c, :, 1] + 0.5) * sy - 0.5, 0.0)
+        for c, (camera, small) in enumerate(shrunk or []):
+            seen = data[:, c, :, 2:] > 0
+            data[:, c, :, :2] = np.where(seen, camera.shrunk_pixels(data[:, c, :, :2], small), 0.0)
         self._data = data
 
     @staticmethod

@@ -125,9 +125,7 @@ class Keypoints:
         ``cameras``), pixel centres kept at integer coordinates."""
         observed = self.observed.copy()
         for c, (big, small) in enumerate(zip(cameras, shrunk)):
-            sx, sy = small.width / big.width, small.height / big.height
-            observed[c, :, 0] = (observed[c, :, 0] + 0.5) * sx - 0.5
-            observed[c, :, 1] = (observed[c, :, 1] + 0.5) * sy - 0.5
+            observed[c, :, :2] = big.shrunk_pixels(observed[c, :, :2], small)
         return Keypoints(self.points, self.offsets_mm, observed, self.term)
 
 

@@ -331,8 +331,7 @@ class Foreground:
         the ideal pin-hole camera (the undistortion stage's geometry)."""
         if points is None or not np.any(camera.dist):
             return points
-        ideal = cv2.undistortPoints(points[:, None, :2].astype(np.float64), camera.K, camera.dist, P=camera.K)
-        return np.column_stack([ideal[:, 0], points[:, 2]]).astype(np.float32)
+        return np.column_stack([camera.ideal_pixels(points[:, :2]), points[:, 2]]).astype(np.float32)
 
 
 class ForegroundCoverage:

@@ -168,12 +168,11 @@ class KeypointStream:
             joints = len(skeleton_joints(self.map.skeleton))
             raw = np.stack([np.zeros((joints, 3)) if p is None else np.asarray(p, np.float64) for p in landmarks or []])
             ideal = raw  # the foreground's landmarks are in the ideal cameras already
+        elif self.method == "files":
+            ideal = self.files.ideal_frame(frame, cameras)
         else:
-            if self.method == "files":
-                raw = np.asarray(self.files.frame(frame), np.float64)
-            else:
-                raw = np.stack([np.asarray(self.detector(image), np.float64) for image in self.sequence.images(frame)])
-            ideal = np.stack([_ideal(cam, points) for cam, points in zip(cameras, raw)])
+            ideal = np.stack([np.asarray(self.detector(image), np.float64) for image in self.sequence.images(frame)])
+            ideal[..., :2] = np.stack([cam.ideal_pixels(points[:, :2]) for cam, points in zip(cameras, ideal)])
         observed = ideal[:, self.map.rows]
         observed[observed[..., 2] <= 0] = 0.0
         self.frames += 1
@@ -192,13 +191,3 @@ class KeypointStream:
             "scale": self.fitness.scale,
             "seen": {point: round(float(n) / cameras, 4) for point, n in zip(self.map.points, self.seen)},
         }
-
-
-def _ideal(camera, points: np.ndarray) -> np.ndarray:
-    """(J, 3) u, v px through ``camera``'s lens and confidence -> the same in its ideal
-    pin-hole camera."""
-    if not np.any(camera.dist):
-        return points
-    out = points.copy()
-    out[:, :2] = camera.ideal_points(points[:, :2])
-    return out

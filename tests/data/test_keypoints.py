@@ -3,11 +3,13 @@ back whole, the skeleton told from the files, several people and nobody handled 
 
 import shutil
 import warnings
+from dataclasses import replace
 
 import numpy as np
 import pandas as pd
 import pytest
 
+from mmocap.camera import Camera
 from mmocap.data.keypoints import (
     CSV_COLUMNS,
     KEYPOINTS_CSV,
@@ -135,10 +137,12 @@ def test_a_frame_without_a_person_has_every_joint_unseen(tmp_path):
     np.testing.assert_array_equal(files.frame(2)[0], data[2, 0])
 
 
-def test_pixel_scales_shrink_the_seen_joints_as_the_cameras_are_shrunk(tmp_path):
+def test_shrunk_cameras_shrink_the_seen_joints_as_the_cameras_are(tmp_path):
     data = detections("COCO_17")
     write_json(tmp_path, data)
-    files = KeypointFiles(tmp_path, CAMERAS, FRAMES, pixel_scales=[(0.5, 0.25), (1.0, 1.0)])
+    big = Camera("C1", np.diag([500.0, 500.0, 1.0]), np.zeros(5), np.eye(3), np.zeros(3), 640, 480)
+    small = replace(big, width=320, height=120)  # only the sizes matter here
+    files = KeypointFiles(tmp_path, CAMERAS, FRAMES, shrunk=[(big, small), (big, big)])
     got, seen = files.frame(1), data[1, 0, :, 2] > 0
     np.testing.assert_allclose(got[0, seen, 0], (data[1, 0, seen, 0] + 0.5) * 0.5 - 0.5)
     np.testing.assert_allclose(got[0, seen, 1], (data[1, 0, seen, 1] + 0.5) * 0.25 - 0.5)

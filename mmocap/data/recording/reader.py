@@ -264,10 +264,7 @@ class RecordingSequence(SequenceBase):
         if not self.has_keypoints:
             return super().keypoint_files(skeleton)
         first = int(self.meta["start"])
-        scales = [
-            (small.width / source.camera.width, small.height / source.camera.height)
-            for small, source in zip(self.cameras, self.sources)
-        ]
+        shrunk = [(source.camera, small) for small, source in zip(self.cameras, self.sources)]
         return KeypointFiles(
             self.root,
             [c.name for c in self.cameras],
@@ -275,7 +272,7 @@ class RecordingSequence(SequenceBase):
             skeleton,
             first_frames=[first + offset for offset in self.offsets],
             calibrated=self.calibrated,
-            pixel_scales=scales,
+            shrunk=shrunk,
         )
 
     @property
