@@ -284,12 +284,10 @@ def find_start(
     start_pose = parts.body.rest_pose() if x0 is None else x0
     # once: without a cache, each call reads and segments the frame again
     first_masks, first_landmarks = foreground.detections(0)
-    first_keypoints = None
-    if keypoints is not None and parts.keypoints.use_for_start:
-        first_keypoints = keypoints.frame(0, first_landmarks)
     parts.evaluator.warm_up(parts.body, foreground.cameras, first_masks, start_pose)
     parts.fidelity.warm_up(parts.body, foreground.cameras, first_masks, start_pose)
     if parts.start.wanted(has_x0=x0 is not None):
+        use_keypoints = keypoints is not None and parts.keypoints.use_for_start
         found = parts.start.find(
             parts.body,
             foreground.cameras,
@@ -300,7 +298,7 @@ def find_start(
             rng,
             fit_height=cfg.body.get("height_mm") is None,
             fit_girth=cfg.body.get("girth") is None,
-            keypoints=first_keypoints,
+            keypoints=keypoints.frame(0, first_landmarks) if use_keypoints else None,  # type: ignore[union-attr]
         )
         parts.body, x0, start_facts = found.body, found.pose, found.summary()
         parts.plausibility.check_start(found)

@@ -158,7 +158,7 @@ class KeypointStream:
         self.files = files
         self.detector = detector
         self.seen = np.zeros(len(skeleton_map.points), np.int64)  # frames x cameras each point was confident in
-        self.frames = 0
+        self.counted: set[int] = set()  # the frames counted in seen (the start reads frame 0 too)
 
     def frame(self, frame: int, landmarks: list | None = None) -> Keypoints:
         """The keypoints of ``frame``; ``landmarks`` are the foreground's (C entries of
@@ -175,14 +175,15 @@ class KeypointStream:
             ideal[..., :2] = np.stack([cam.ideal_pixels(points[:, :2]) for cam, points in zip(cameras, ideal)])
         observed = ideal[:, self.map.rows]
         observed[observed[..., 2] <= 0] = 0.0
-        self.frames += 1
-        self.seen += np.count_nonzero(observed[..., 2] > 0, axis=0)
+        if frame not in self.counted:
+            self.counted.add(frame)
+            self.seen += np.count_nonzero(observed[..., 2] > 0, axis=0)
         return Keypoints(self.map.points, self.map.offsets_mm, observed, self.fitness)
 
     def summary(self) -> dict:
         """What ``summary.json`` records: the source, skeleton, term and how often each
         model point was seen (share of frames x cameras)."""
-        cameras = max(1, len(self.sequence.cameras) * self.frames)
+        cameras = max(1, len(self.sequence.cameras) * len(self.counted))
         return {
             "source": self.method,
             "skeleton": self.map.skeleton,
