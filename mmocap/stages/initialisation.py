@@ -366,6 +366,11 @@ class AutoStart:
         ``fit_height`` / ``fit_girth``: whether the body's height / girth are unknown (not
         given in the config) and fitted."""
         started = time.perf_counter()
+        if keypoints is not None and len(keypoints.observed) != len(cameras):
+            raise DataError(
+                f"the automatic start got the first frame's keypoints of {len(keypoints.observed)} cameras for "
+                f"{len(cameras)} cameras: give one camera's keypoints per camera, in the cameras' order"
+            )
         reduced, masks = self.reduced(cameras, masks)
         keypoints = None if keypoints is None else keypoints.on(cameras, reduced)
         cameras = reduced

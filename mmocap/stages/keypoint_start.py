@@ -41,6 +41,7 @@ from scipy.optimize import least_squares
 from mmocap.body.inverse_kinematics import REST_PULL_MM_PER_RAD
 from mmocap.body.keypoints import model_points, posed_points
 from mmocap.body.mesh import HEIGHT_RANGE_MM
+from mmocap.body.model import BodyModel
 from mmocap.body.skeleton import JOINTS, PARENT_INDEX, parameter_index
 
 log = logging.getLogger(__name__)
@@ -128,7 +129,8 @@ def triangulate(cameras, observed: np.ndarray, inlier_px: float) -> tuple[np.nda
 
     Args:
         cameras: C cameras (``projection_matrix``: ideal pin-hole, mm -> px).
-        observed: (C, K) detections: (C, K, 3) u, v in px of the ideal camera, confidence.
+        observed: (C, K, 3) u, v (px of the ideal camera) and confidence of K points;
+            confidence 0 = not seen.
         inlier_px: the largest reprojection distance of an inlier, px.
 
     Returns:
@@ -181,7 +183,7 @@ def _yaw(vector: np.ndarray) -> float:
 
 
 def placed_pose(body, names, points: np.ndarray, offsets_mm=None) -> np.ndarray:
-    """(51,) the rest pose turned to the triangulated heading and placed on the pelvis (steps
+    """(51,) the rest pose turned to the triangulated heading and placed on the pelvis (step
     2 of the module docstring), from ``points`` (K, 3) mm (NaN = not triangulated) of the
     model points ``names`` with ``offsets_mm`` (K, 3) mm; needs
     :func:`locates_pelvis_and_heading`."""
@@ -231,7 +233,7 @@ class KeypointFit:
     triangulated), the ``inliers`` (C, K) bool and the mean distance of the posed model
     points from the triangulated ones, ``residual_mm``."""
 
-    body: object
+    body: BodyModel
     pose: np.ndarray
     points: np.ndarray
     inliers: np.ndarray

@@ -9,7 +9,7 @@ import pytest
 
 from mmocap.body.keypoints import MODEL_POINTS, model_points, posed_points
 from mmocap.body.model import BodyModel
-from mmocap.errors import ConfigError
+from mmocap.errors import ConfigError, DataError
 from mmocap.evaluators.keypoint_term import Keypoints, KeypointTerm
 from mmocap.evaluators.numpy_backend import NumpyEvaluator
 from mmocap.optimizers.cmaes import CMAES
@@ -195,3 +195,18 @@ def test_keypoints_seen_by_one_camera_leave_the_silhouette_search():
 def test_a_bad_keypoint_setting_names_its_key(key, value):
     with pytest.raises(ConfigError, match=f"start.{key}"):
         AutoStart(**{key: value})
+
+
+def test_keypoints_of_another_camera_count_are_refused_naming_both_counts():
+    _, _, masks, _, observed = person(0.0)
+    with pytest.raises(DataError, match="keypoints of 3 cameras for 4 cameras"):
+        AutoStart().find(
+            BodyModel(vertices=1000),
+            cameras(),
+            masks,
+            NumpyEvaluator(),
+            CMAES(),
+            Holistic(),
+            np.random.default_rng(0),
+            keypoints=keypoints(observed[:3]),
+        )
