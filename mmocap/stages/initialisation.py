@@ -15,7 +15,9 @@ fitness (silhouettes + the keypoints' term, weighted as the keypoints say) for
 then each step but the root searched over its whole joint range (``keypoint_limb_evaluations``
 each; :func:`search_each_limb` without random samples) and the full pose again, all scored
 by the hybrid fitness. The visual hull of step 1 is measured too, for the
-plausibility checks.
+plausibility checks. With the defaults this is 14 200 evaluations: 4.0-4.8 s at 640x480
+with four cameras (OpenCL on two cores shared with other jobs; the silhouette search took
+33 s, 282 424 evaluations, on the same scene and machine).
 
 **From the silhouettes alone** (``method: search``), without keypoints or when they do not
 place the person:
