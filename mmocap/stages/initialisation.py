@@ -1,9 +1,26 @@
-"""Stage "initialisation": the first frame's pose, and the body's size, from the silhouettes alone.
+"""Stage "initialisation": the first frame's pose, and the body's size, from the silhouettes
+and, where the first frame has them, 2-D keypoints.
 
 A user's recording gives no first pose (``x0``) and no body dimensions. :class:`AutoStart`
-finds both from the foreground masks of the first frame, on cameras no larger than
-``max_image_px`` (a full-HD camera and its mask are shrunk for the start, which then costs
-what it does at 640x480):
+finds both on cameras no larger than ``max_image_px`` (a full-HD camera, its mask and its
+keypoints are shrunk for the start, which then costs what it does at 640x480).
+
+**From keypoints** (``method: keypoints`` in the summary), when the first frame's
+keypoints triangulate the pelvis (``Root`` or both hips) and the hips' or the shoulders'
+left-right axis: the pose, the heading and the body's height are fitted to the triangulated
+points (:mod:`mmocap.stages.keypoint_start`, RANSAC inliers within ``keypoint_inlier_px``),
+then searched by the run's optimiser in the tracking strategy's box with the hybrid
+fitness (silhouettes + the keypoints' term, weighted as the keypoints say) for
+``keypoint_evaluations``; one pass of the girth and height trials of step 4 below follows,
+then each step but the root searched over its whole joint range (``keypoint_limb_evaluations``
+each; :func:`search_each_limb` without random samples) and the full pose again, all scored
+by the hybrid fitness. The visual hull of step 1 is measured too, for the
+plausibility checks. With the defaults this is 14 200 evaluations: 4.0-4.8 s at 640x480
+with four cameras (OpenCL on two cores shared with other jobs; the silhouette search took
+33 s, 282 424 evaluations, on the same scene and machine).
+
+**From the silhouettes alone** (``method: search``), without keypoints or when they do not
+place the person:
 
 1. **Where:** the rays through the centroids of the silhouettes, one per camera, meet (in
    the least-squares sense) near the person's centre; a visual hull is carved around that
@@ -48,13 +65,18 @@ from mmocap.bitmask import ForegroundMask
 from mmocap.body.mesh import GIRTH_RANGE, HEIGHT_RANGE_MM
 from mmocap.body.model import BodyModel
 from mmocap.errors import ConfigError, DataError
+from mmocap.evaluators.keypoint_term import Keypoints
 from mmocap.stages.fidelity import shrunk_mask
+from mmocap.stages.keypoint_start import KeypointFit, fit_keypoints
 from mmocap.validate import check_choice, check_number
 
 log = logging.getLogger(__name__)
 
 #: what ``start.mode`` may be
 START_MODES = ("auto", "search")
+#: how a start was found (the summary's ``start.method``): from keypoints, or by the
+#: silhouette-only search
+START_METHODS = ("keypoints", "search")
 #: the root's yaw parameter in the 51-vector (``Root.ry``) and the root translation
 ROOT_YAW, ROOT_TRANSLATION = 4, slice(0, 3)
 #: half the side of the cube, mm, in which the coarse visual hull is carved around the
@@ -68,7 +90,8 @@ COARSE_VOXEL_MM = 40.0
 class StartResult:
     """What :meth:`AutoStart.find` found: ``pose`` (51,) mm and rad, its ``fitness``, the
     ``body`` it was found with (resized if shape fitting ran), the ``evaluations`` and
-    ``seconds`` spent, and what the visual hull measured (``height_mm``, ``floor_y_mm``)."""
+    ``seconds`` spent, what the visual hull measured (``height_mm``, ``floor_y_mm``) and
+    the ``method`` that found it (:data:`START_METHODS`)."""
 
     pose: np.ndarray
     fitness: float
@@ -77,11 +100,12 @@ class StartResult:
     seconds: float
     height_mm: float
     floor_y_mm: float
+    method: str
 
     def summary(self) -> dict:
         """The facts a run records about its start (JSON types)."""
         return {
-            "method": "search",
+            "method": self.method,
             "seconds": round(self.seconds, 3),
             "evaluations": int(self.evaluations),
             "fitness": float(self.fitness),
@@ -240,6 +264,12 @@ class AutoStart:
         max_image_px: the longest image side the start searches on, px: larger cameras and
             their masks are shrunk to it for the start (:meth:`reduced`), so that its cost
             does not grow with the cameras' resolution (None: the images' own size).
+        keypoint_evaluations: evaluations of each full-pose search (two) from the pose
+            fitted to the keypoints, with the hybrid fitness.
+        keypoint_limb_evaluations: evaluations of the search of each step but the root over
+            its whole joint range, from the pose fitted to the keypoints.
+        keypoint_inlier_px: the largest reprojection distance (px, in cameras shrunk to
+            ``max_image_px``) of a detection that agrees with a triangulated point.
     """
 
     def __init__(
@@ -263,6 +293,9 @@ class AutoStart:
         shape_passes: int = 2,
         hull_height_offsets_mm=(0.0, -40.0),
         max_image_px: int | None = 640,
+        keypoint_evaluations: int = 3000,
+        keypoint_limb_evaluations: int = 1000,
+        keypoint_inlier_px: float = 15.0,
     ):
         self.mode = check_choice("start.mode", mode, START_MODES)
         self.headings = check_number("start.headings", headings, 1, 360, integer=True)
@@ -295,6 +328,13 @@ class AutoStart:
         self.shape_passes = check_number("start.shape_passes", shape_passes, 1, 100, integer=True)
         self.limb_samples = check_number("start.limb_samples", limb_samples, 0, 10**6, integer=True)
         self.limb_restarts = check_number("start.limb_restarts", limb_restarts, 0, self.limb_samples, integer=True)
+        self.keypoint_evaluations = check_number(
+            "start.keypoint_evaluations", keypoint_evaluations, 2, 10**7, integer=True
+        )
+        self.keypoint_limb_evaluations = check_number(
+            "start.keypoint_limb_evaluations", keypoint_limb_evaluations, 2, 10**7, integer=True
+        )
+        self.keypoint_inlier_px = check_number("start.keypoint_inlier_px", keypoint_inlier_px, 0, 1000, low_open=True)
 
     def wanted(self, has_x0: bool) -> bool:
         """Whether to search: always with ``mode=search``, else when there is no ``x0``."""
@@ -309,15 +349,33 @@ class AutoStart:
         return hull.mean(axis=0), height, floor_y
 
     def find(
-        self, body, cameras, masks, evaluator, optimizer, strategy, rng, fit_height: bool = True, fit_girth: bool = True
+        self,
+        body,
+        cameras,
+        masks,
+        evaluator,
+        optimizer,
+        strategy,
+        rng,
+        fit_height: bool = True,
+        fit_girth: bool = True,
+        keypoints: Keypoints | None = None,
     ) -> StartResult:
         """The first frame's pose for ``body`` (a BodyModel, resized to what is fitted),
         from its foreground ``masks`` ((H, W) bool per camera, ideal geometry of
-        ``cameras``), scored by ``evaluator`` and searched by ``optimizer`` in ``strategy``'s
-        steps. ``fit_height`` / ``fit_girth``: whether the body's height / girth are
-        unknown (not given in the config) and fitted."""
+        ``cameras``) and, if given, its ``keypoints`` (px of the ideal ``cameras``), scored
+        by ``evaluator`` and searched by ``optimizer`` in ``strategy``'s steps.
+        ``fit_height`` / ``fit_girth``: whether the body's height / girth are unknown (not
+        given in the config) and fitted."""
         started = time.perf_counter()
-        cameras, masks = self.reduced(cameras, masks)
+        if keypoints is not None and len(keypoints.observed) != len(cameras):
+            raise DataError(
+                f"the automatic start got the first frame's keypoints of {len(keypoints.observed)} cameras for "
+                f"{len(cameras)} cameras: give one camera's keypoints per camera, in the cameras' order"
+            )
+        reduced, masks = self.reduced(cameras, masks)
+        keypoints = None if keypoints is None else keypoints.on(cameras, reduced)
+        cameras = reduced
         centre, height, floor_y = self.measure(cameras, masks)
         log.info(
             "automatic start: visual hull %.0f mm tall, centre (%.0f, %.0f, %.0f) mm, floor at y = %.0f mm",
@@ -325,6 +383,39 @@ class AutoStart:
             *centre,
             floor_y,
         )
+        fit = None
+        if keypoints is not None:
+            girth = 1.0 if fit_girth else None
+            fit = fit_keypoints(body, cameras, keypoints, self.keypoint_inlier_px, fit_height, girth)
+        if fit is None:
+            keypoints, method = None, "search"
+            x, f, body, used = self._search(
+                body,
+                height,
+                centre,
+                floor_y,
+                cameras,
+                masks,
+                evaluator,
+                optimizer,
+                strategy,
+                rng,
+                fit_height,
+                fit_girth,
+            )
+        else:
+            method = "keypoints"
+            x, f, body, used = self._from_keypoints(
+                fit, cameras, masks, keypoints, evaluator, optimizer, strategy, rng, fit_height, fit_girth
+            )
+        evaluator.setup(body, cameras, masks, keypoints)  # leave the evaluator on the body that won
+        return StartResult(x, float(f), body, used, time.perf_counter() - started, height, floor_y, method)
+
+    def _search(
+        self, body, height, centre, floor_y, cameras, masks, evaluator, optimizer, strategy, rng, fit_height, fit_girth
+    ):
+        """Steps 2-4 of the module docstring from the visual hull's ``height`` (mm), ``centre``
+        (3,) mm and ``floor_y`` (mm); returns (pose (51,), fitness, body, evaluations)."""
         search = type(strategy)(
             rotation_radius=self.rotation_radius, translation_radius_mm=self.translation_radius_mm, steps=strategy.steps
         )
@@ -351,8 +442,31 @@ class AutoStart:
                     body, change, best_x, best_f, cameras, masks, evaluator, optimizer, search, rng
                 )
                 used += n
-        evaluator.setup(body, cameras, masks)  # leave the evaluator on the body that won
-        return StartResult(best_x, float(best_f), body, used, time.perf_counter() - started, height, floor_y)
+        return best_x, best_f, body, used
+
+    def _from_keypoints(
+        self, fit: KeypointFit, cameras, masks, keypoints, evaluator, optimizer, strategy, rng, fit_height, fit_girth
+    ):
+        """From the pose ``fit`` to the triangulated keypoints, with the hybrid fitness: a
+        full-pose search (``keypoint_evaluations`` in ``strategy``'s box), one pass of girth
+        and height trials, each step but the root searched over its whole joint range
+        (``keypoint_limb_evaluations`` each), and a last full-pose search; returns (pose
+        (51,), fitness, body, evaluations)."""
+        body = fit.body
+        evaluator.setup(body, cameras, masks, keypoints)
+        x, f, used = strategy.estimate(body, fit.pose, evaluator, optimizer, self.keypoint_evaluations, rng)
+        log.info("automatic start: the pose fitted to the keypoints, searched -> fitness %.4f", f)
+        for change in self._shape_changes(body, fit_girth, fit_height):
+            x, f, body, n = self._try_shape(
+                body, change, x, f, cameras, masks, evaluator, optimizer, strategy, rng, keypoints
+            )
+            used += n
+        evaluator.setup(body, cameras, masks, keypoints)
+        x, f, n = search_each_limb(strategy, body, x, f, evaluator, optimizer, self.keypoint_limb_evaluations, rng)
+        used += n
+        x, f, n = strategy.estimate(body, x, evaluator, optimizer, self.keypoint_evaluations, rng)
+        log.info("automatic start: limbs over their ranges, then the full pose -> fitness %.4f", f)
+        return x, f, body, used + n
 
     def reduced(self, cameras, masks) -> tuple[list, list]:
         """``cameras`` and their (H, W) bool ``masks``, each camera whose longest side exceeds
@@ -427,10 +541,13 @@ class AutoStart:
             log.info("automatic start: limbs over their ranges, then the full pose -> fitness %.4f", fitness)
         return x, fitness, used
 
-    def _try_shape(self, body, change: dict, x, fitness, cameras, masks, evaluator, optimizer, search, rng):
+    def _try_shape(
+        self, body, change: dict, x, fitness, cameras, masks, evaluator, optimizer, search, rng, keypoints=None
+    ):
         """The body resized by ``change`` (``girth`` or ``height_mm``) with a short search
-        from ``x`` (its root lifted or lowered so that the feet stay on the floor); it
-        replaces ``body`` if its fitness is lower. Returns (pose, fitness, body, evaluations)."""
+        from ``x`` (its root lifted or lowered so that the feet stay on the floor), scored
+        with ``keypoints`` if given; it replaces ``body`` if its fitness is lower. Returns
+        (pose, fitness, body, evaluations)."""
         value = float(np.clip(next(iter(change.values())), *(GIRTH_RANGE if "girth" in change else HEIGHT_RANGE_MM)))
         current = body.subject.girth if "girth" in change else body.subject.height_mm
         if value == current:
@@ -438,7 +555,7 @@ class AutoStart:
         other = body.reshaped(**{next(iter(change)): value})
         start = x.copy()
         start[1] += other.floor_offset_mm - body.floor_offset_mm
-        evaluator.setup(other, cameras, masks)
+        evaluator.setup(other, cameras, masks, keypoints)
         found, found_fitness, n = search.estimate(other, start, evaluator, optimizer, self.shape_evaluations, rng)
         log.info(
             "automatic start: %s %.3g -> fitness %.4f (%.4f before)", next(iter(change)), value, found_fitness, fitness
