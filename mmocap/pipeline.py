@@ -158,6 +158,14 @@ class Tracking:
         return sum(r.foreground_seconds for r in self.results)
 
     @property
+    def mean_silhouette_fitness(self) -> float:
+        """The mean of the frames' best poses' silhouette fitness (their best fitness when it
+        has no keypoint term)."""
+        return mean_best_fitness(
+            [r.fitness if r.silhouette_fitness is None else r.silhouette_fitness for r in self.results]
+        )
+
+    @property
     def mean_best_fitness(self) -> float:
         """The mean of the frames' best fitness (NaN if one is not finite)."""
         return mean_best_fitness([row["fitness"] for row in self.frame_rows])
@@ -181,9 +189,10 @@ def _run(cfg: DictConfig, output_dir: Path, warning_messages: list[str]) -> dict
     rng = np.random.default_rng(int(cfg.seed))
     x0, start_facts = find_start(cfg, parts, sequence, foreground, rng, keypoints)
     tracking = track_frames(cfg, output_dir, parts, sequence, foreground, truth, x0, rng, keypoints)
-    parts.plausibility.check_run(tracking.mean_best_fitness)
+    parts.plausibility.check_run(tracking.mean_silhouette_fitness)
     summary = make_summary(cfg, run_id, parts, sequence, tracking, start_facts, warning_messages)
-    summary.keypoints = None if keypoints is None else keypoints.summary()
+    if keypoints is not None:
+        summary.keypoints = {**keypoints.summary(), "mean_silhouette_fitness": tracking.mean_silhouette_fitness}
     write_outputs(cfg, output_dir, parts, sequence, foreground, truth, tracking, summary)
     summary.write(output_dir)  # the last output: the run is complete
     parts.evaluator.close()

@@ -39,6 +39,7 @@ def test_a_summary_of_an_older_mmocap_reads_its_later_keys_as_none(tmp_path):
         "evaluator_choice",
         "body",
         "start",
+        "keypoints",
         "plausibility",
         "recoveries",
         "fps",

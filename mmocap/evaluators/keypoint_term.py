@@ -39,7 +39,7 @@ LOSSES = ("geman_mcclure", "huber")
 
 @dataclass(frozen=True)
 class KeypointTerm:
-    """How much the keypoints count and how robustly (config ``keypoints.fitness``).
+    """How much the keypoints count and how robustly (config ``keypoints.weight``, ``keypoints.loss``, ``keypoints.scale``).
 
     Attributes:
         weight: lambda, the term's weight beside the silhouette fitness (0 = silhouettes only).
@@ -52,10 +52,10 @@ class KeypointTerm:
     scale: float
 
     def __post_init__(self):
-        object.__setattr__(self, "weight", check_number("keypoints.fitness.weight", self.weight, 0.0, 1e6))
-        object.__setattr__(self, "scale", check_number("keypoints.fitness.scale", self.scale, 1e-6, 10.0))
+        object.__setattr__(self, "weight", check_number("keypoints.weight", self.weight, 0.0, 1e6))
+        object.__setattr__(self, "scale", check_number("keypoints.scale", self.scale, 1e-6, 10.0))
         if self.loss not in LOSSES:
-            raise ConfigError(f"keypoints.fitness.loss must be one of {', '.join(LOSSES)}, got {self.loss!r}")
+            raise ConfigError(f"keypoints.loss must be one of {', '.join(LOSSES)}, got {self.loss!r}")
 
     def rho(self, r: np.ndarray) -> np.ndarray:
         """The robust loss of normalised distances ``r`` (any shape, >= 0)."""

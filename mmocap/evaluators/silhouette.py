@@ -432,12 +432,16 @@ class SilhouetteEvaluator:
         """(n, P) poses -> (n,) fitness (0 = perfect match): the silhouettes' in [0, 1], plus
         the weighted keypoint term when the frame has keypoints."""
         if self.keypoints is None or self.keypoints.term.weight == 0:
-            model_px, overlap_px = self.counts(X)
-            return fitness_from_counts(model_px, overlap_px, self.fg_px)
+            return self.silhouette_fitness(X)
         model_px, overlap_px, pixels = self.counts_and_pixels(X)
         term = self.keypoints.term
         silhouette = fitness_from_counts(model_px, overlap_px, self.fg_px)
         return silhouette + term.weight * term.value(pixels, self.keypoints.observed, self._height_px)
+
+    def silhouette_fitness(self, X: np.ndarray) -> np.ndarray:
+        """(n, P) poses -> (n,) the silhouettes' fitness alone, in [0, 1], keypoints or not."""
+        model_px, overlap_px = self.counts(X)
+        return fitness_from_counts(model_px, overlap_px, self.fg_px)
 
     def counts_and_pixels(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(n, P) poses -> the counts of :meth:`counts` and the model points' pixels

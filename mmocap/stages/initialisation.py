@@ -90,8 +90,9 @@ COARSE_VOXEL_MM = 40.0
 class StartResult:
     """What :meth:`AutoStart.find` found: ``pose`` (51,) mm and rad, its ``fitness``, the
     ``body`` it was found with (resized if shape fitting ran), the ``evaluations`` and
-    ``seconds`` spent, what the visual hull measured (``height_mm``, ``floor_y_mm``) and
-    the ``method`` that found it (:data:`START_METHODS`)."""
+    ``seconds`` spent, what the visual hull measured (``height_mm``, ``floor_y_mm``), the
+    ``method`` that found it (:data:`START_METHODS`) and the pose's ``silhouette_fitness``
+    alone (``fitness`` has the keypoint term too when the start had keypoints)."""
 
     pose: np.ndarray
     fitness: float
@@ -101,6 +102,7 @@ class StartResult:
     height_mm: float
     floor_y_mm: float
     method: str
+    silhouette_fitness: float
 
     def summary(self) -> dict:
         """The facts a run records about its start (JSON types)."""
@@ -109,6 +111,7 @@ class StartResult:
             "seconds": round(self.seconds, 3),
             "evaluations": int(self.evaluations),
             "fitness": float(self.fitness),
+            "silhouette_fitness": float(self.silhouette_fitness),
             "heading_rad": float(self.pose[ROOT_YAW]),
             "hull_height_mm": round(self.height_mm, 1),
             "floor_y_mm": round(self.floor_y_mm, 1),
@@ -409,7 +412,9 @@ class AutoStart:
                 fit, cameras, masks, keypoints, evaluator, optimizer, strategy, rng, fit_height, fit_girth
             )
         evaluator.setup(body, cameras, masks, keypoints)  # leave the evaluator on the body that won
-        return StartResult(x, float(f), body, used, time.perf_counter() - started, height, floor_y, method)
+        silhouettes = float(evaluator.silhouette_fitness(x[None])[0])
+        seconds = time.perf_counter() - started
+        return StartResult(x, float(f), body, used, seconds, height, floor_y, method, silhouettes)
 
     def _search(
         self, body, height, centre, floor_y, cameras, masks, evaluator, optimizer, strategy, rng, fit_height, fit_girth

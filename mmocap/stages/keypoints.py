@@ -16,7 +16,7 @@ Where they come from (``keypoints.source``):
 The detector's joints are mapped onto the model's points (:data:`mmocap.data.skeletons.MAPPINGS`)
 and undistorted into the ideal pin-hole cameras the masks are in. The result per frame is a
 :class:`~mmocap.evaluators.keypoint_term.Keypoints` that the evaluators add to the fitness
-with ``keypoints.fitness`` (:class:`~mmocap.evaluators.keypoint_term.KeypointTerm`).
+with ``keypoints.weight``, ``keypoints.loss``, ``keypoints.scale`` (:class:`~mmocap.evaluators.keypoint_term.KeypointTerm`).
 """
 
 from __future__ import annotations
@@ -27,6 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mmocap import registry
+from mmocap.data.keypoints import AUTO
 from mmocap.data.skeletons import MAPPINGS, check_mapping, skeleton_joints
 from mmocap.errors import ConfigError
 from mmocap.evaluators.keypoint_term import Keypoints, KeypointTerm
@@ -76,26 +77,31 @@ class KeypointSource:
         source: ``auto``, ``files``, ``detector`` or ``none`` (see the module docstring).
         skeleton: the files' skeleton, or ``auto`` to tell it from the joint count.
         detector: the entry-point name of the detector run for ``source=detector``.
-        fitness: the keypoint term's weight and loss.
         use_for_start: the automatic start fits the keypoints first when there are any.
+        weight, loss, scale: the keypoint term's
+            (:class:`~mmocap.evaluators.keypoint_term.KeypointTerm`): its weight beside the
+            silhouettes (chosen by ``make keypoint_weight``), robust loss and the loss's scale
+            as a share of the person's image height.
     """
 
     def __init__(
         self,
-        source: str,
-        skeleton: str,
-        detector: str,
-        fitness: KeypointTerm,
-        use_for_start: bool,
+        source: str = "auto",
+        skeleton: str = AUTO,
+        detector: str = SEGMENTATION_DETECTOR,
+        use_for_start: bool = True,
+        weight: float = 0.5,
+        loss: str = "geman_mcclure",
+        scale: float = 0.05,
     ):
         if source not in SOURCES:
             raise ConfigError(f"keypoints.source must be one of {', '.join(SOURCES)}, got {source!r}")
-        if skeleton != "auto":
+        if skeleton != AUTO:
             skeleton_joints(skeleton)
         self.source = source
         self.skeleton = skeleton
         self.detector = detector
-        self.fitness = fitness
+        self.fitness = KeypointTerm(weight, loss, scale)
         self.use_for_start = bool(use_for_start)
 
     def open(self, sequence, foreground) -> KeypointStream | None:

@@ -72,8 +72,9 @@ class Plausibility:
     def check_start(self, start) -> None:
         """Warn about the automatic start's result ``start`` (a
         :class:`~mmocap.stages.initialisation.StartResult`): its fitness, its body's height
-        (mm) and girth, and that height against the visual hull's."""
-        fitness, body = start.fitness, start.body.subject
+        (mm) and girth, and that height against the visual hull's. The fitness is the
+        silhouettes' alone, which the threshold was measured on, with keypoints or not."""
+        fitness, body = start.silhouette_fitness, start.body.subject
         if fitness > self.max_fitness:
             self._warn(
                 "start_fitness",

@@ -49,7 +49,8 @@ class FrameResult:
 
     ``trace`` (k, 2) float64 is the frame's convergence (:meth:`Trace.rows`): rows
     (evaluations, best fitness so far), the last at ``evaluations`` and, since every built-in
-    optimiser reports the best candidate it evaluated, at ``fitness``."""
+    optimiser reports the best candidate it evaluated, at ``fitness``. ``silhouette_fitness``
+    is the pose's silhouette fitness alone when ``fitness`` has a keypoint term too (else None)."""
 
     frame: int
     pose: np.ndarray
@@ -58,6 +59,7 @@ class FrameResult:
     seconds: float
     foreground_seconds: float = 0.0
     trace: np.ndarray = field(default_factory=lambda: np.empty((0, 2)))
+    silhouette_fitness: float | None = None
 
 
 class Trace:
@@ -351,7 +353,8 @@ def track(
                 x, f, event = recovery.recover(frame, body, x, f, trace, optimizer, strategy, rng)
                 used += event.evaluations
             recovery.keep(f)
-        result = FrameResult(frame, x, f, used, time.perf_counter() - start, start - read, trace.rows())
+        silhouettes = None if frame_keypoints is None else float(evaluator.silhouette_fitness(x[None])[0])
+        result = FrameResult(frame, x, f, used, time.perf_counter() - start, start - read, trace.rows(), silhouettes)
         results.append(result)
         if on_frame is not None:
             on_frame(result)

@@ -199,7 +199,7 @@ def test_load_runs_gives_the_contract_tables(tmp_path):
         )
     )
     runs, frames = load_runs(tmp_path)
-    assert list(runs.columns[:19]) == [
+    assert list(runs.columns[:22]) == [
         "run_id",
         "subject",
         "action",
@@ -210,6 +210,9 @@ def test_load_runs_gives_the_contract_tables(tmp_path):
         "algorithm",
         "settings",
         "realism",
+        "turn_deg",
+        "keypoints",
+        "keypoint_weight",
         "dof",
         "evaluations",
         "vertices",
@@ -234,6 +237,7 @@ def test_load_runs_gives_the_contract_tables(tmp_path):
     assert first["realism"] == "exact"
     assert second["realism"] == "realistic"
     assert second["backend"] == "opencl"
+    assert (first["keypoints"], first["keypoint_weight"], first["turn_deg"]) == ("none", 0.0, 0.0)  # silhouettes only
     assert runs["dof"].dtype.kind == "i"
     assert runs["seconds_per_frame"].dtype.kind == "f"
     assert list(frames.columns) == ["run_id", "frame", "marker_error_mm", "fitness"]
@@ -282,6 +286,7 @@ JOBS = {
     ("fig10", "paper"): 2 * 2 * 4,
     ("cano_table3", "paper"): 2 * 3 * 4 * 6 * 10,
     ("fig4", "smoke"): 2 * 3 * 2 * 2,
+    ("keypoint_weight", "paper"): 2 * 5 * 5,  # the realistic benchmark: 5 seeds
 }
 
 
@@ -300,7 +305,7 @@ def test_every_experiment_composes_at_every_scale(experiment, scale):
     jobs = math.prod(len(v) for v in values.values())
     if (experiment, scale) in JOBS:
         assert jobs == JOBS[experiment, scale]
-    if scale == "paper" and "seed" in values and experiment != "fig10":
+    if scale == "paper" and "seed" in values and experiment not in ("fig10", "keypoint_weight"):
         assert len(values["seed"]) in (10, 30)
 
 

@@ -56,9 +56,9 @@ def test_unseen_keypoints_count_nothing_and_a_point_behind_the_camera_counts_as_
 @pytest.mark.parametrize(
     ("kwargs", "message"),
     [
-        ({"weight": -1.0}, "keypoints.fitness.weight"),
-        ({"scale": 0.0}, "keypoints.fitness.scale"),
-        ({"loss": "cauchy"}, "keypoints.fitness.loss must be one of geman_mcclure, huber"),
+        ({"weight": -1.0}, "keypoints.weight"),
+        ({"scale": 0.0}, "keypoints.scale"),
+        ({"loss": "cauchy"}, "keypoints.loss must be one of geman_mcclure, huber"),
     ],
 )
 def test_bad_settings_name_their_key(kwargs, message):
