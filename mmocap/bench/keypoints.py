@@ -7,9 +7,13 @@ Workloads (``--workloads``): the demo's (4 cameras, 13 695 vertices) and Cano's 
 (:class:`~mmocap.testing.scene.Scene`), with keypoints where its reference pose puts the
 model points (:func:`scene_keypoints`). Each is timed at two populations: the holistic
 CMA-ES's (lambda for the body's active degrees of freedom: what one call of the tracker
-evaluates) and Table 2's (``--population``). Off and on are timed in turn, ``repeats``
-calls each, and the best of each kept, so that a load that changes meanwhile affects both
-alike.
+evaluates) and Table 2's (``--population``), each with ``repeats`` x :data:`CANDIDATES`
+candidates off and as many on, in calls of the population. The evaluator is set up once,
+with the keypoints; off is what its call computes without them, the silhouettes' fitness
+from its :meth:`~mmocap.evaluators.silhouette.SilhouetteEvaluator.counts`, and on its call.
+Off and on take turns call by call, so that a load that changes meanwhile affects both
+alike, and the best call of each is kept (where other processes share the cores, a call is
+slowed by whatever ran meanwhile, and the best of many comes nearest an undisturbed one).
 """
 
 from __future__ import annotations
@@ -25,7 +29,7 @@ from mmocap.body.model import VERTICES_RANGE
 from mmocap.data.synthetic import CAMERA_RING
 from mmocap.errors import ConfigError
 from mmocap.evaluators.keypoint_term import Keypoints, KeypointTerm
-from mmocap.evaluators.silhouette import PATCH_SCALE, keypoint_pixels, view_geometry
+from mmocap.evaluators.silhouette import PATCH_SCALE, fitness_from_counts, keypoint_pixels, view_geometry
 from mmocap.testing.scene import Scene
 from mmocap.validate import check_number
 
@@ -35,6 +39,8 @@ WORKLOADS = "4:13695,7:27393"
 GOAL_RATIO = 1.10
 #: the term's weight while timed (any weight > 0 costs the same)
 WEIGHT = 1.0
+#: candidates evaluated per repeat, off and on each
+CANDIDATES = 1024
 
 
 def parse_workloads(text: str) -> list[tuple[int, int]]:
@@ -64,24 +70,30 @@ def scene_keypoints(scene: Scene, weight: float = WEIGHT) -> Keypoints:
     return Keypoints(MODEL_POINTS, np.zeros((len(MODEL_POINTS), 3)), observed, KeypointTerm(weight=weight))
 
 
-def evaluation_us(ev, scene: Scene, keypoints: Keypoints, X: np.ndarray, repeats: int) -> tuple[float, float]:
-    """Best time per evaluation in microseconds of ``ev`` on the poses ``X`` (n, P) without
-    and with ``keypoints``, timed in turn ``repeats`` times each after a warm-up call."""
-    best = {False: np.inf, True: np.inf}
-    for _ in range(repeats):
-        for on in best:
-            ev.setup(scene.body, scene.cameras, scene.foreground, keypoints if on else None)
-            ev(X[:1])  # warm-up: kernels, caches, workers
+def evaluation_us(ev, scene: Scene, keypoints: Keypoints, X: np.ndarray, calls: int) -> tuple[float, float]:
+    """Best time per evaluation in microseconds of ``ev``, set up with ``keypoints``, on the
+    poses ``X`` (n, P) without the keypoint term (the silhouettes' fitness from its counts)
+    and with it (its call), ``calls`` calls each in turn after a warm-up."""
+    ev.setup(scene.body, scene.cameras, scene.foreground, keypoints)
+    ways = {
+        "off": lambda: fitness_from_counts(*ev.counts(X), ev.fg_px),
+        "on": lambda: ev(X),
+    }
+    best = dict.fromkeys(ways, np.inf)
+    for evaluate in ways.values():  # warm-up: kernels, caches, workers, buffers
+        evaluate()
+    for _ in range(calls):
+        for way, evaluate in ways.items():
             start = time.perf_counter()
-            ev(X)
-            best[on] = min(best[on], time.perf_counter() - start)
-    return best[False] / len(X) * 1e6, best[True] / len(X) * 1e6
+            evaluate()
+            best[way] = min(best[way], time.perf_counter() - start)
+    return best["off"] / len(X) * 1e6, best["on"] / len(X) * 1e6
 
 
 def keypoint_table(evaluators: dict, workloads: list[tuple[int, int]], population: int, repeats: int) -> pd.DataFrame:
     """Per backend, workload (cameras, vertices) and population (the holistic CMA-ES's and
-    ``population``): microseconds per evaluation with the keypoint term off and on, and
-    their ratio."""
+    ``population``, each in calls of ``repeats`` x :data:`CANDIDATES` candidates):
+    microseconds per evaluation with the keypoint term off and on, and their ratio."""
     rows = []
     for cameras, vertices in workloads:
         scene = Scene(vertices, cameras)
@@ -89,7 +101,8 @@ def keypoint_table(evaluators: dict, workloads: list[tuple[int, int]], populatio
         cmaes = registry.make_optimizer("cmaes").population_size(int(np.count_nonzero(scene.body.mask)))
         for name, ev in evaluators.items():
             for n in dict.fromkeys((cmaes, population)):
-                off, on = evaluation_us(ev, scene, keypoints, scene.candidates(n), repeats)
+                calls = repeats * -(-CANDIDATES // n)
+                off, on = evaluation_us(ev, scene, keypoints, scene.candidates(n), calls)
                 rows.append(
                     {
                         "backend": name,
