@@ -23,13 +23,13 @@ import time
 import numpy as np
 import pandas as pd
 
-from mmocap import registry
 from mmocap.body.keypoints import MODEL_POINTS, model_points
 from mmocap.body.model import VERTICES_RANGE
 from mmocap.data.synthetic import CAMERA_RING
 from mmocap.errors import ConfigError
 from mmocap.evaluators.keypoint_term import Keypoints, KeypointTerm
 from mmocap.evaluators.silhouette import PATCH_SCALE, fitness_from_counts, keypoint_pixels, view_geometry
+from mmocap.optimizers.cmaes import strategy_parameters
 from mmocap.testing.scene import Scene
 from mmocap.validate import check_number
 
@@ -70,13 +70,20 @@ def scene_keypoints(scene: Scene, weight: float = WEIGHT) -> Keypoints:
     return Keypoints(MODEL_POINTS, np.zeros((len(MODEL_POINTS), 3)), observed, KeypointTerm(weight=weight))
 
 
+def silhouette_fitness(ev, X: np.ndarray) -> np.ndarray:
+    """What ``ev`` set up without keypoints returns for the poses ``X`` (n, P): the (n,)
+    silhouettes' fitness from its counts."""
+    model_px, overlap_px = ev.counts(X)
+    return fitness_from_counts(model_px, overlap_px, ev.fg_px)
+
+
 def evaluation_us(ev, scene: Scene, keypoints: Keypoints, X: np.ndarray, calls: int) -> tuple[float, float]:
     """Best time per evaluation in microseconds of ``ev``, set up with ``keypoints``, on the
     poses ``X`` (n, P) without the keypoint term (the silhouettes' fitness from its counts)
     and with it (its call), ``calls`` calls each in turn after a warm-up."""
     ev.setup(scene.body, scene.cameras, scene.foreground, keypoints)
     ways = {
-        "off": lambda: fitness_from_counts(*ev.counts(X), ev.fg_px),
+        "off": lambda: silhouette_fitness(ev, X),
         "on": lambda: ev(X),
     }
     best = dict.fromkeys(ways, np.inf)
@@ -98,7 +105,7 @@ def keypoint_table(evaluators: dict, workloads: list[tuple[int, int]], populatio
     for cameras, vertices in workloads:
         scene = Scene(vertices, cameras)
         keypoints = scene_keypoints(scene)
-        cmaes = registry.make_optimizer("cmaes").population_size(int(np.count_nonzero(scene.body.mask)))
+        cmaes = strategy_parameters(int(np.count_nonzero(scene.body.mask))).lam
         for name, ev in evaluators.items():
             for n in dict.fromkeys((cmaes, population)):
                 calls = repeats * -(-CANDIDATES // n)
