@@ -97,9 +97,11 @@ def evaluation_us(ev, scene: Scene, keypoints: Keypoints, X: np.ndarray, calls: 
     return best["off"] / len(X) * 1e6, best["on"] / len(X) * 1e6
 
 
-def keypoint_table(evaluators: dict, workloads: list[tuple[int, int]], population: int, repeats: int) -> pd.DataFrame:
+def keypoint_table(
+    evaluators: dict, workloads: list[tuple[int, int]], population: int, repeats: int, candidates: int = CANDIDATES
+) -> pd.DataFrame:
     """Per backend, workload (cameras, vertices) and population (the holistic CMA-ES's and
-    ``population``, each in calls of ``repeats`` x :data:`CANDIDATES` candidates):
+    ``population``, each in calls that evaluate ``repeats`` x ``candidates`` candidates):
     microseconds per evaluation with the keypoint term off and on, and their ratio."""
     rows = []
     for cameras, vertices in workloads:
@@ -108,7 +110,7 @@ def keypoint_table(evaluators: dict, workloads: list[tuple[int, int]], populatio
         cmaes = strategy_parameters(int(np.count_nonzero(scene.body.mask))).lam
         for name, ev in evaluators.items():
             for n in dict.fromkeys((cmaes, population)):
-                calls = repeats * -(-CANDIDATES // n)
+                calls = repeats * -(-candidates // n)
                 off, on = evaluation_us(ev, scene, keypoints, scene.candidates(n), calls)
                 rows.append(
                     {

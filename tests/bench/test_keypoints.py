@@ -53,7 +53,7 @@ def test_the_scenes_keypoints_are_its_model_points_where_its_pose_puts_them(smal
 
 def test_the_table_times_each_backend_off_and_on_at_cmaes_population_and_the_given_one(small_scene):
     with registry.make_evaluator("numpy") as ev:
-        table = keypoint_table({"numpy": ev}, [(2, 2000)], population=6, repeats=1)
+        table = keypoint_table({"numpy": ev}, [(2, 2000)], population=6, repeats=1, candidates=12)
     assert list(table.population) == [14, 6]  # lambda of CMA-ES for 39 degrees of freedom
     assert list(table.cameras) == [2, 2]
     assert list(table.vertices) == [2000, 2000]
