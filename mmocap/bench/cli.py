@@ -7,7 +7,10 @@
   budget, and the host's share of it (:func:`mmocap.bench.tables.table1`);
 - ``roofline``: the silhouette kernel's time per model-view at the largest vertex level
   beside the floor of this device's measured rates (:mod:`mmocap.bench.roofline`);
-- ``all``: ``table2`` then ``table1``;
+- ``keypoints``: the keypoint term's cost, the time per evaluation with the hybrid fitness
+  against the silhouettes alone at the demo's and Cano's workloads
+  (:mod:`mmocap.bench.keypoints`), by default on the opencl backend;
+- ``all``: ``table2`` then ``table1``, and ``keypoints`` when the opencl backend is timed;
 - ``fidelity``: multi-fidelity against exact search on the demo sequence
   (:mod:`mmocap.bench.fidelity`);
 - ``fullhd``: a full-HD recording tracked from nothing at full resolution and at reduced
@@ -24,6 +27,7 @@ Usage::
     mmocap bench table2
     mmocap bench table1 --vertices 13695 --budgets 500,1500
     mmocap bench roofline --backends opencl --vertices 27393
+    mmocap bench keypoints --workloads 4:13695,7:27393
     mmocap bench all --vertices 27393 --budgets 500,1500 --prefix bench_
     mmocap bench fidelity --exact 500,1000,1500 --schedule 0.25:3000:1200+300
     mmocap bench fullhd --scales 1,0.5,0.333 --track-frames 20
@@ -38,7 +42,7 @@ import pandas as pd
 
 from mmocap import registry
 from mmocap.analysis.figures import plot_frames_per_second, plot_pareto_front
-from mmocap.bench import fidelity, fullhd, roofline
+from mmocap.bench import fidelity, fullhd, keypoints, roofline
 from mmocap.bench.backends import backends
 from mmocap.bench.output import TableWriter, update_bench_page
 from mmocap.bench.tables import MAX_FRAMES, table1, table2
@@ -60,7 +64,8 @@ TABLES = {
     "table1": ("table1",),
     "table2": ("table2", "roofline"),
     "roofline": ("roofline",),
-    "all": ("table2", "roofline", "table1"),
+    "keypoints": ("keypoints",),
+    "all": ("table2", "roofline", "table1", "keypoints"),
     "fidelity": ("fidelity",),
     "fullhd": ("fullhd", "fullhd_foreground"),
 }
@@ -86,13 +91,22 @@ def build_parser(prog: str) -> argparse.ArgumentParser:
     )
     parser.add_argument("table", choices=list(TABLES))
     parser.add_argument(
-        "--backends", default=None, help="comma-separated evaluators (default: every one that can run here)"
+        "--backends",
+        default=None,
+        help="comma-separated evaluators (default: every one that can run here; keypoints: opencl)",
     )
     parser.add_argument("--vertices", default=str(paper.meshes))
     parser.add_argument("--budgets", default=str(paper.cano_budgets))
     parser.add_argument("--cameras", type=int, default=7)
-    parser.add_argument("--population", type=int, default=256, help="candidates per timing (table 2)")
-    parser.add_argument("--repeats", type=int, default=10, help="timings per backend (table 2), best kept")
+    parser.add_argument(
+        "--population", type=int, default=256, help="candidates per timing (table 2; keypoints beside CMA-ES's)"
+    )
+    parser.add_argument("--repeats", type=int, default=10, help="timings per backend (table 2, keypoints), best kept")
+    parser.add_argument(
+        "--workloads",
+        default=keypoints.WORKLOADS,
+        help="CAMERAS:VERTICES[,...] timed with the keypoint term off and on (keypoints, all)",
+    )
     parser.add_argument("--frames", type=int, default=1, help="frames per budget, at least (table 1)")
     parser.add_argument(
         "--seconds", type=float, default=2.0, help=f"more frames (up to {MAX_FRAMES}) while they fit in this time"
@@ -152,6 +166,8 @@ def main(argv: list[str], prog: str) -> None:
         fidelity_command(args, tables)
     elif args.table == "fullhd":
         fullhd_command(args, tables)
+    elif args.table == "keypoints":
+        keypoints_command(args, tables, parser)
     else:
         timings_command(args, tables, parser)
     if args.page is not None:
@@ -219,9 +235,37 @@ def fullhd_command(args: argparse.Namespace, tables: TableWriter) -> None:
     )
 
 
-def chosen_backends(text: str | None, parser: argparse.ArgumentParser) -> list[str]:
-    """``--backends`` (default: :func:`backends`); an unknown name ends the command."""
-    names = backends() if text is None else [b for b in text.split(",") if b]
+def keypoints_command(args: argparse.Namespace, tables: TableWriter, parser: argparse.ArgumentParser) -> None:
+    """``keypoints``: the keypoint term's cost on ``--backends`` (default: opencl)."""
+    names = chosen_backends(args.backends, parser, default=["opencl"])
+    workloads = keypoints.parse_workloads(args.workloads)
+    check_number("--population", args.population, 1, 1_000_000, integer=True)
+    check_number("--repeats", args.repeats, 1, 1000, integer=True)
+    evaluators = {name: registry.make_evaluator(name) for name in names}
+    try:
+        write_keypoints(args, tables, evaluators, workloads)
+    finally:
+        for ev in evaluators.values():
+            ev.close()
+
+
+def write_keypoints(
+    args: argparse.Namespace, tables: TableWriter, evaluators: dict, workloads: list[tuple[int, int]]
+) -> None:
+    """The keypoint term's cost per evaluation, off and on, at each of ``workloads``."""
+    table = keypoints.keypoint_table(evaluators, workloads, args.population, args.repeats)
+    tables.write(
+        table,
+        "keypoints",
+        "Cost of the keypoint term: time per evaluation with the hybrid fitness (17 model points, weight > 0) "
+        "against the silhouettes alone, 640x480, microseconds, at CMA-ES's population and Table 2's; "
+        f"goal: ratio at most {keypoints.GOAL_RATIO:g}",
+    )
+
+
+def chosen_backends(text: str | None, parser: argparse.ArgumentParser, default: list[str] | None = None) -> list[str]:
+    """``--backends`` (else ``default``, else :func:`backends`); an unknown name ends the command."""
+    names = (default or backends()) if text is None else [b for b in text.split(",") if b]
     unknown = sorted(set(names) - set(registry.available("evaluator")))
     if unknown:
         parser.error(
@@ -241,6 +285,7 @@ def timings_command(args: argparse.Namespace, tables: TableWriter, parser: argpa
     check_number("--repeats", args.repeats, 1, 1000, integer=True)
     check_number("--frames", args.frames, 1, 1000, integer=True)
     check_number("--seconds", args.seconds, 0, 86_400)
+    workloads = keypoints.parse_workloads(args.workloads) if args.table == "all" else []
     if args.table == "roofline" and "opencl" not in names:
         parser.error("roofline needs the opencl backend (--backends opencl)")
     scenes = {v: Scene(v, args.cameras) for v in levels}
@@ -254,6 +299,8 @@ def timings_command(args: argparse.Namespace, tables: TableWriter, parser: argpa
             write_table1(args, tables, evaluators, scenes, budgets)
         else:
             write_table1(args, tables, evaluators, scenes, budgets, write_table2(args, tables, evaluators, scenes))
+            if "opencl" in evaluators:
+                write_keypoints(args, tables, {"opencl": evaluators["opencl"]}, workloads)
     finally:
         for ev in evaluators.values():
             ev.close()

@@ -14,6 +14,10 @@ the rule asks. The windows never reach into each other, so one ``cv2.dilate`` pe
 serves all views. Counting ANDs each window with the matching window of a padded code
 image (1 = inside the image, 3 = inside and foreground).
 
+The keypoint term's pixels (:meth:`NumpyEvaluator._counts_and_pixels`) come from the same
+coefficients as the stamping, :func:`~mmocap.evaluators.silhouette.keypoint_pixels` of
+them: this backend is the reference of the other backends' pixels.
+
 Views with a patch side above :data:`MAX_DILATE_SIDE` (a body part within a few
 centimetres of a camera) are rendered one by one instead, with rectangles summed into a
 difference image over the whole image.
@@ -31,6 +35,7 @@ from numpy.lib.stride_tricks import sliding_window_view
 
 from mmocap.evaluators.silhouette import (
     SilhouetteEvaluator,
+    keypoint_pixels,
     project,
     vertex_table,
     view_geometry,
@@ -94,14 +99,35 @@ class NumpyEvaluator(SilhouetteEvaluator):
         self._codes = codes
 
     def _counts(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        step = max(1, _CHUNK // (len(self.cameras) * len(self._joint)))
-        parts = [self._chunk_counts(X[i : i + step]) for i in range(0, len(X), step)]
-        return np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
+        model_px, overlap_px, _ = self._chunked(X, with_pixels=False)
+        return model_px, overlap_px
 
-    def _chunk_counts(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def _counts_and_pixels(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The counts and the model points' pixels from one :func:`view_geometry` per chunk;
+        a subclass that counts its own way (its own ``_counts``) gets the base class's, its
+        counts and then the pixels."""
+        if type(self)._counts is not NumpyEvaluator._counts:
+            return super()._counts_and_pixels(X)
+        return self._chunked(X, with_pixels=True)
+
+    def _chunked(self, X: np.ndarray, with_pixels: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(n, C) counts and (n, C, K, 2) pixels of the model points, K = 0 unless
+        ``with_pixels``, chunk by chunk."""
+        step = max(1, _CHUNK // (len(self.cameras) * len(self._joint)))
+        parts = [self._chunk_counts(X[i : i + step], with_pixels) for i in range(0, len(X), step)]
+        model_px, overlap_px, pixels = (np.concatenate(part) for part in zip(*parts))
+        return model_px, overlap_px, pixels
+
+    def _chunk_counts(self, X: np.ndarray, with_pixels: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         cams = np.arange(len(self.cameras))
         n, C = len(X), len(cams)
-        canvas, oy, ox, exact = self._stamp(X, cams)
+        geometry = view_geometry(self.body, self.cameras, X, self.patch_scale)
+        # the pixels before _stamp, which changes the coefficients of dropped joints
+        if with_pixels:
+            pixels = keypoint_pixels(geometry[0], self._point_joint, self._point_rest)
+        else:
+            pixels = np.zeros((n, C, 0, 2), np.float32)
+        canvas, oy, ox, exact = self._stamp(X, cams, geometry)
         model_px = np.zeros(n * C, dtype=np.int64)
         overlap_px = np.zeros(n * C, dtype=np.int64)
         if canvas is not None:
@@ -116,7 +142,7 @@ class NumpyEvaluator(SilhouetteEvaluator):
         for view, image in exact.items():
             model_px[view] = np.count_nonzero(image)
             overlap_px[view] = np.count_nonzero(image & self.foreground[view % C])
-        return model_px.reshape(n, C), overlap_px.reshape(n, C)
+        return model_px.reshape(n, C), overlap_px.reshape(n, C), pixels
 
     def _render(self, x: np.ndarray, camera_index: int) -> np.ndarray:
         cam = self.cameras[camera_index]
@@ -132,8 +158,10 @@ class NumpyEvaluator(SilhouetteEvaluator):
                 image[r0:r1, c0:c1] = canvas[0, r0 - oy[0] : r1 - oy[0], c0 - ox[0] : c1 - ox[0]] != 0
         return image
 
-    def _stamp(self, X: np.ndarray, cams: np.ndarray):
-        """Silhouettes of poses X (n, P) in cameras ``cams`` (C,): nV = n x C views, ``i * C + c``.
+    def _stamp(self, X: np.ndarray, cams: np.ndarray, geometry: tuple[np.ndarray, np.ndarray] | None = None):
+        """Silhouettes of poses X (n, P) in cameras ``cams`` (C,): nV = n x C views, ``i * C + c``;
+        ``geometry``: their :func:`view_geometry` when already computed (its coefficients
+        are changed here).
 
         Returns:
             canvas: (nV, Hc, Wc) uint8, nonzero = covered, or None when no view has a
@@ -145,7 +173,7 @@ class NumpyEvaluator(SilhouetteEvaluator):
         cameras = [self.cameras[c] for c in cams]
         n, C = len(X), len(cams)
         nV = n * C
-        coefficients, side = view_geometry(self.body, cameras, X, self.patch_scale)
+        coefficients, side = view_geometry(self.body, cameras, X, self.patch_scale) if geometry is None else geometry
         J = side.shape[2]
         coefficients = coefficients.reshape(nV, J, 16)
         side = side.reshape(nV, J)

@@ -14,7 +14,10 @@ order of ``view_geometry``, steps 3-6 in the rule's float32 arithmetic, one work
 same memory. The work-group size and the local memory are the device's and the built
 kernel's limits; masks larger than that local memory are a ConfigError that says so. The
 foreground masks are uploaded once per frame as bit masks and counted against with
-popcounts. The per-block culling bounds need double precision
+popcounts. With the keypoint term (:meth:`~SilhouetteEvaluator.counts_and_pixels`), the same
+launch also writes the pixels of the frame's model points (joint and rest position,
+uploaded when they change), from the joint transforms it has at hand; the host reads them
+back with the counts. The per-block culling bounds need double precision
 (``cl_khr_fp64``): PoCL on CPUs and current GPUs have it.
 
 Self-check: every evaluator counts a fixed test scene (:func:`check_scene`: a ball in a
@@ -72,6 +75,7 @@ from mmocap.evaluators.opencl_layout import (
     layer_words,
     pack_bits,
     pitch,
+    point_arrays,
     vertex_arrays,
 )
 from mmocap.evaluators.silhouette import (
@@ -137,6 +141,8 @@ class _DeviceQueue:
         self.frame: dict = {}  # name -> pyopencl.Buffer
         self.batch: dict = {}  # name -> (bytes, pyopencl.Buffer)
         self.bound: dict = {}  # each kernel's arguments, see bind
+        # the kernel's point and pixel arguments when it writes no pixels (K = 0)
+        self.no_points = cl.Buffer(ctx, cl.mem_flags.READ_WRITE, 64)
         self.block = 0
         self.build(LARGEST_BLOCK)
         # the block size changes loop bounds only, not what the kernel needs of the device
@@ -231,6 +237,7 @@ class OpenCLEvaluator(SilhouetteEvaluator):
         super().__init__(patch_scale)
         self._device_queues = self._make_device_queues(platform, device, local_size, lanes)
         self._body_uploaded = None
+        self._points_uploaded: tuple[np.ndarray, np.ndarray] | None = None
         self._chain: KinematicChain | None = None
         self._weights = np.array([queue.device.max_compute_units for queue in self._device_queues], float)
         self.check = self._self_check(bool(accept_inexact))
@@ -357,20 +364,40 @@ class OpenCLEvaluator(SilhouetteEvaluator):
         cameras = camera_rows(self.cameras)
         for device_queue in self._device_queues:
             device_queue.upload(shapes=shapes, fg=fg, cameras=cameras)
+        self._upload_points()
+
+    def _upload_points(self) -> None:
+        """The frame's model points (:func:`point_arrays`), when they differ from those on
+        the devices."""
+        if self.keypoints is None or not len(self._point_joint):
+            return
+        points = point_arrays(self._point_joint, self._point_rest)
+        uploaded = self._points_uploaded
+        if uploaded is None or not all(np.array_equal(a, b) for a, b in zip(points, uploaded)):
+            for device_queue in self._device_queues:
+                device_queue.upload(point_joint=points[0], point_rest=points[1])
+            self._points_uploaded = points
 
     def _counts(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        counts, _ = self._run(X, write_masks=False)
+        counts, _, _ = self._run(X, write_masks=False)
         return counts[..., 0].astype(np.int64), counts[..., 1].astype(np.int64)
 
+    def _counts_and_pixels(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The counts and the model points' pixels from one launch per device."""
+        counts, _, pixels = self._run(X, write_masks=False, points=len(self._point_joint))
+        return counts[..., 0].astype(np.int64), counts[..., 1].astype(np.int64), pixels
+
     def _render(self, x: np.ndarray, camera_index: int) -> np.ndarray:
-        _, masks = self._run(x[None], write_masks=True)
+        _, masks, _ = self._run(x[None], write_masks=True)
         cam = self.cameras[camera_index]
         words = masks[camera_index, : pitch(cam.width) * cam.height].reshape(cam.height, -1)
         bits = np.unpackbits(words.view(np.uint8), axis=1, bitorder="little")
         return bits[:, : cam.width].astype(bool)
 
-    def _run(self, X: np.ndarray, write_masks: bool):
-        """Counts (n, C, 2) int32 and, with ``write_masks``, masks (n * C, mask_words) uint32."""
+    def _run(self, X: np.ndarray, write_masks: bool, points: int = 0):
+        """Counts (n, C, 2) int32; with ``write_masks``, masks (n * C, mask_words) uint32; and
+        the pixels (n, C, points, 2) float32 of the frame's first ``points`` model points
+        (:func:`~mmocap.evaluators.silhouette.keypoint_pixels`), none with 0."""
         cl = pyopencl()
         n, J, C = len(X), len(self.body.joint_rest_positions), len(self.cameras)
         if self._chain is not None:  # the transforms come from the joint_transforms kernel
@@ -380,6 +407,7 @@ class OpenCLEvaluator(SilhouetteEvaluator):
             rows_in = rows_in.reshape(n, J * 12)
         counts = np.empty((n * C, 2), np.int32)
         masks = np.empty((n * C if write_masks else 1, self._mask_words), np.uint32)
+        pixels = np.empty((n * C, points, 2), np.float32)
         if len(self._device_queues) == 1:
             edges = [0, n]
         else:
@@ -408,6 +436,11 @@ class OpenCLEvaluator(SilhouetteEvaluator):
             out = device_queue.buffer("counts", counts[views].nbytes)
             img = device_queue.buffer("masks", masks[views].nbytes if write_masks else 4)
             f = device_queue.frame
+            if points:
+                pix = device_queue.buffer("pixels", pixels[views].nbytes)
+                point_joint, point_rest = f["point_joint"], f["point_rest"]
+            else:
+                pix = point_joint = point_rest = device_queue.no_points
             device_queue.bind(
                 device_queue.kernel,
                 f["vertices"],
@@ -426,6 +459,10 @@ class OpenCLEvaluator(SilhouetteEvaluator):
                 np.int32(write_masks),
                 np.int32(self._mask_words),
                 img,
+                np.int32(points),
+                point_joint,
+                point_rest,
+                pix,
             )
             device_queue.kernel.set_arg(_TRANSFORMS_ARG, rows)
             cl.enqueue_nd_range_kernel(
@@ -434,15 +471,18 @@ class OpenCLEvaluator(SilhouetteEvaluator):
             copies = [cl.enqueue_copy(device_queue.queue, counts[views], out, is_blocking=False)]
             if write_masks:
                 copies.append(cl.enqueue_copy(device_queue.queue, masks[views], img, is_blocking=False))
+            if points:
+                copies.append(cl.enqueue_copy(device_queue.queue, pixels[views], pix, is_blocking=False))
             events.append(copies)
         for copies in events:  # one wait per device: a wait may not mix contexts (platforms)
             cl.wait_for_events(copies)
-        return counts.reshape(n, C, 2), masks
+        return counts.reshape(n, C, 2), masks, pixels.reshape(n, C, points, 2)
 
     def close(self) -> None:
         for device_queue in self._device_queues:
             device_queue.frame = {}
         self._body_uploaded = None
+        self._points_uploaded = None
         self._chain = None
         super().close()
 
@@ -510,11 +550,19 @@ class MultiDeviceEvaluator(OpenCLEvaluator):
         contexts = {key: context(group) for key, group in by_platform.items()}
         return [_DeviceQueue(d, contexts[d.platform.int_ptr], local_size, lanes) for d in chosen]
 
-    def _counts(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def _measure_new_body(self, X: np.ndarray) -> None:
+        """:meth:`measure` the devices on the first call with a new body."""
         if len(self._device_queues) > 1 and self._measured_body is not self.body:
             self.measure(X)
             self._measured_body = self.body
+
+    def _counts(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        self._measure_new_body(X)
         return super()._counts(X)
+
+    def _counts_and_pixels(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        self._measure_new_body(X)
+        return super()._counts_and_pixels(X)
 
     def measure(self, X: np.ndarray) -> np.ndarray:
         """Each device's speed on the frame set up now, alone: the inverse of its best time

@@ -11,6 +11,8 @@ Layout, for the kernel ``silhouette_counts``:
   joint's run padded to a multiple of the block size with zero-normal vertices (always culled),
   interleaved ``LANES`` vertices at a time (:func:`vertex_arrays`, :func:`interleaved`);
 - one culling cone and bounding sphere per block (:func:`culling_cones`);
+- the model points of the keypoint term: (K,) int32 joint and (K, 3) float32 rest
+  position (mm) each (:func:`point_arrays`), and per view their pixels, (K, 2) float32;
 - bit masks, 1 bit per pixel (bit ``x % 32`` of word ``x // 32`` of a row), rows
   :func:`pitch` words apart (:func:`pack_bits`); in local memory the mask of a view or up to
   :data:`MAX_LAYERS` layers padded by :data:`PAD` px (:func:`layer_words`) and
@@ -99,6 +101,13 @@ def pack_bits(mask: np.ndarray, size: int, packed: np.ndarray | None = None) -> 
     out = np.zeros(size, np.uint32)
     out[: H * pitch(W)].reshape(H, -1)[:, : rows.shape[1]] = rows
     return out
+
+
+def point_arrays(joint: np.ndarray, rest: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The model points for the kernel: (K,) joint indices -> (K,) int32, and (K, 3) rest
+    positions (mm) -> (K, 3) float32, rounded once, as
+    :func:`~mmocap.evaluators.silhouette.keypoint_pixels` rounds them."""
+    return np.ascontiguousarray(joint, np.int32), np.ascontiguousarray(rest, np.float32).reshape(len(joint), 3)
 
 
 def device_chain(body) -> KinematicChain | None:

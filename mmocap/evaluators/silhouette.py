@@ -208,7 +208,8 @@ def keypoint_pixels(coefficients: np.ndarray, joint: np.ndarray, rest: np.ndarra
         rest: (K, 3) rest positions, mm.
 
     Returns:
-        (n, C, K, 2) float32 pixel coordinates.
+        (n, C, K, 2) float32 pixel coordinates, C-contiguous (as every backend's: the
+        keypoint term's sums follow the memory order).
     """
     a = np.moveaxis(coefficients[:, :, joint, :], -1, 0)  # (16, n, C, K)
     x, y, z = np.asarray(rest, np.float32).T
@@ -217,7 +218,7 @@ def keypoint_pixels(coefficients: np.ndarray, joint: np.ndarray, rest: np.ndarra
         r = np.float32(1) / depth
         u = (a[0] * x + a[1] * y + a[2] * z + a[3]) * r
         v = (a[4] * x + a[5] * y + a[6] * z + a[7]) * r
-    out = np.stack([u, v], axis=-1)
+    out = np.ascontiguousarray(np.stack([u, v], axis=-1))
     out[~(depth > np.float32(NEAR_MM))] = np.nan
     return out
 

@@ -6,6 +6,9 @@ inputs, exactly: ``|M_c|`` and ``|M_c & F_c|`` are integers, and the rule of
 :mod:`mmocap.evaluators.silhouette` fixes every float32 operation of the projection, so
 backends agree bit for bit. The fitness, computed from the counts
 by the shared :func:`~mmocap.evaluators.silhouette.fitness_from_counts`, is then equal too.
+With 2-D keypoints (:func:`blob_keypoints`), every backend must also give the model points'
+pixels of the ``numpy`` reference (:meth:`~mmocap.evaluators.silhouette.SilhouetteEvaluator.counts_and_pixels`),
+bit for bit (NaN where a point is behind the camera), and so the same hybrid fitness.
 A plugin reuses the suite in one line::
 
     from mmocap.testing.evaluators import EvaluatorConformance
@@ -16,7 +19,8 @@ A plugin reuses the suite in one line::
 Cases: random poses seen by three cameras, a model partly outside a view, wholly outside
 one, behind a camera and around a camera inside the body, very large patches (a camera
 close to the body), several patch scales, an empty foreground, populations of 1 and 0,
-patches at the image border, NaN poses, and the config file.
+patches at the image border, NaN poses, the config file, and keypoints in both rigs
+(noisy, some not seen, points behind the INSIDE camera).
 """
 
 from __future__ import annotations
@@ -29,7 +33,10 @@ from scipy.spatial.transform import Rotation
 
 from mmocap import config, registry
 from mmocap.api import Evaluator
+from mmocap.body.keypoints import model_points
 from mmocap.camera import Camera
+from mmocap.evaluators.keypoint_term import Keypoints, KeypointTerm
+from mmocap.evaluators.silhouette import PATCH_SCALE, keypoint_pixels, view_geometry
 
 W, H = 320, 240
 
@@ -173,6 +180,50 @@ def naive_counts(rig: str, patch_scale: float, foreground: str) -> tuple[np.ndar
         return ev.counts(test_poses())
 
 
+#: the model points of the keypoint cases on BlobBody's three joints, as a detector's
+#: joints mapped onto them: name and definition offset (mm) from the joint's pivot
+BLOB_POINTS = (
+    ("Root", (0.0, 0.0, 0.0)),
+    ("Root", (110.0, -60.0, 20.0)),
+    ("Root", (-110.0, -60.0, 20.0)),
+    ("BottomSpine", (0.0, 0.0, 0.0)),
+    ("BottomSpine", (95.0, 430.0, 0.0)),
+    ("BottomSpine", (-95.0, 430.0, 0.0)),
+    ("UpperSpine", (0.0, 0.0, 0.0)),
+    ("UpperSpine", (0.0, 110.0, 85.0)),
+)
+
+
+@cache
+def blob_keypoints(rig: str, weight: float = 0.5) -> Keypoints:
+    """Keypoints of :data:`BLOB_POINTS` in ``RIGS[rig]``: TRUE_POSE's projections plus 3 px
+    of noise, confidences in [0.3, 1], every fifth 0 (not seen), and 0 with NaN coordinates
+    where a point lies behind the camera; the term of ``weight`` with its default loss."""
+    body, cameras = BlobBody(), RIGS[rig]
+    names = tuple(name for name, _ in BLOB_POINTS)
+    offsets = np.array([offset for _, offset in BLOB_POINTS])
+    joint, rest = model_points(body, names, offsets)
+    coefficients, _ = view_geometry(body, cameras, TRUE_POSE[None], PATCH_SCALE)
+    pixels = keypoint_pixels(coefficients, joint, rest)[0].astype(np.float64)  # (C, K, 2)
+    rng = np.random.default_rng(3)
+    confidence = rng.uniform(0.3, 1.0, pixels.shape[:2])
+    confidence.ravel()[::5] = 0.0
+    confidence[np.isnan(pixels[..., 0])] = 0.0
+    observed = np.concatenate([pixels + rng.normal(0.0, 3.0, pixels.shape), confidence[..., None]], axis=2)
+    return Keypoints(names, offsets, observed, KeypointTerm(weight=weight))
+
+
+@cache
+def numpy_reference(rig: str) -> tuple[np.ndarray, np.ndarray]:
+    """The numpy backend's model points' pixels (7, C, K, 2) float32 and hybrid fitness
+    (7,) of :func:`test_poses` with :func:`blob_keypoints` in ``RIGS[rig]``."""
+    from mmocap.evaluators.numpy_backend import NumpyEvaluator
+
+    with NumpyEvaluator() as ev:
+        ev.setup(BlobBody(), RIGS[rig], masks(rig, "true"), blob_keypoints(rig))
+        return ev.counts_and_pixels(test_poses())[2], ev(test_poses())
+
+
 def masks(rig: str, foreground: str) -> list[np.ndarray]:
     """Foreground masks of a rig: ``true`` silhouettes, ``empty`` or ``full`` images."""
     cameras = RIGS[rig]
@@ -237,6 +288,40 @@ class EvaluatorConformance:
         # the cases the test is meant to cover occur: views with no model pixel at all
         assert model_px.min() == 0
         assert model_px.max() > 0
+
+    @pytest.mark.parametrize("rig", sorted(RIGS))
+    def test_keypoint_pixels_and_hybrid_fitness_equal_numpy(self, make, rig):
+        from mmocap.evaluators.silhouette import fitness_from_counts
+
+        pixels, fitness = numpy_reference(rig)
+        model_px, overlap_px = naive_counts(rig, PATCH_SCALE, "true")
+        ev = make()
+        ev.setup(BlobBody(), RIGS[rig], masks(rig, "true"), blob_keypoints(rig))
+        got = ev.counts_and_pixels(test_poses())
+        np.testing.assert_array_equal(got[0], model_px)
+        np.testing.assert_array_equal(got[1], overlap_px)
+        assert got[2].dtype == np.float32
+        assert got[2].shape == (len(test_poses()), len(RIGS[rig]), len(BLOB_POINTS), 2)
+        np.testing.assert_array_equal(got[2].view(np.uint32), pixels.view(np.uint32))  # bits; NaN where NaN
+        np.testing.assert_array_equal(ev(test_poses()), fitness)
+        # the cases the test is meant to cover occur: points behind a camera, the term counts
+        silhouette = fitness_from_counts(model_px, overlap_px, ev.fg_px)
+        assert np.isnan(pixels).any()
+        assert np.isfinite(pixels).any()
+        assert (fitness > silhouette).all()
+        # weight 0: the silhouettes' fitness alone
+        ev.setup(BlobBody(), RIGS[rig], masks(rig, "true"), blob_keypoints(rig, weight=0.0))
+        np.testing.assert_array_equal(ev(test_poses()), silhouette)
+
+    def test_keypoints_of_a_population_of_zero(self, make):
+        ev = make()
+        ev.setup(
+            BlobBody(), RIGS["front-side-near"], masks("front-side-near", "true"), blob_keypoints("front-side-near")
+        )
+        model_px, _, pixels = ev.counts_and_pixels(np.zeros((0, 8)))
+        assert model_px.shape == (0, 3)
+        assert pixels.shape == (0, 3, len(BLOB_POINTS), 2)
+        assert ev(np.zeros((0, 8))).shape == (0,)
 
     def test_views_render_as_naive(self, make):
         from mmocap.evaluators.naive import NaiveEvaluator

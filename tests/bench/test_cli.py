@@ -87,6 +87,40 @@ def test_roofline_puts_the_kernel_beside_the_floor_of_the_measured_rates(tmp_pat
     assert "500 ORs" in needs.need_per_model_view.iloc[2]  # half of 1000 vertices face the camera
 
 
+def test_keypoints_times_the_opencl_backend_off_and_on_and_all_adds_it_to_the_page(tmp_path):
+    pytest.importorskip("pyopencl")
+    page = tmp_path / "docs" / "results" / "bench.md"
+    small = ["--workloads", "1:1000", "--population", "4", "--repeats", "1", "--out", str(tmp_path)]
+    assert run_cli("bench", "keypoints", *small, "--page", page) == 0
+    table = pd.read_csv(tmp_path / "keypoints.csv")
+    assert list(table.backend) == ["opencl", "opencl"]
+    assert list(table.population) == [14, 4]
+    assert (table.ratio_on_to_off > 0).all()
+    assert list(sections(page.read_text())) == ["keypoints"]
+    assert (tmp_path / "keypoints.md").read_text().startswith("# Cost of the keypoint term")
+    assert (
+        run_cli(
+            "bench",
+            "all",
+            "--backends",
+            "opencl",
+            "--vertices",
+            "1000",
+            "--budgets",
+            "60",
+            "--cameras",
+            "1",
+            "--seconds",
+            "0",
+            *small,
+            "--page",
+            page,
+        )
+        == 0
+    )
+    assert list(sections(page.read_text())) == ["table2", "table1", "roofline", "keypoints"]
+
+
 def test_roofline_needs_the_opencl_backend(capsys):
     assert run_cli("bench", "roofline", "--backends", "numpy") == 2
     assert "roofline needs the opencl backend" in capsys.readouterr().err

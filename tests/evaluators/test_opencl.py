@@ -371,3 +371,80 @@ def test_mmocap_list_shows_each_devices_self_check():
     assert done.returncode == 0, done.stderr
     assert "OpenCL devices, self-checked against numpy" in done.stdout
     assert ": self-check exact" in done.stdout
+
+
+@pytest.mark.parametrize(
+    "make",
+    [
+        lambda: opencl.OpenCLEvaluator(),
+        lambda: opencl.OpenCLEvaluator(local_size=32),
+        lambda: opencl.MultiDeviceEvaluator(sub_devices=2),
+    ],
+    ids=["one-work-item", "work-groups-of-32", "multidevice"],
+)
+def test_the_model_points_of_a_body_with_a_kinematic_chain_project_as_numpy_bit_for_bit(make):
+    from mmocap import registry
+    from mmocap.bench.keypoints import scene_keypoints
+    from mmocap.testing.scene import Scene
+
+    scene = Scene(13695, cameras=3)
+    keypoints = scene_keypoints(scene)
+    X = scene.candidates(9)
+    ev = make()
+    ev.setup(scene.body, scene.cameras, scene.foreground, keypoints)
+    assert ev._chain is scene.body.chain  # the transforms come from the joint_transforms kernel
+    with registry.make_evaluator("numpy") as reference:
+        reference.setup(scene.body, scene.cameras, scene.foreground, keypoints)
+        expected = reference.counts_and_pixels(X)
+        model_px, overlap_px, pixels = ev.counts_and_pixels(X)
+        np.testing.assert_array_equal(model_px, expected[0])
+        np.testing.assert_array_equal(overlap_px, expected[1])
+        np.testing.assert_array_equal(pixels.view(np.uint32), expected[2].view(np.uint32))
+        np.testing.assert_array_equal(ev(X), reference(X))
+    assert expected[2].shape == (9, 3, 17, 2)
+    assert np.isfinite(expected[2]).all()
+    ev.close()
+
+
+def test_the_model_points_go_up_when_they_change_and_their_pixels_come_with_the_counts(monkeypatch):
+    import pyopencl as cl
+
+    from mmocap.evaluators.keypoint_term import Keypoints
+    from mmocap.testing.evaluators import blob_keypoints
+
+    rig = "front-side-near"
+    body, cameras, foreground = BlobBody(), RIGS[rig], masks(rig, "true")
+    ev = opencl.OpenCLEvaluator()
+    device_queue = ev._device_queues[0]
+    uploads, upload = [], device_queue.upload
+    monkeypatch.setattr(device_queue, "upload", lambda **arrays: uploads.extend(arrays) or upload(**arrays))
+    kp = blob_keypoints(rig)
+    moved = Keypoints(kp.points, kp.offsets_mm + 10.0, kp.observed, kp.term)
+    points_uploaded = []
+    for keypoints in (kp, kp, None, kp, moved):
+        uploads.clear()
+        ev.setup(body, cameras, foreground, keypoints)
+        points_uploaded.append(sorted(k for k in uploads if k.startswith("point")))
+    assert points_uploaded == [["point_joint", "point_rest"], [], [], [], ["point_joint", "point_rest"]]
+    ev.close()
+    uploads.clear()
+    ev.setup(body, cameras, foreground, kp)
+    assert "point_joint" in uploads
+    # one launch either way; the pixels are written (K > 0) and read back only when asked for
+    calls = {"enqueue_copy": 0, "enqueue_nd_range_kernel": 0}
+    for name in calls:
+        monkeypatch.setattr(cl, name, functools.partial(counted, getattr(cl, name), calls, name))
+    X = test_poses()
+    ev.counts(X)
+    assert calls == {"enqueue_copy": 1, "enqueue_nd_range_kernel": 1}
+    assert device_queue.bound[device_queue.kernel.int_ptr][16] == 0  # K
+    ev.counts_and_pixels(X)
+    assert calls == {"enqueue_copy": 3, "enqueue_nd_range_kernel": 2}
+    assert device_queue.bound[device_queue.kernel.int_ptr][16] == len(kp.points)
+    ev.close()
+
+
+def counted(function, calls, name, *args, **kwargs):
+    """``function`` that counts its calls in ``calls[name]``."""
+    calls[name] += 1
+    return function(*args, **kwargs)

@@ -66,3 +66,12 @@ def test_culling_blocks_are_about_a_hundredth_of_the_body_within_limits(vertices
     # every size in between is a power of two, so a multiple of every lane count (4, 8, 16)
     assert opencl_layout.SMALLEST_BLOCK % 16 == 0
     assert opencl_layout.LARGEST_BLOCK % 16 == 0
+
+
+def test_point_arrays_are_the_kernels_int32_joints_and_float32_rest_positions_rounded_once():
+    joint, rest = opencl_layout.point_arrays(np.array([0, 9, 2]), np.array([[0.1, 2.0, -3.0]] * 3))
+    assert joint.dtype == np.int32
+    assert joint.tolist() == [0, 9, 2]
+    assert rest.dtype == np.float32
+    assert rest.flags.c_contiguous
+    np.testing.assert_array_equal(rest, np.float32([[0.1, 2.0, -3.0]] * 3))

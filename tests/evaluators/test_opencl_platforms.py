@@ -10,8 +10,10 @@ is pointed at the platform (``OCL_ICD_VENDORS``, read at first use):
 Both are in the dev extra (``make install``); a platform that is not installed is skipped
 with the reason. Each case counts a scene with NumPy and on the platform and asks for equal
 counts; the cases cover work-group sizes 1 to 256, lanes 4, 8 and 16, and the full
-27 393-vertex mesh. Oclgrind runs the kernel thousands of times slower than a device: the
-scenes are small.
+27 393-vertex mesh. The keypoint cases also ask for the model points' pixels of NumPy, bit
+for bit (NaN behind a camera), and its hybrid fitness: the blob's points with work-groups
+of 1 and 64, and the mesh's 17 model points, whose transforms the device computes.
+Oclgrind runs the kernel thousands of times slower than a device: the scenes are small.
 """
 
 import importlib.metadata
@@ -22,6 +24,7 @@ import sys
 from functools import cache
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 pytest.importorskip("pyopencl")
@@ -35,54 +38,77 @@ PLATFORMS = {
 # is pointed at other platforms too
 POCL = ("pocl-binary-distribution", "libpocl-", "portable")
 
-# the cases: (name, {"scene": "blob" or "mesh", "local_size": ..., "lanes": ...})
+# the cases: (name, {"scene": "blob" or "mesh", "local_size": ..., "lanes": ..., "keypoints": bool})
 CASES = (
     [(f"work-group-{k}", {"scene": "blob", "local_size": k, "lanes": None}) for k in (1, 32, 64, 128, 256)]
     + [(f"lanes-{m}", {"scene": "blob", "local_size": 64, "lanes": m}) for m in (4, 8, 16)]
     + [("mesh-27393", {"scene": "mesh", "local_size": 64, "lanes": None})]
+    + [(f"keypoints-work-group-{k}", {"scene": "blob", "local_size": k, "lanes": None}) for k in (1, 64)]
+    + [("keypoints-mesh-27393", {"scene": "mesh", "local_size": 64, "lanes": None})]
 )
+CASES = [(name, {**case, "keypoints": name.startswith("keypoints")}) for name, case in CASES]
+KEYPOINT_CASES = [name for name, case in CASES if case["keypoints"]]
 
 # Runs the cases on the platform named by argv[1] (JSON list of CASES' settings in argv[2]);
-# prints one JSON line per case: the counts on the platform and NumPy's, and what Oclgrind
-# logged meanwhile (OCLGRIND_LOG).
+# prints one JSON line per case: the counts on the platform and NumPy's, with keypoints also
+# the pixels' float32 bits and the fitness on each, and what Oclgrind logged meanwhile
+# (OCLGRIND_LOG).
 CHILD = r"""
 import json, os, sys
 import numpy as np
 from mmocap import registry
+from mmocap.body.keypoints import MODEL_POINTS, model_points
 from mmocap.body.model import BodyModel
 from mmocap.camera import Camera
+from mmocap.evaluators.keypoint_term import Keypoints, KeypointTerm
 from mmocap.evaluators.opencl import OpenCLEvaluator
-from mmocap.testing.evaluators import RIGS, BlobBody, masks, test_poses
+from mmocap.evaluators.silhouette import PATCH_SCALE, keypoint_pixels, view_geometry
+from mmocap.testing.evaluators import RIGS, BlobBody, blob_keypoints, masks, test_poses
 
-def scene(name):
-    if name == "blob":  # 320x240, 3 cameras, 2 poses
-        return BlobBody(), RIGS["front-side-near"], masks("front-side-near", "true"), test_poses()[:2]
+def scene(name, keypoints):
+    if name == "blob":  # 320x240, 3 cameras, 2 poses (with keypoints: one behind FRONT and NEAR)
+        X = test_poses()[[0, 6] if keypoints else [0, 1]]
+        rig = "front-side-near"
+        return BlobBody(), RIGS[rig], masks(rig, "true"), X, blob_keypoints(rig) if keypoints else None
     body = BodyModel(vertices=27393)
     camera = Camera.look_at("small", (500, 1200, 4000), (0, 900, 0), 120.0, 96, 72)
     pose = body.rest_pose()
     with registry.make_evaluator("numpy") as ev:
         ev.setup(body, [camera], [np.zeros((72, 96), bool)])
         foreground = ev.render(pose, 0)
+    found = None
+    if keypoints:  # the 17 model points where the rest pose puts them, 2 px off
+        joint, rest = model_points(body, MODEL_POINTS)
+        pixels = keypoint_pixels(view_geometry(body, [camera], pose[None], PATCH_SCALE)[0], joint, rest)[0]
+        observed = np.concatenate([pixels + 2.0, np.ones((1, len(joint), 1))], axis=2)
+        found = Keypoints(MODEL_POINTS, np.zeros((len(joint), 3)), observed, KeypointTerm(weight=0.5))
     pose[0] += 40.0
-    return body, [camera], [foreground], pose[None]
+    return body, [camera], [foreground], pose[None], found
+
+def evaluate(ev, setup, X):
+    ev.setup(*setup)
+    if setup[3] is None:
+        return np.stack(ev.counts(X)).tolist(), None, None
+    model_px, overlap_px, pixels = ev.counts_and_pixels(X)
+    return np.stack([model_px, overlap_px]).tolist(), pixels.view(np.uint32).tolist(), ev(X).tolist()
 
 log = os.environ.get("OCLGRIND_LOG")
 for case in json.loads(sys.argv[2]):
-    body, cameras, foreground, X = scene(case["scene"])
+    body, cameras, foreground, X, keypoints = scene(case["scene"], case["keypoints"])
+    setup = (body, cameras, foreground, keypoints)
     with registry.make_evaluator("numpy") as reference:
-        reference.setup(body, cameras, foreground)
-        expected = np.stack(reference.counts(X))
+        expected = evaluate(reference, setup, X)
     before = os.path.getsize(log) if log and os.path.exists(log) else 0
     ev = OpenCLEvaluator(platform=sys.argv[1], local_size=case["local_size"], lanes=case["lanes"])
-    ev.setup(body, cameras, foreground)
-    got = np.stack(ev.counts(X))
+    got = evaluate(ev, setup, X)
     ev.close()
     reports = ""
     if log and os.path.exists(log):
         with open(log) as f:
             f.seek(before)
             reports = f.read()
-    print(json.dumps({"got": got.tolist(), "expected": expected.tolist(), "check": ev.check,
+    print(json.dumps({"got": got[0], "expected": expected[0], "pixels": got[1], "expected_pixels": expected[1],
+                      "fitness": got[2], "expected_fitness": expected[2], "check": ev.check,
                       "reports": reports}), flush=True)
 """
 
@@ -147,6 +173,18 @@ def test_the_kernel_counts_exactly_as_numpy(platform, case, folder):
     result = run_case(platform, case, folder)
     assert result["check"] == "exact"
     assert result["got"] == result["expected"]
+
+
+@pytest.mark.parametrize("platform", [pytest.param(p, id=p) for p in sorted(PLATFORMS)])
+@pytest.mark.parametrize("case", KEYPOINT_CASES)
+def test_the_kernel_projects_the_model_points_exactly_as_numpy(platform, case, folder):
+    result = run_case(platform, case, folder)
+    assert result["pixels"] == result["expected_pixels"]  # float32 bits, NaN behind a camera
+    assert result["fitness"] == result["expected_fitness"]
+    bits = np.array(result["expected_pixels"], np.uint32)
+    assert np.isfinite(bits.view(np.float32)).any()
+    if case != "keypoints-mesh-27393":
+        assert np.isnan(bits.view(np.float32)).any()
 
 
 @pytest.mark.parametrize("case", [name for name, _ in CASES])

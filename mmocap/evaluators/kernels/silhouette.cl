@@ -13,7 +13,7 @@
 // MAX_SIDE; a program is built once per context. With LOCAL_SIZE 1 (CPU devices) a
 // work-group is one work-item and plain read-modify-writes replace the local atomics. With
 // write_masks != 0 the kernel also copies each view's mask to masks_out (nV, mask_words) for
-// rendering.
+// rendering; with K > 0 it also writes the pixels of K model points (project_points).
 #if !defined(LOCAL_SIZE) || !defined(LANES) || !defined(COUNT_WORDS) || !defined(BLOCK)
 #error "build with -DLOCAL_SIZE, -DLANES, -DCOUNT_WORDS and -DBLOCK (opencl_layout.build_options)"
 #endif
@@ -383,16 +383,24 @@ __attribute__((always_inline)) inline int setup_view(
     return layered;
 }
 
+// Steps 1-2's projection coefficients for one view and joint, rounded to float32 once:
+// a = A (3x4, row-major).
+__attribute__((always_inline)) inline void joint_projection(__global const double *camera,
+                                                           __global const double *T, float *a)
+{
+    for (int i = 0; i < 3; ++i) {
+        for (int k = 0; k < 3; ++k) a[4 * i + k] = a_rotation(camera + 4 * i, T, k);
+        a[4 * i + 3] = a_translation(camera + 4 * i, T);
+    }
+}
+
 // Steps 1-2's coefficients for one view and joint, rounded to float32 once: a = A (3x4,
 // row-major) and b = R^T (t - centre).
 __attribute__((always_inline)) inline void joint_coefficients(__global const double *camera,
                                                              __global const double *T,
                                                              float *a, float *b)
 {
-    for (int i = 0; i < 3; ++i) {
-        for (int k = 0; k < 3; ++k) a[4 * i + k] = a_rotation(camera + 4 * i, T, k);
-        a[4 * i + 3] = a_translation(camera + 4 * i, T);
-    }
+    joint_projection(camera, T, a);
     const double d0 = T[3] - camera[12], d1 = T[7] - camera[13], d2 = T[11] - camera[14];
     b[0] = (T[0] * d0 + T[4] * d1) + T[8] * d2;
     b[1] = (T[1] * d0 + T[5] * d1) + T[9] * d2;
@@ -577,6 +585,32 @@ __attribute__((always_inline)) inline void count_stamped(
                + overlap8.s5 + overlap8.s6 + overlap8.s7;
 }
 
+// The pixels of the model points (keypoint_pixels in silhouette.py) in one view, the
+// work-items sharing the points: u, v of each point from its joint's A in the rule's float32
+// arithmetic, NaN for both where depth <= NEAR_MM. 1 / depth is taken in float64 and
+// rounded to float32: that is the correctly rounded float32 quotient (float64 division is
+// correctly rounded, and with 53 >= 2 * 24 + 2 bits rounding twice gives the same float32)
+// on every device, whether or not it honours -cl-fp32-correctly-rounded-divide-sqrt, which
+// the vertices' floored centres hardly notice and these pixels would. The NaN is NumPy's
+// (0x7fc00000), not the device's NAN (0x7fffffff on PoCL), so that the bits agree too.
+#define NUMPY_NAN as_float(0x7fc00000u)
+__attribute__((always_inline)) inline void project_points(
+    __global const double *camera, __global const double *T0, const int K,
+    __global const int *point_joint, __global const float *point_rest, const int lid,
+    __global float *out)
+{
+    for (int k = lid; k < K; k += LOCAL_SIZE) {
+        float a[12];
+        joint_projection(camera, T0 + 12 * point_joint[k], a);
+        const float x = point_rest[3 * k], y = point_rest[3 * k + 1], z = point_rest[3 * k + 2];
+        const float depth = a[8] * x + a[9] * y + a[10] * z + a[11];
+        const float r = (float)(1.0 / (double)depth);
+        const int seen = depth > (float)NEAR_MM;
+        out[2 * k] = seen ? (a[0] * x + a[1] * y + a[2] * z + a[3]) * r : NUMPY_NAN;
+        out[2 * k + 1] = seen ? (a[4] * x + a[5] * y + a[6] * z + a[7]) * r : NUMPY_NAN;
+    }
+}
+
 __kernel __attribute__((reqd_work_group_size(LOCAL_SIZE, 1, 1)))
 void silhouette_counts(
     __global const float *vertices,    // (N4 / LANES, 7, LANES) rest x, y, z (mm),
@@ -599,7 +633,11 @@ void silhouette_counts(
     const int max_layers,              // 0 .. MAX_LAYERS
     __global int *counts,              // (nV, 2) |M|, |M & F|
     const int write_masks, const int mask_words, // mask_words: a multiple of 8
-    __global uint *masks_out)          // (nV, mask_words) when write_masks != 0
+    __global uint *masks_out,          // (nV, mask_words) when write_masks != 0
+    const int K,                       // model points whose pixels to write, 0: none
+    __global const int *point_joint,   // (K,) the joint each point rides on
+    __global const float *point_rest,  // (K, 3) its rest position (mm)
+    __global float *pixels)            // (nV, K, 2) u, v (px) of each point, NaN behind
 {
     __local ViewTotals totals;
     const int g = get_group_id(0), lid = get_local_id(0), c = g % C;
@@ -612,6 +650,9 @@ void silhouette_counts(
     const int pstride = (stride + COUNT_WORDS) / COUNT_WORDS * COUNT_WORDS;
     const int layer_words = pstride * (height + 2 * PAD);
     __local uint *words = (__local uint *)mask;
+
+    // the model points (none unless asked: K = 0), from the transforms at hand
+    project_points(camera, T0, K, point_joint, point_rest, lid, pixels + 2 * K * g);
 
     // setup
     int side_of[MAX_LAYERS], layers;  // the distinct patch sides, one per layer
