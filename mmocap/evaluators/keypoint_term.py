@@ -35,11 +35,15 @@ from mmocap.errors import ConfigError, DataError
 from mmocap.validate import check_number
 
 LOSSES = ("geman_mcclure", "huber")
+#: the robust loss and its scale (a share of the person's image height) unless told otherwise
+LOSS = "geman_mcclure"
+SCALE = 0.05
 
 
 @dataclass(frozen=True)
 class KeypointTerm:
-    """How much the keypoints count and how robustly (config ``keypoints.weight``, ``keypoints.loss``, ``keypoints.scale``).
+    """How much the keypoints count and how robustly (config ``keypoints.weight``, ``.loss``,
+    ``.scale``).
 
     Attributes:
         weight: lambda, the term's weight beside the silhouette fitness (0 = silhouettes only).
@@ -48,8 +52,8 @@ class KeypointTerm:
     """
 
     weight: float
-    loss: str
-    scale: float
+    loss: str = LOSS
+    scale: float = SCALE
 
     def __post_init__(self):
         object.__setattr__(self, "weight", check_number("keypoints.weight", self.weight, 0.0, 1e6))
@@ -79,10 +83,11 @@ class KeypointTerm:
         total = w.sum()
         if total <= 0:
             return np.zeros(len(pixels))
+        pixels = np.ascontiguousarray(pixels)  # the sums below run in memory order: the same for every backend
         d = np.hypot(pixels[..., 0] - observed[..., 0], pixels[..., 1] - observed[..., 1])
         r = d / (self.scale * height_px[:, None])
         r = np.where(np.isnan(r), 1.0 / self.scale, r)
-        return np.einsum("nck,ck->n", self.rho(r), w) / total
+        return self.rho(r).reshape(len(pixels), w.size) @ w.ravel() / total
 
 
 @dataclass(frozen=True)

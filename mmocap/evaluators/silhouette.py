@@ -410,7 +410,12 @@ class SilhouetteEvaluator:
             return
         if len(keypoints.observed) != len(self.cameras):
             raise DataError(f"got keypoints of {len(keypoints.observed)} cameras for {len(self.cameras)} cameras")
+        J = len(self.body.joint_rest_positions)
         self._point_joint, self._point_rest = model_points(self.body, keypoints.points, keypoints.offsets_mm)
+        if self._point_joint.size and self._point_joint.max() >= J:
+            raise DataError(
+                f"keypoints: the body has {J} joints, too few for the model points {', '.join(keypoints.points)}"
+            )
         self._height_px = np.array([person_height_px(m) for m in self.foreground])
 
     def _prepare(self) -> None:

@@ -16,7 +16,8 @@ Where they come from (``keypoints.source``):
 The detector's joints are mapped onto the model's points (:data:`mmocap.data.skeletons.MAPPINGS`)
 and undistorted into the ideal pin-hole cameras the masks are in. The result per frame is a
 :class:`~mmocap.evaluators.keypoint_term.Keypoints` that the evaluators add to the fitness
-with ``keypoints.weight``, ``keypoints.loss``, ``keypoints.scale`` (:class:`~mmocap.evaluators.keypoint_term.KeypointTerm`).
+with ``keypoints.weight``, ``.loss`` and ``.scale``
+(:class:`~mmocap.evaluators.keypoint_term.KeypointTerm`).
 """
 
 from __future__ import annotations
@@ -30,7 +31,7 @@ from mmocap import registry
 from mmocap.data.keypoints import AUTO
 from mmocap.data.skeletons import MAPPINGS, check_mapping, skeleton_joints
 from mmocap.errors import ConfigError
-from mmocap.evaluators.keypoint_term import Keypoints, KeypointTerm
+from mmocap.evaluators.keypoint_term import LOSS, SCALE, Keypoints, KeypointTerm
 
 log = logging.getLogger(__name__)
 
@@ -91,8 +92,8 @@ class KeypointSource:
         detector: str = SEGMENTATION_DETECTOR,
         use_for_start: bool = True,
         weight: float = 0.5,
-        loss: str = "geman_mcclure",
-        scale: float = 0.05,
+        loss: str = LOSS,
+        scale: float = SCALE,
     ):
         if source not in SOURCES:
             raise ConfigError(f"keypoints.source must be one of {', '.join(SOURCES)}, got {source!r}")
