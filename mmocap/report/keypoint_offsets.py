@@ -232,7 +232,7 @@ def main(argv: list[str], prog: str) -> None:
         update_page(
             args.page,
             args.target,
-            "Definition offsets of MediaPipe's landmarks",
+            None,
             {"offsets": table, "by_sequence": sequences},
             replaced=["offsets", "by_sequence"],
             order=["offsets", "by_sequence"],
