@@ -210,6 +210,10 @@ SUBCOMMANDS = {
         _main_of("mmocap.report.held_out"),
         "a finished run against a camera it was not tracked with: silhouette IoU, joint distance",
     ),
+    "keypoint-offsets": (
+        _main_of("mmocap.report.keypoint_offsets"),
+        "where MediaPipe's landmarks lie relative to the model's joints, measured on synthetic data",
+    ),
     "results-page": (_main_of("mmocap.report.results_page"), "put Markdown tables on a stamped docs/results page"),
     "bench": (_main_of("mmocap.bench.cli"), "evaluator benchmark: Cano Tables 1 and 2 and Fig. 3 here"),
     "lossy": (

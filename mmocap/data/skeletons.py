@@ -56,9 +56,22 @@ MAPPINGS: dict[str, dict[str, tuple[str, tuple[float, float, float]]]] = {
     "COCO_17": {"Nose": ("Nose", _ORIGIN), **_SAME},
     "HALPE_26": {"Nose": ("Nose", _ORIGIN), "Neck": ("Neck", _ORIGIN), "Hip": ("Root", _ORIGIN), **_SAME},
     "BODY_25": {"Nose": ("Nose", _ORIGIN), "Neck": ("Neck", _ORIGIN), "MidHip": ("Root", _ORIGIN), **_SAME},
+    # measured: the medians of `mmocap keypoint-offsets` (`make keypoint-offsets`) over every action
+    # of S1, S2 and S3, 7 cameras at 640x480, 180 frames; docs/results/keypoint_offsets.md
     "MEDIAPIPE_33": {
-        "nose": ("Nose", _ORIGIN),
-        **{f"{'left' if j[0] == 'L' else 'right'}_{j[1:].lower()}": (j, _ORIGIN) for j in _LIMBS},
+        "nose": ("Nose", (0.0, -20.0, -24.0)),
+        "left_shoulder": ("LShoulder", (0.0, -8.0, 21.0)),
+        "left_elbow": ("LElbow", (-6.0, -4.0, 8.0)),
+        "left_wrist": ("LWrist", (-6.0, -15.0, 9.0)),
+        "right_shoulder": ("RShoulder", (12.0, -7.0, 13.0)),
+        "right_elbow": ("RElbow", (8.0, -9.0, 31.0)),
+        "right_wrist": ("RWrist", (6.0, -15.0, 11.0)),
+        "left_hip": ("LHip", (-20.0, -9.0, 12.0)),
+        "left_knee": ("LKnee", (-4.0, 18.0, -9.0)),
+        "left_ankle": ("LAnkle", (-1.0, 20.0, 9.0)),
+        "right_hip": ("RHip", (21.0, -16.0, 21.0)),
+        "right_knee": ("RKnee", (7.0, 15.0, -9.0)),
+        "right_ankle": ("RAnkle", (3.0, 21.0, 6.0)),
     },
 }  # fmt: skip
 
