@@ -346,7 +346,7 @@ def run_row(record: dict, source: str = "record") -> dict:
         "algorithm": f"{s['optimizer']}-{s['strategy']}",
         "settings": settings,
         "realism": realism,
-        "turn_deg": float(turn) if is_real(turn) else 0.0,
+        "turn_deg": float(turn) if is_real(turn) else 0.0,  # type: ignore[arg-type]  # is_real: a number
         "keypoints": keypoints.get("source", "none"),  # type: ignore[union-attr]
         "keypoint_weight": float(keypoints.get("weight", 0.0)),  # type: ignore[union-attr]
         "dof": int(s["dof"]),

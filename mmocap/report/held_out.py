@@ -12,7 +12,8 @@ and 2-D landmarks (person segmentation's, :mod:`mmocap.stages.segmentation`):
   in the image (the mask's height), which does not depend on the camera's resolution.
 
 Landmarks mark surface features, not joint centres (a hip landmark lies in front of and
-outside the hip joint), so the joint distance has a floor above zero even for a perfect track.
+inside the hip joint: docs/results/keypoint_offsets.md), so the joint distance has a floor
+above zero even for a perfect track.
 
 Command line::
 

@@ -6,6 +6,8 @@ pixels."""
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from mmocap import registry
@@ -38,7 +40,7 @@ class Scene:
 
 #: the synthetic sequence the detector conformance suite renders (:func:`mmocap.data.synthetic.generate`
 #: settings): 640x480, a colour and a greyscale camera, 2 frames
-CONFORMANCE_SEQUENCE = dict(
+CONFORMANCE_SEQUENCE: dict[str, Any] = dict(
     subject="S1",
     action="walking",
     frames=2,
