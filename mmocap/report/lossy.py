@@ -38,7 +38,7 @@ from mmocap.data.sequence import Sequence
 from mmocap.errors import ConfigError, DataError
 from mmocap.io import read_json_object, write_json_atomic
 from mmocap.pipeline import open_foreground
-from mmocap.report.results_page import update_page
+from mmocap.report.results_page import page_section, update_page
 from mmocap.stages.foreground import Foreground
 
 #: the largest ratio of a compressed recording's error to its lossless one's that counts as
@@ -186,9 +186,7 @@ def _section(runs: pd.DataFrame, what: str, name: str, args) -> str:
     source = f"{len(runs)} runs"
     written = write_table(table, args.out / "tables" / name, title=title, source=source, floatfmt=".2f")
     print(Path(written[1]).read_text(), end="")
-    # the page's stamp says when and where: the title as a sentence, then the table
-    body = Path(written[1]).read_text().split("\n\n", 2)[2].strip("\n")
-    return f"{title}.\n\n{body}"
+    return page_section(Path(written[1]).read_text())
 
 
 def table_main(args) -> None:

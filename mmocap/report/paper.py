@@ -65,7 +65,7 @@ from mmocap.analysis.statistics import (
 )
 from mmocap.analysis.tables import format_p, provenance, write_csv, write_table
 from mmocap.errors import DataError, MmocapWarning
-from mmocap.report.results_page import update_page
+from mmocap.report.results_page import page_section, update_page
 from mmocap.validate import check_number
 
 ERROR = "mean_marker_error_mm"
@@ -796,6 +796,6 @@ def main(argv: list[str], prog: str) -> None:
     print("written: " + ", ".join(map(str, written)))
     if args.page is not None:
         tables = [Path(path) for path in written if Path(path).suffix == ".md"]
-        sections = {path.stem: Path(path).read_text().strip("\n") for path in tables}
+        sections = {path.stem: page_section(Path(path).read_text()) for path in tables}
         update_page(args.page, args.target or args.name, None, sections, order=[path.stem for path in tables])
         print(f"written: {args.page}")
