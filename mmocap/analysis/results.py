@@ -41,12 +41,14 @@ import hashlib
 import json
 import warnings
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
 from omegaconf import DictConfig, OmegaConf
 
 from mmocap import provenance
+from mmocap.data.realism import DETECTOR_SETTINGS
 from mmocap.errors import DataError, MmocapWarning
 from mmocap.io import read_json_object, write_json_atomic
 from mmocap.validate import is_integer, is_real
@@ -103,16 +105,31 @@ def key_config(cfg: DictConfig) -> dict:
     """The resolved config that identifies a run: everything but ``NOT_IN_KEY``, and the
     blocks of stages that the run does not use, so that the records made before those
     stages existed still match: ``fidelity`` when it has no levels (an exact search), and
-    ``keypoints`` when its source is ``none`` (silhouettes only)."""
-    kept = {}
+    ``dataset.turn_deg`` at 0 (the sequence not turned), and ``keypoints`` when its source is
+    ``none`` (silhouettes only), and then the realism's simulated detector
+    (:data:`~mmocap.data.realism.DETECTOR_SETTINGS`) and the start's ``keypoint_*`` settings,
+    which such a run does not read."""
+    kept: dict[str, Any] = {}
+    silhouettes_only = cfg.get("keypoints") is not None and cfg.keypoints.get("source") == "none"
     for key in cfg:
         if key == "fidelity" and not cfg[key].get("levels"):
             continue
-        if key == "keypoints" and cfg[key].get("source") == "none":
+        if key == "keypoints" and silhouettes_only:
             continue
         if key not in NOT_IN_KEY:
             node = cfg[key]  # interpolations resolve against the whole config
-            kept[key] = OmegaConf.to_container(node, resolve=True) if OmegaConf.is_config(node) else node
+            kept[str(key)] = OmegaConf.to_container(node, resolve=True) if OmegaConf.is_config(node) else node
+    dataset: dict = kept["dataset"] if isinstance(kept.get("dataset"), dict) else {}
+    if dataset.get("turn_deg") == 0:  # not turned: the sequence as before
+        del dataset["turn_deg"]
+    if silhouettes_only:  # the keypoint files and the start's keypoint settings are not read
+        for realism in (kept.get("realism"), dataset.get("realism")):
+            if isinstance(realism, dict):
+                for setting in DETECTOR_SETTINGS:
+                    realism.pop(setting, None)
+        start: dict = kept["start"] if isinstance(kept.get("start"), dict) else {}
+        for setting in [k for k in start if str(k).startswith("keypoint_")]:
+            del start[setting]
     return kept
 
 

@@ -88,6 +88,9 @@ from mmocap.errors import ConfigError
 from mmocap.validate import check_number
 
 #: the largest value each setting may take (the smallest is 0)
+#: the settings of the simulated detector: they change the keypoint files only
+DETECTOR_SETTINGS = ("detector", "keypoint_noise", "keypoint_miss_rate", "keypoint_swap_rate", "keypoint_offset_sd_mm")
+
 LIMITS = {
     "height_sd_mm": 200.0,
     "girth_sd": 0.3,

@@ -358,3 +358,25 @@ def test_progress_line_counts_this_session_and_estimates_time_left(tmp_path):
     assert format_seconds(7) == "7 s"
     assert format_seconds(125) == "2 min 05 s"
     assert format_seconds(3725) == "1 h 02 min"
+
+
+def test_a_paper_run_keeps_the_key_it_had_before_keypoints_existed():
+    """Table 4's run at scale smoke, as keyed before keypoints, the realism's simulated
+    detector and dataset.turn_deg existed: a silhouettes-only run does not read them, so its
+    record in a store made then is still found."""
+    cfg = compose_config(
+        "+experiment=table4",
+        "scale=smoke",
+        "settings=paper",
+        "realism=realistic",
+        "algorithm=cmaes-holistic",
+        "tracking.evaluations=390",
+        "seed=0",
+        "dataset.subject=S1",
+        "dataset.action=walking",
+    )
+    assert cfg.keypoints.source == "none"
+    assert run_key(cfg) == "778a5dbab9f5b3b7"  # the key of mmocap 98f12f6's record of this run
+    with open_dict(cfg):
+        cfg.keypoints.source = "auto"
+    assert run_key(cfg) != "778a5dbab9f5b3b7"  # with keypoints it is another run
