@@ -656,9 +656,10 @@ AUTOSTART_GOAL = 1.2
 
 
 def autostart(runs, frames, out, *, source: str = "runs", **_) -> Outputs:
-    """The automatic start (``+experiment=autostart``): per sequence, the mean marker error
-    tracked from the sequence's first pose and true body (start ``given``) and from the
-    silhouettes alone (start ``search``: first pose and body size found), their ratio against
+    """The automatic start (``+experiment=autostart``): per sequence (a turned motion, column
+    ``turn_deg``, counting as a sequence of its own), the mean marker error tracked from the
+    sequence's first pose (start ``given``) and from nothing (start ``search`` or
+    ``keypoints``: first pose and body size found), their ratio against
     :data:`AUTOSTART_GOAL`, and what the start cost in seconds."""
     runs = checked(runs, ["sequence", "start", ERROR], source)
     if "turn_deg" in runs and (runs.turn_deg != 0).any():  # the same motion turned: a sequence of its own
@@ -685,9 +686,9 @@ def autostart(runs, frames, out, *, source: str = "runs", **_) -> Outputs:
     table["goal met"] = np.where(table["ratio"] <= AUTOSTART_GOAL, "yes", "no")
     table = table.rename_axis("Sequence").reset_index()
     title = (
-        f"Automatic start: mean marker error (mm) from the true first pose and body, and from the silhouettes "
-        f"alone; goal: ratio <= {AUTOSTART_GOAL} (met on {int((table['goal met'] == 'yes').sum())} of "
-        f"{len(table)} sequences)"
+        f"Automatic start: mean marker error (mm) from the sequence's first pose (given) and from nothing "
+        f"(automatic: the first pose and the body's size found); goal: ratio <= {AUTOSTART_GOAL} (met on "
+        f"{int((table['goal met'] == 'yes').sum())} of {len(table)} sequences)"
     )
     return write_table(
         table, out / "tables" / "autostart", title=title, source=describe_runs(runs, source), floatfmt=".2f"
