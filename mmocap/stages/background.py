@@ -93,6 +93,8 @@ class BackgroundModel(ABC):
     needs_plate = True
     #: applied to the camera's images (not to given masks)
     reads = "images"
+    #: finds no 2-D landmarks (person segmentation does)
+    finds_landmarks = False
 
     def __init__(self, open_px: int = 0, close_px: int = 3, min_area_px: int = 50, largest_only: bool = False):
         self.cleanup = Cleanup(open_px, close_px, min_area_px, largest_only)

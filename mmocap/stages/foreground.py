@@ -78,6 +78,7 @@ class GivenMask:
 
     needs_plate = False
     reads = "masks"
+    finds_landmarks = False
 
     def __init__(self, open_px: int = 0, close_px: int = 0, min_area_px: int = 0, largest_only: bool = False):
         self.cleanup = Cleanup(open_px, close_px, min_area_px, largest_only)
@@ -146,7 +147,8 @@ def _describe(make_model) -> dict:
 
 def _model_class(make_model) -> Any:
     """The class a model factory (a class or a partial of one) builds: a background model,
-    a person segmenter or :class:`GivenMask`, each with ``needs_plate`` and ``reads``."""
+    a person segmenter or :class:`GivenMask`, each with ``needs_plate``, ``reads`` and
+    ``finds_landmarks``."""
     while isinstance(make_model, functools.partial):
         make_model = make_model.func
     return make_model
@@ -245,6 +247,8 @@ class Foreground:
         self._crowded: set[str] = set()  # cameras already warned of a second person
         model_class = _model_class(make_model)
         self.reads_masks = model_class.reads == "masks"
+        #: the method finds MediaPipe's 2-D landmarks with the masks (person segmentation)
+        self.finds_landmarks = bool(model_class.finds_landmarks)
         self.cache = (
             None
             if cache_dir is None or self.reads_masks

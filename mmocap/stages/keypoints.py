@@ -115,7 +115,7 @@ class KeypointSource:
         if chosen == "files":
             files = sequence.keypoint_files(self.skeleton)
             return KeypointStream(chosen, SkeletonMap.of(files.skeleton), self.fitness, sequence, files=files)
-        if chosen == "detector" and self.detector == SEGMENTATION_DETECTOR and foreground.method == "segmentation":
+        if chosen == "detector" and self.detector == SEGMENTATION_DETECTOR and foreground.finds_landmarks:
             return KeypointStream("segmentation", SkeletonMap.of("MEDIAPIPE_33"), self.fitness, sequence)
         detector = registry.make_detector(self.detector)
         return KeypointStream(chosen, SkeletonMap.of(detector.skeleton), self.fitness, sequence, detector=detector)
@@ -136,7 +136,7 @@ class KeypointSource:
             return "detector", f"keypoints.source=detector: {self.detector}"
         if has_files:
             return "files", "the sequence has keypoint files"
-        if foreground.method == "segmentation":
+        if foreground.finds_landmarks:
             return "detector", "person segmentation finds MediaPipe's landmarks"
         return "none", "no keypoint files and no detector run: silhouettes only"
 

@@ -60,6 +60,7 @@ class PersonSegmenter:
 
     needs_plate = False
     reads = "images"
+    finds_landmarks = True
 
     def __init__(
         self,

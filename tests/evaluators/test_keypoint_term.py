@@ -29,7 +29,7 @@ def test_geman_mcclure_is_bounded_and_huber_grows_linearly():
     r = np.array([0.0, 1.0, 10.0, 1e6])
     gm = KeypointTerm(1.0, "geman_mcclure", 0.05).rho(r)
     np.testing.assert_allclose(gm[:2], [0.0, 0.5])
-    assert gm[-1] < 1.0 and gm[-1] > 0.999
+    assert 0.999 < gm[-1] < 1.0
     huber = KeypointTerm(1.0, "huber", 0.05).rho(r)
     np.testing.assert_allclose(huber[:3], [0.0, 0.5, 9.5])
 
