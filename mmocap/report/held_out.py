@@ -150,26 +150,28 @@ def side_by_side(tables: dict[str, pd.DataFrame], camera: str) -> pd.DataFrame:
 
 
 def runs_table(run_dirs: list[Path]) -> pd.DataFrame:
-    """One row per finished run: its cameras, frames, the automatic start's time and fitness,
-    the body it fitted, the search's and the foreground's time per frame and the mean fitness."""
+    """One row per finished run: its cameras, where its keypoints came from, frames, the
+    automatic start's time and silhouette fitness, the body it fitted, the search's and the
+    foreground's time per frame and the mean silhouette fitness of the frames' poses (the
+    silhouettes' alone, so that runs with and without keypoints compare)."""
     rows = []
     for run_dir in run_dirs:
         summary = read_summary(run_dir)
-        fitness = pd.read_csv(run_dir / FRAMES)["fitness"]
-        start = summary.start or {}
-        body = summary.body or {}
+        start, body, keypoints = summary.start or {}, summary.body or {}, summary.keypoints or {}
+        fitness = keypoints.get("mean_silhouette_fitness", pd.read_csv(run_dir / FRAMES)["fitness"].mean())
         rows.append(
             {
                 "run": Path(run_dir).name,
                 "cameras": ", ".join(summary.cameras),
+                "keypoints": keypoints.get("source", "none"),
                 "frames": summary.frames,
                 "start (s)": start.get("seconds", np.nan),
-                "start fitness": start.get("fitness", np.nan),
+                "start fitness": start.get("silhouette_fitness", start.get("fitness", np.nan)),
                 "body height (mm)": body.get("height_mm", np.nan),
                 "girth": body.get("girth", np.nan),
                 "search (s/frame)": summary.seconds_per_frame,
                 "foreground (s/frame)": summary.foreground_seconds_per_frame,
-                "mean fitness": float(fitness.mean()),
+                "mean fitness": float(fitness),
             }
         )
     return pd.DataFrame(rows)
