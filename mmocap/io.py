@@ -40,6 +40,7 @@ from typing import IO
 
 import cv2
 import numpy as np
+import pandas as pd
 
 from mmocap.errors import DataError
 
@@ -328,3 +329,21 @@ def exclusive(path: Path | None):
             if exc.errno not in _NOT_WRITABLE:
                 raise
         yield
+
+
+def read_csv_table(path: Path, columns: tuple[str, ...], rows: str, **read_options) -> pd.DataFrame:
+    """The CSV table at ``path`` (``pd.read_csv`` with ``read_options``), with a header holding
+    ``columns`` (names); a DataError naming the file when it is empty (saying it needs the header and
+    ``rows``, e.g. "one row per frame and marker"), unreadable, or lacks a column."""
+    try:
+        table = pd.read_csv(path, **read_options)
+    except pd.errors.EmptyDataError:
+        raise DataError(f"{path} is empty; it needs the header {','.join(columns)} and {rows}") from None
+    except (pd.errors.ParserError, UnicodeDecodeError) as exc:
+        raise DataError(f"{path} is not a readable CSV table: {' '.join(str(exc).split())}") from None
+    absent = [c for c in columns if c not in table.columns]
+    if absent:
+        raise DataError(
+            f"{path} lacks the column{'s' * (len(absent) > 1)} {', '.join(absent)} (it needs {', '.join(columns)})"
+        )
+    return table

@@ -18,7 +18,7 @@ import pandas as pd
 from mmocap.camera import Camera
 from mmocap.data.skeletons import SKELETONS, skeleton_joints
 from mmocap.errors import ConfigError, DataError, MmocapWarning
-from mmocap.io import read_json_object, write_json_atomic
+from mmocap.io import read_csv_table, read_json_object, write_json_atomic
 
 #: the folder of a recording (or synthetic sequence) that holds the keypoint files
 POSE_FOLDER = "pose"
@@ -340,17 +340,7 @@ class KeypointFiles:
 
     def _read_csv(self, path: Path, calibrated: set[str]) -> np.ndarray:
         """(n_frames, C, J, 3) from the long table ``path`` (class docstring)."""
-        try:
-            table = pd.read_csv(path, dtype={"camera": str, "joint": str}, skip_blank_lines=True)
-        except pd.errors.EmptyDataError:
-            raise DataError(
-                f"{path} is empty; it needs the header {','.join(CSV_COLUMNS)} and one row per joint"
-            ) from None
-        except (pd.errors.ParserError, UnicodeDecodeError) as exc:
-            raise DataError(f"{path} is not a readable CSV table: {' '.join(str(exc).split())}") from None
-        absent = [c for c in CSV_COLUMNS if c not in table.columns]
-        if absent:
-            raise DataError(f"{path} lacks the column(s) {', '.join(absent)} (it needs {', '.join(CSV_COLUMNS)})")
+        table = read_csv_table(path, CSV_COLUMNS, "one row per joint", dtype={"camera": str, "joint": str})
         if table.empty:
             raise DataError(f"{path} holds no rows, only its header")
         frames = pd.to_numeric(table["frame"], errors="coerce")

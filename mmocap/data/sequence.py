@@ -44,7 +44,7 @@ from mmocap.body.skeleton import N_FULL
 from mmocap.camera import Camera
 from mmocap.data.keypoints import AUTO, KeypointFiles
 from mmocap.errors import ConfigError, DataError, MmocapWarning
-from mmocap.io import atomic_writer, read_json_object
+from mmocap.io import atomic_writer, read_csv_table, read_json_object
 from mmocap.validate import is_integer, is_real
 
 FORMAT = "mmocap-sequence/1"
@@ -359,20 +359,9 @@ def read_markers(path: Path, n_frames: int, names: list[str]) -> np.ndarray:
     and markers without a row are NaN. Errors name the file, the column and the line."""
     if not path.is_file():
         raise DataError(f"ground-truth markers not found: {path}")
-    try:
-        table = pd.read_csv(path, skip_blank_lines=False, dtype={"marker": str})
-    except pd.errors.EmptyDataError:
-        raise DataError(
-            f"{path} is empty; it needs the header {','.join(MARKER_COLUMNS)} and one row per frame and marker"
-        ) from None
-    except (pd.errors.ParserError, UnicodeDecodeError) as exc:
-        raise DataError(f"{path} is not a readable CSV table: {' '.join(str(exc).split())}") from None
-    absent = [c for c in MARKER_COLUMNS if c not in table.columns]
-    if absent:
-        raise DataError(
-            f"{path} lacks the column{'s' * (len(absent) > 1)} {', '.join(absent)} "
-            f"(it needs {', '.join(MARKER_COLUMNS)})"
-        )
+    table = read_csv_table(
+        path, MARKER_COLUMNS, "one row per frame and marker", skip_blank_lines=False, dtype={"marker": str}
+    )
     table = table.dropna(how="all")  # blank lines; the index + 2 stays the line number
     if table.empty:
         raise DataError(f"{path} holds no rows, only its header")
