@@ -32,10 +32,12 @@ DEFAULT_SCHEDULES = ["0.25:3000:1000+350", "0.5:3000:1200+500:28", "0.5:3000:140
 #: the exact run the multi-fidelity runs are compared with: CMA-ES at this many evaluations
 FIDELITY_REFERENCE = 1500
 #: the run every fidelity configuration shares (the demo sequence on realistic data, as the
-#: papers' tables track, without the recovery searches, whose extra evaluations vary)
+#: papers' tables track, with their fitness, the silhouettes alone, and without the recovery
+#: searches, whose extra evaluations vary)
 FIDELITY_RUN = [
     "+experiment=demo",
     "realism=realistic",
+    "keypoints.source=none",
     "recovery.enabled=false",
     "overlays=0",
     "progress=false",
