@@ -257,8 +257,8 @@ def write_keypoints(
     tables.write(
         table,
         "keypoints",
-        "Cost of the keypoint term: time per evaluation with the hybrid fitness (17 model points, weight > 0) "
-        "against the silhouettes alone, 640x480, microseconds, at CMA-ES's population and Table 2's; "
+        "Cost of the keypoint term: time per evaluation with the hybrid fitness (17 model points, weight 1) "
+        "against the silhouettes alone, 640x480, microseconds, at the population of CMA-ES and of Table 2; "
         f"goal: ratio at most {keypoints.GOAL_RATIO:g}",
     )
 
@@ -326,7 +326,9 @@ def write_table2(args: argparse.Namespace, tables: TableWriter, evaluators: dict
     """Table 2 of every backend and vertex level, and the roofline when opencl is timed;
     returns Table 2."""
     times = table2(evaluators, scenes, args.population, args.repeats)
-    tables.write(times, "table2", "Time per model-view (Cano Table 2): project + count, one 640x480 view, microseconds")
+    tables.write(
+        times, "table2", "Time per model-view (Cano Table 2): project and count, one 640x480 view, microseconds"
+    )
     if "opencl" in evaluators:
         write_roofline(args, tables, evaluators, scenes, times)
     return times

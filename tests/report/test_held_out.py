@@ -103,7 +103,8 @@ def test_pose2sim_real_demo_is_read_as_it_ships_and_tracked_without_a_plate(tmp_
         *setup,
         "dataset.cameras=[cam01,cam02,cam03]",
     )
-    assert summary["start"]["method"] == "search"
+    assert summary["keypoints"]["source"] == "segmentation"  # no plate: the segmenter's landmarks
+    assert summary["start"]["method"] == "keypoints"  # and the start from them
     assert 1500 < summary["body"]["height_mm"] < 1950
     assert run_cli("held-out", tmp_path / "held-out", "--camera", "cam04", "--no-progress") == 0
     frames = pd.read_csv(tmp_path / "held-out" / "held_out_cam04.csv")
