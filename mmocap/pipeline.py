@@ -434,13 +434,20 @@ def make_summary(
         run_id=run_id,
         provenance={
             **provenance.facts(),
-            "components": provenance.components(
-                {"optimizer": str(cfg.optimizer.name), "evaluator": str(cfg.evaluator.name)}
-            ),
+            "components": provenance.components(used_components(cfg)),
         },
         config=cast(dict, OmegaConf.to_container(cfg, resolve=True)),
         warnings=warning_messages,
     )
+
+
+def used_components(cfg: DictConfig) -> dict[str, str]:
+    """The registered components a run uses, by kind: its optimiser and evaluator, and the
+    keypoint detector it runs (``keypoints.source=detector``)."""
+    used = {"optimizer": str(cfg.optimizer.name), "evaluator": str(cfg.evaluator.name)}
+    if cfg.keypoints.source == "detector":
+        used["detector"] = str(cfg.keypoints.detector)
+    return used
 
 
 def write_outputs(

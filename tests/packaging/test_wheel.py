@@ -18,6 +18,8 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
+from mmocap.stages import segmentation
+
 pytestmark = pytest.mark.slow
 
 REPO = Path(__file__).resolve().parents[2]
@@ -68,10 +70,17 @@ def distribution_name(plugin: Path) -> str:
 
 
 def entry_points(plugin: Path) -> dict[str, list[str]]:
-    """The plugin's registered names by kind (``optimizer``, ``evaluator``)."""
+    """The plugin's registered names by kind (``optimizer``, ``evaluator``, ``detector``)."""
     project = tomllib.loads((plugin / "pyproject.toml").read_text())["project"]
     groups = project.get("entry-points", {})
-    return {kind: sorted(groups.get(f"mmocap.{kind}s", {})) for kind in ("optimizer", "evaluator")}
+    return {kind: sorted(groups.get(f"mmocap.{kind}s", {})) for kind in ("optimizer", "evaluator", "detector")}
+
+
+def choosing(kind: str, name: str) -> list[str]:
+    """The overrides that make a run use the component ``name`` of ``kind``."""
+    if kind == "detector":
+        return ["keypoints.source=detector", f"keypoints.detector={name}"]
+    return [f"{kind}={name}"]
 
 
 @pytest.fixture(scope="module")
@@ -90,10 +99,13 @@ def venv(tmp_path_factory) -> dict:
     mmocap_wheel = next(wheels.glob("mmocap-*.whl"))
     plugin_wheels = [w for w in wheels.glob("*.whl") if w != mmocap_wheel]
     run(
-        [bin_dir / "python", "-m", "pip", "install", "-q", mmocap_wheel, *plugin_wheels, "pytest"],
+        [bin_dir / "python", "-m", "pip", "install", "-q", f"{mmocap_wheel}[segment]", *plugin_wheels, "pytest"],
         cwd=root,
         timeout=900,
     )
+    # MediaPipe as the install line says (without its declared dependencies), for the detectors
+    mediapipe = segmentation.INSTALL.split("--no-deps ")[1]
+    run([bin_dir / "python", "-m", "pip", "install", "-q", "--no-deps", mediapipe], cwd=root, timeout=900)
     env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "VIRTUAL_ENV")}
     env["PATH"] = f"{bin_dir}{os.pathsep}{env['PATH']}"
     work = root / "work"
@@ -231,7 +243,9 @@ def test_plugin_passes_its_own_tests_outside_the_checkout(venv, plugin, tmp_path
 def test_plugin_runs_in_a_sweep_and_its_version_is_recorded(venv, plugin):
     kind, name = next((k, names[0]) for k, names in entry_points(plugin).items() if names)
     folder = f"sweep-{plugin.name}"
-    mmocap(venv, "-m", *SMALL, f"{kind}={name}", "seed=0,1", f"hydra.sweep.dir={folder}", "hydra.launcher.n_jobs=1")
+    mmocap(
+        venv, "-m", *SMALL, *choosing(kind, name), "seed=0,1", f"hydra.sweep.dir={folder}", "hydra.launcher.n_jobs=1"
+    )
     records = sorted((venv["work"] / folder / "records").glob("*.json"))
     assert len(records) == 2
     component = json.loads(records[0].read_text())["provenance"]["components"][kind]
