@@ -88,6 +88,7 @@ def test_pose2sim_real_demo_is_read_as_it_ships_and_tracked_without_a_plate(tmp_
     assert run_cli("check-recording", root, "dataset.scale=0.25") == 0
     report = capsys.readouterr()
     assert "foreground: person segmentation (MediaPipe Pose) (auto: no empty-scene plate" in report.out
+    assert "keypoints in the fitness: detector (person segmentation finds MediaPipe's landmarks)" in report.out
     assert "translations in mm" in report.out
     # the only warnings: cam01's and cam02's videos lack the codec's 8 padding columns
     warned = [line for line in report.err.splitlines() if line.startswith("mmocap: warning:")]

@@ -122,6 +122,8 @@ def check_recording(root: str, overrides: list[str], out=print) -> dict:
         out("  keypoints: none (no pose/<camera>_json/ folders, no keypoints.csv)")
     foreground = open_foreground(cfg, sequence, cache_dir=None)
     out(f"  foreground: {foreground.method}")
+    chosen, why = instantiate(cfg.keypoints).choose(sequence, foreground)
+    out(f"  keypoints in the fitness: {chosen} ({why})")
     truth = sequence.markers()
     scored = int((~np.isnan(truth).any(axis=2)).any(axis=1).sum())
     out(

@@ -26,6 +26,7 @@ def test_check_recording_reports_cameras_sync_and_the_first_frame(recording, cap
     assert "frames tracked: 4 from frame 0" in report
     assert "4 of 4 frames have markers" in report
     assert "keypoints: none (no pose/<camera>_json/ folders, no keypoints.csv)" in report
+    assert "keypoints in the fitness: none (no keypoint files and no detector run: silhouettes only)" in report
     assert "the silhouettes' rays meet at" in report
     assert "  foreground: background subtraction (HorprasertBackground) on the empty-scene plate (auto: " in report
     assert "first frame: the person's visual hull is" in report
