@@ -1,12 +1,21 @@
 """Shared fixtures: one tiny synthetic sequence rendered once per test session."""
 
 import logging
+import os
 from pathlib import Path
 
 import pytest
+from hypothesis import settings
 
 from mmocap.data.synthetic import generate
 from tests.helpers import TINY
+
+# Property-based tests: the same examples on every run (a failure in CI reproduces here), no
+# example database left in the checkout, and no per-example deadline on a shared, noisy machine.
+# HYPOTHESIS_PROFILE=explore draws new examples, 1000 per test.
+settings.register_profile("mmocap", derandomize=True, database=None, deadline=None)
+settings.register_profile("explore", database=None, deadline=None, max_examples=1000)
+settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "mmocap"))
 
 
 @pytest.fixture(scope="session")
