@@ -1,18 +1,25 @@
 """Friedman ranks, Iman-Davenport and Holm against a control, checked against published
 worked examples (Demšar 2006; the Yeguas paper's Tables 4 and 6; Cano Table 3), scipy, and
-hand-made cases; then bad input and the command line."""
+hand-made cases; against ``scipy.stats.rankdata`` and the formulas on generated tables
+(Hypothesis); then bad input and the command line."""
 
+import math
 import subprocess
 import sys
+import warnings
+from fractions import Fraction
 
 import numpy as np
 import pandas as pd
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 from scipy import stats
 
 from mmocap.analysis.statistics import (
     IncompleteBlocksWarning,
     block_ranks,
+    exact_mean,
     finite_numbers,
     friedman_holm,
     friedman_statistic,
@@ -273,6 +280,146 @@ def test_cell_means_near_the_float_limit_rank_as_moderate_values():
     assert b.statistic == a.statistic
     assert b.comparisons["p"].equals(a.comparisons["p"])
     assert overflow_free_mean([1.6e308, 1.7e308]) == pytest.approx(1.65e308, rel=1e-15)
+
+
+def test_cells_with_equal_exact_means_tie():
+    """The issue's case: 16/3 as the sum of v / 3 is 5.333333333333333 for [6, 6, 4] and
+    5.333333333333334 for [6, 5, 5]; ranked on exact means, a and b share ranks 1.5 or 2.5."""
+    table = pd.DataFrame(
+        {
+            "block": [0] * 7 + [1] * 3,
+            "algorithm": list("aaabbbc") + list("abc"),
+            "value": [6.0, 6.0, 4.0, 6.0, 5.0, 5.0, 9.0, 1.0, 2.0, 3.0],
+        }
+    )
+    result = friedman_holm(table, "block", "algorithm", "value")
+    assert result.ranks.loc[0].tolist() == [1.5, 1.5, 3.0]
+    assert exact_mean([6.0, 6.0, 4.0]) == exact_mean([6.0, 5.0, 5.0]) == Fraction(16, 3)
+    assert overflow_free_mean([6.0, 6.0, 4.0]) == overflow_free_mean([5.0, 6.0, 5.0]) == 16 / 3
+    # means that differ by less than the float's resolution still rank apart
+    assert exact_mean([1.0, 1.0 + 2**-52]) > exact_mean([1.0])
+    assert overflow_free_mean([1.0, 1.0 + 2**-52]) == 1.0  # 1 + 2**-53 rounds to even
+    assert np.isnan(overflow_free_mean([1.0, np.nan]))
+
+
+def test_blocks_that_all_rank_alike_give_an_unbounded_f():
+    """Seven algorithms ranked alike on 79 blocks: chi2_F = N(k-1) = 474 exactly, so F_F =
+    (N-1) chi2_F / 0; in floats the formula left 474 - 5.7e-14 and F_F = 6.5e17."""
+    chi2, p, f, p_f = friedman_statistic(np.arange(1.0, 8.0), 79)
+    assert chi2 == 474.0
+    assert f == np.inf
+    assert p_f == 0.0
+    assert p == pytest.approx(stats.chi2.sf(474.0, 6))
+
+
+# Generated tables: the pools draw values with ties (small integers, the float limits, the
+# smallest subnormal, any float); a twin cell has another algorithm's exact mean from other
+# values (a shifted pair of integers, the values reordered or each repeated).
+POOLS = {
+    "integers": st.integers(-3, 6).map(float),
+    "limits": st.sampled_from([1.7976931348623157e308, -1.7976931348623157e308, 1e308, 8.9e307, -0.0, 5e-324]),
+    "subnormal": st.integers(-4, 4).map(lambda i: i * 5e-324),
+    "any": st.one_of(st.floats(allow_nan=False, allow_infinity=False), st.sampled_from([0.1, 0.2, 0.3, 1e-300])),
+}
+
+
+def twin(values: list[float], how: str) -> list[float]:
+    """Values other than ``values`` with the same exact mean."""
+    if how == "shifted" and len(values) >= 2 and all(abs(v) < 2**50 and v == int(v) for v in values[:2]):
+        return [values[0] + 1.0, values[1] - 1.0, *values[2:]]
+    if how == "repeated":
+        return values * 2
+    return values[::-1]
+
+
+@st.composite
+def long_tables(draw):
+    """(long table, 'block (no algorithm)' of each incomplete block): k = 3-5 algorithms, 2-6 complete blocks
+    and up to 2 incomplete ones, 1-3 rows a cell (or 4-6 for a repeated twin), rows shuffled."""
+    k, complete, incomplete = draw(st.integers(3, 5)), draw(st.integers(2, 6)), draw(st.integers(0, 2))
+    pool, twins = (
+        POOLS[draw(st.sampled_from(sorted(POOLS)))],
+        draw(st.sampled_from(["none", "shifted", "reordered", "repeated"])),
+    )
+    names = [f"a{j}" for j in range(k)]
+    rows, dropped = [], []
+    for block in range(complete + incomplete):
+        cells = [draw(st.lists(pool, min_size=1, max_size=3)) for _ in names]
+        if twins != "none":
+            cells[1] = twin(cells[0], twins)
+        if block >= complete:
+            missing = draw(st.integers(0, k - 1))
+            cells[missing] = []
+            dropped.append(f"{block} (no {names[missing]})")
+        rows += [(block, name, v) for name, values in zip(names, cells) for v in values]
+    table = pd.DataFrame(draw(st.permutations(rows)), columns=["block", "algorithm", "value"])
+    return table, dropped
+
+
+def reference(table: pd.DataFrame, higher_is_better: bool) -> dict:
+    """What the textbook gives (Demšar 2006; García and Herrera 2008): exact cell means (each
+    float an integer multiple of 2**-1074) over the blocks with every algorithm, scipy's
+    mid-ranks, then the formulas."""
+    cells: dict[tuple, list[int]] = {}
+    for block, name, v in table.itertuples(index=False):
+        numerator, denominator = float(v).as_integer_ratio()
+        cells.setdefault((block, name), []).append(numerator * (2**1074 // denominator))
+    names = sorted(table.algorithm.unique())
+    blocks = sorted({b for b, _ in cells if all((b, n) in cells for n in names)})
+    scale = math.lcm(*(len(values) for values in cells.values()))  # mean * scale * 2**1074: an integer
+    ranks = []
+    for block in blocks:
+        means = [sum(cells[block, n]) * (scale // len(cells[block, n])) for n in names]
+        means = [-m for m in means] if higher_is_better else means
+        order = {m: i for i, m in enumerate(sorted(set(means)))}  # exact order as small integers
+        ranks.append(stats.rankdata([order[m] for m in means], method="average"))
+    ranks = np.array(ranks)
+    n, k = ranks.shape
+    rank_sums = [Fraction(int(2 * s), 2) for s in ranks.sum(axis=0)]
+    chi2 = Fraction(12, n * k * (k + 1)) * sum(s * s for s in rank_sums) - 3 * n * (k + 1)
+    unbounded = chi2 == n * (k - 1)
+    f = math.inf if unbounded else float((n - 1) * chi2 / (n * (k - 1) - chi2))
+    average = ranks.mean(axis=0)
+    control = int(np.argmin(average))
+    z = (average - average[control]) / math.sqrt(k * (k + 1) / (6 * n))
+    p = 2 * stats.norm.sf(np.abs(z))
+    others = sorted((i for i in range(k) if i != control), key=lambda i: p[i])
+    holm = np.maximum.accumulate([min(1.0, (k - 1 - j) * p[i]) for j, i in enumerate(others)])
+    return {
+        "ranks": ranks,
+        "chi2": float(chi2),
+        "p": stats.chi2.sf(float(chi2), k - 1),
+        "f": f,
+        "p_f": 0.0 if unbounded else stats.f.sf(f, k - 1, (k - 1) * (n - 1)),
+        "control": names[control],
+        "z": {names[i]: z[i] for i in others},
+        "p_each": {names[i]: p[i] for i in others},
+        "holm_p": {names[i]: h for i, h in zip(others, holm)},
+    }
+
+
+@given(long_tables(), st.booleans())
+def test_generated_tables_agree_with_rankdata_and_the_formulas(drawn, higher_is_better):
+    table, incomplete = drawn
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        result = friedman_holm(table, "block", "algorithm", "value", higher_is_better=higher_is_better)
+    assert [w.category for w in caught] == [IncompleteBlocksWarning] * bool(incomplete)
+    assert all(block in str(caught[0].message) for block in incomplete)
+    assert result.dropped == [block.split()[0] for block in incomplete]
+    want = reference(table, higher_is_better)
+    np.testing.assert_array_equal(result.ranks.to_numpy(), want["ranks"])  # equal exact means: equal ranks
+    assert result.statistic == pytest.approx(want["chi2"], rel=1e-12, abs=1e-12)
+    assert result.p_value == pytest.approx(want["p"], rel=1e-9, abs=1e-300)
+    assert result.iman_davenport == pytest.approx(want["f"], rel=1e-9)
+    assert result.iman_davenport_p == pytest.approx(want["p_f"], rel=1e-9, abs=1e-300)
+    comparisons = result.comparisons.set_index("algorithm")
+    assert result.control == want["control"]
+    for name, z in want["z"].items():
+        assert comparisons.loc[name, "z"] == pytest.approx(z, rel=1e-12, abs=1e-12)
+        assert comparisons.loc[name, "p"] == pytest.approx(want["p_each"][name], rel=1e-9, abs=1e-300)
+        assert comparisons.loc[name, "holm_p"] == pytest.approx(want["holm_p"][name], rel=1e-9, abs=1e-300)
+        assert comparisons.loc[name, "significant"] == (want["holm_p"][name] <= 0.05)
 
 
 def test_an_error_names_the_row_in_the_file_after_filtering():
