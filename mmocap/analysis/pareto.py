@@ -3,10 +3,7 @@
 Configuration a dominates b when a is no worse than b on every objective and strictly better
 on at least one (Cano Sec. 6.3); here every objective is minimised (time per frame in
 seconds, marker error in mm). The non-dominated configurations form the Pareto front; two
-configurations with equal objectives do not dominate each other, so both stay on it. A
-configuration's objectives are the exact means of its runs (:func:`exact_mean`), so equal
-means are equal whatever the order or count of the runs, and dominance is decided on them
-before they are rounded to floats for the table.
+configurations with equal objectives do not dominate each other, so both stay on it.
 """
 
 from __future__ import annotations
@@ -14,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from mmocap.analysis.statistics import exact_mean, finite_numbers, no_empty_cells, require_columns
+from mmocap.analysis.statistics import finite_numbers, no_empty_cells, overflow_free_mean, require_columns
 from mmocap.errors import DataError
 
 CONFIGURATION = ["vertices", "evaluations", "backend"]
@@ -22,12 +19,8 @@ OBJECTIVES = ["seconds_per_frame", "mean_marker_error_mm"]
 
 
 def non_dominated(points: np.ndarray) -> np.ndarray:
-    """(n, m) objective values, all minimised -> (n,) bool, True for the Pareto front.
-
-    Floats, or exact values (an object array of :class:`fractions.Fraction`), which are
-    compared as they are."""
-    points = np.asarray(points)
-    points = points if points.dtype == object else points.astype(float)
+    """(n, m) objective values, all minimised -> (n,) bool, True for the Pareto front."""
+    points = np.asarray(points, dtype=float)
     if points.ndim != 2:
         raise DataError(f"objective values must be an (n, m) array, got shape {points.shape}")
     no_worse = (points[:, None, :] <= points[None, :, :]).all(axis=2)  # [j, i]: j <= i everywhere
@@ -47,9 +40,10 @@ def summarise(
         source: the table's origin, for error messages.
 
     Returns:
-        One row per configuration: the ``by`` columns, the mean of each objective (the exact
-        mean rounded to a float), ``runs`` (how many were averaged) and ``pareto`` (bool, on
-        the exact means), sorted by the first objective.
+        One row per configuration: the ``by`` columns, the mean of each objective
+        (:func:`overflow_free_mean`: runs whose means are equal in exact arithmetic give equal
+        means, so neither configuration dominates the other), ``runs`` (how many were
+        averaged) and ``pareto`` (bool), sorted by the first objective.
         A missing column, an empty configuration cell, or an objective that is not a finite
         number is a DataError naming the column and the row.
     """
@@ -59,6 +53,6 @@ def summarise(
     values = {column: finite_numbers(runs, column, source) for column in objectives}
     no_empty_cells(runs, by, source)  # every run needs its configuration: a groupby would drop it
     grouped = runs[by].assign(**values).groupby(by, observed=True)
-    means = grouped[objectives].agg(exact_mean)  # (configurations, objectives) fractions
-    table = means.astype(float).assign(runs=grouped.size(), pareto=non_dominated(means.to_numpy())).reset_index()
+    table = grouped[objectives].agg(overflow_free_mean).assign(runs=grouped.size()).reset_index()
+    table["pareto"] = non_dominated(table[objectives].to_numpy())
     return table.sort_values([*objectives], kind="stable", ignore_index=True)

@@ -5,10 +5,10 @@ Demšar (2006) and García et al. (2010), on k algorithms measured on the same N
 
 1. A long table (one row per measurement: block columns, an algorithm column, a value
    column) becomes an N x k matrix. Several rows for one (block, algorithm) cell, e.g. the
-   seeds of a sequence when the blocks are sequences, are averaged in exact arithmetic.
-2. Within each block the algorithms are ranked on those exact means, 1 = best (the lowest
-   value, unless higher is better); tied values share the mean of the ranks they span.
-   R_j is the average rank of algorithm j over the N blocks.
+   seeds of a sequence when the blocks are sequences, are averaged (see below).
+2. Within each block the algorithms are ranked, 1 = best (the lowest value, unless higher is
+   better); tied values share the mean of the ranks they span. R_j is the average rank of
+   algorithm j over the N blocks.
 3. Friedman's statistic chi2_F = 12N / (k(k+1)) * (sum_j R_j^2 - k(k+1)^2 / 4), chi-square
    with k - 1 degrees of freedom, and Iman and Davenport's F_F = (N-1) chi2_F /
    (N(k-1) - chi2_F), F with k - 1 and (k-1)(N-1). As in those texts there is no tie
@@ -28,12 +28,14 @@ blocks. A block that lacks some algorithm (a sweep still running leaves such blo
 dropped with an :class:`IncompleteBlocksWarning` naming it, and the test's summary line says
 how many were.
 
-Cell means are exact: every finite float is a fraction with a power-of-two denominator, so
-the mean of a cell is a :class:`fractions.Fraction` with nothing rounded away. Cells whose
-means are equal tie, whatever their values' order and count ([6, 6, 4] and [6, 5, 5] both
-16/3, where the floats 6/3 + 6/3 + 4/3 and 6/3 + 5/3 + 5/3 differ in the last bit); cells whose
-means differ do not, even when they round to the same float; and values near the float limit
-(1e308) or below the smallest normal one (2.2e-308) rank as the same values scaled would.
+A cell's mean is its exact mean (every finite float is a fraction with a power-of-two
+denominator, summed and divided with nothing rounded away) rounded once to the nearest
+float, :func:`overflow_free_mean`. Cells whose means are equal in exact arithmetic therefore
+tie, whatever their values' order and count ([6, 6, 4] and [6, 5, 5] are both 16/3, where
+the sums 6/3 + 6/3 + 4/3 and 6/3 + 5/3 + 5/3 differ in the last bit); the ranks are those of
+the means as printed, so means that differ by less than the float's resolution tie as their
+printed values do; and values near the float limit (1e308) rank as the same values scaled
+down would.
 """
 
 from __future__ import annotations
@@ -63,9 +65,8 @@ class IncompleteBlocksWarning(MmocapWarning):
 def block_matrix(
     table: pd.DataFrame, block: list[str] | str, algorithm: str, value: str, source: str = "table"
 ) -> tuple[pd.DataFrame, list[str]]:
-    """Long table -> (N blocks, k algorithms) matrix of the exact mean values
-    (:func:`exact_mean`, :class:`fractions.Fraction`; ``float()`` rounds one for display) over
-    the complete blocks, and the names of the incomplete blocks left out (each warned about).
+    """Long table -> (N blocks, k algorithms) matrix of mean values (:func:`overflow_free_mean`)
+    over the complete blocks, and the names of the incomplete blocks left out (each warned about).
 
     Args:
         table: one row per measurement.
@@ -92,8 +93,10 @@ def block_matrix(
     no_empty_cells(table, [*block, algorithm], source)
     # names as text, so that an algorithm called 2 is asked for as --control 2
     long = table[[*block, algorithm]].assign(**{algorithm: table[algorithm].astype(str)}, _value=values)
-    cells = long.groupby([*block, algorithm], observed=True, sort=True)["_value"].agg(exact_mean)
-    matrix = cells.unstack(algorithm)
+    matrix = long.pivot_table(
+        index=block, columns=algorithm, values="_value", aggfunc=overflow_free_mean, observed=True
+    )
+    matrix.columns.name = algorithm
     if matrix.shape[1] < MIN_ALGORITHMS:
         raise DataError(
             f"{source}: the Friedman test needs at least {MIN_ALGORITHMS} values of "
@@ -121,23 +124,21 @@ def block_matrix(
     return matrix, dropped
 
 
-def exact_mean(values) -> Fraction:
-    """The mean of the finite floats ``values`` (n,), n >= 1, in exact arithmetic: each float is
-    the fraction it stands for, so nothing is rounded, overflows or underflows, and two sets of
-    values with equal means give equal fractions."""
-    values = np.asarray(values, dtype=float)
-    return sum(map(Fraction, values.tolist()), Fraction(0)) / len(values)
-
-
 def overflow_free_mean(values) -> float:
-    """The mean of ``values`` (n,) as a float: the exact mean (:func:`exact_mean`) correctly
-    rounded, so it stays finite for finite values near the float limit (1e308), where the sum
-    of the values would not, and values with equal means give the same float. NaN or infinite
-    values give what ``numpy.mean`` gives (NaN, or the infinity)."""
+    """The mean of ``values`` (n,) correctly rounded: the exact mean (the values summed and
+    divided in exact arithmetic) rounded once to the nearest float. It stays finite for finite
+    values near the float limit (1e308), where the sum of the values would not, and values
+    whose means are equal in exact arithmetic give the same float, whatever their order and
+    count. NaN or infinite values, or none, give what ``numpy.mean`` gives (NaN, or the
+    infinity)."""
     values = np.asarray(values, dtype=float)
-    if not np.isfinite(values).all():
+    if not len(values) or not np.isfinite(values).all():
         return float(np.mean(values))
-    return float(exact_mean(values))
+    total = 0  # in units of 2**-1074, the smallest subnormal: every finite float is a whole number of them
+    for value in values.tolist():
+        numerator, denominator = value.as_integer_ratio()  # denominator: 2**j, j <= 1074
+        total += numerator << (1075 - denominator.bit_length())
+    return total / (len(values) << 1074)  # Python divides integers with one correct rounding
 
 
 def require_columns(table: pd.DataFrame, columns: list[str], source: str) -> None:
@@ -217,15 +218,9 @@ def _block_name(name) -> str:
 
 
 def block_ranks(matrix: pd.DataFrame, higher_is_better: bool = False) -> pd.DataFrame:
-    """(N, k) values -> (N, k) ranks within each block, 1 = best, ties at their mid-rank.
-
-    The values (floats, or the exact means of :func:`block_matrix`) are compared as they
-    are, never converted: exact means tie exactly when they are equal."""
-    values = matrix.to_numpy()
-    values = -values if higher_is_better else values
-    below = (values[:, None, :] < values[:, :, None]).sum(axis=2)  # [block, i]: how many rank before i
-    tied = (values[:, None, :] == values[:, :, None]).sum(axis=2)  # [block, i]: how many equal i, i too
-    return pd.DataFrame(below + (tied + 1) / 2.0, index=matrix.index, columns=matrix.columns)
+    """(N, k) values -> (N, k) ranks within each block, 1 = best, ties at their mid-rank."""
+    oriented = -matrix if higher_is_better else matrix
+    return oriented.rank(axis=1, method="average")
 
 
 def friedman_statistic(average_ranks: np.ndarray, n_blocks: int) -> tuple[float, float, float, float]:

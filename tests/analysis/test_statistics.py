@@ -3,6 +3,7 @@ worked examples (Demšar 2006; the Yeguas paper's Tables 4 and 6; Cano Table 3),
 hand-made cases; against ``scipy.stats.rankdata`` and the formulas on generated tables
 (Hypothesis); then bad input and the command line."""
 
+import itertools
 import math
 import subprocess
 import sys
@@ -19,7 +20,6 @@ from scipy import stats
 from mmocap.analysis.statistics import (
     IncompleteBlocksWarning,
     block_ranks,
-    exact_mean,
     finite_numbers,
     friedman_holm,
     friedman_statistic,
@@ -294,12 +294,12 @@ def test_cells_with_equal_exact_means_tie():
     )
     result = friedman_holm(table, "block", "algorithm", "value")
     assert result.ranks.loc[0].tolist() == [1.5, 1.5, 3.0]
-    assert exact_mean([6.0, 6.0, 4.0]) == exact_mean([6.0, 5.0, 5.0]) == Fraction(16, 3)
     assert overflow_free_mean([6.0, 6.0, 4.0]) == overflow_free_mean([5.0, 6.0, 5.0]) == 16 / 3
-    # means that differ by less than the float's resolution still rank apart
-    assert exact_mean([1.0, 1.0 + 2**-52]) > exact_mean([1.0])
-    assert overflow_free_mean([1.0, 1.0 + 2**-52]) == 1.0  # 1 + 2**-53 rounds to even
+    # rounded once: 1 + 2**-53 is halfway between two floats and goes to the even one
+    assert overflow_free_mean([1.0, 1.0 + 2**-52]) == 1.0
+    assert overflow_free_mean([5e-324, 5e-324, 0.0]) == 5e-324  # 2/3 of the smallest subnormal
     assert np.isnan(overflow_free_mean([1.0, np.nan]))
+    assert overflow_free_mean([-1.7976931348623157e308, -1.7976931348623157e308]) == -1.7976931348623157e308
 
 
 def test_blocks_that_all_rank_alike_give_an_unbounded_f():
@@ -357,22 +357,21 @@ def long_tables(draw):
 
 
 def reference(table: pd.DataFrame, higher_is_better: bool) -> dict:
-    """What the textbook gives (Demšar 2006; García and Herrera 2008): exact cell means (each
-    float an integer multiple of 2**-1074) over the blocks with every algorithm, scipy's
-    mid-ranks, then the formulas."""
-    cells: dict[tuple, list[int]] = {}
+    """What the textbook gives (Demšar 2006; García and Herrera 2008) over the blocks with
+    every algorithm: cell means, scipy's mid-ranks, then the formulas. A cell mean is the
+    exact mean (the floats as fractions) rounded to the nearest float. ``exact_ties``:
+    (block, i, j) of the cells i, j whose exact means are equal."""
+    cells: dict[tuple, list[Fraction]] = {}
     for block, name, v in table.itertuples(index=False):
-        numerator, denominator = float(v).as_integer_ratio()
-        cells.setdefault((block, name), []).append(numerator * (2**1074 // denominator))
+        cells.setdefault((block, name), []).append(Fraction(float(v)))
     names = sorted(table.algorithm.unique())
     blocks = sorted({b for b, _ in cells if all((b, n) in cells for n in names)})
-    scale = math.lcm(*(len(values) for values in cells.values()))  # mean * scale * 2**1074: an integer
-    ranks = []
-    for block in blocks:
-        means = [sum(cells[block, n]) * (scale // len(cells[block, n])) for n in names]
-        means = [-m for m in means] if higher_is_better else means
-        order = {m: i for i, m in enumerate(sorted(set(means)))}  # exact order as small integers
-        ranks.append(stats.rankdata([order[m] for m in means], method="average"))
+    ranks, exact_ties = [], []
+    for b, block in enumerate(blocks):
+        exact = [sum(cells[block, n]) / len(cells[block, n]) for n in names]
+        means = np.array([float(m) for m in exact])
+        ranks.append(stats.rankdata(-means if higher_is_better else means, method="average"))
+        exact_ties += [(b, i, j) for i, j in itertools.combinations(range(len(names)), 2) if exact[i] == exact[j]]
     ranks = np.array(ranks)
     n, k = ranks.shape
     rank_sums = [Fraction(int(2 * s), 2) for s in ranks.sum(axis=0)]
@@ -387,6 +386,7 @@ def reference(table: pd.DataFrame, higher_is_better: bool) -> dict:
     holm = np.maximum.accumulate([min(1.0, (k - 1 - j) * p[i]) for j, i in enumerate(others)])
     return {
         "ranks": ranks,
+        "exact_ties": exact_ties,
         "chi2": float(chi2),
         "p": stats.chi2.sf(float(chi2), k - 1),
         "f": f,
@@ -408,7 +408,9 @@ def test_generated_tables_agree_with_rankdata_and_the_formulas(drawn, higher_is_
     assert all(block in str(caught[0].message) for block in incomplete)
     assert result.dropped == [block.split()[0] for block in incomplete]
     want = reference(table, higher_is_better)
-    np.testing.assert_array_equal(result.ranks.to_numpy(), want["ranks"])  # equal exact means: equal ranks
+    ranks = result.ranks.to_numpy()
+    assert all(ranks[b, i] == ranks[b, j] for b, i, j in want["exact_ties"])
+    np.testing.assert_array_equal(ranks, want["ranks"])
     assert result.statistic == pytest.approx(want["chi2"], rel=1e-12, abs=1e-12)
     assert result.p_value == pytest.approx(want["p"], rel=1e-9, abs=1e-300)
     assert result.iman_davenport == pytest.approx(want["f"], rel=1e-9)
