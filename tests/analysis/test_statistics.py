@@ -342,7 +342,7 @@ def long_tables(draw):
         draw(st.sampled_from(["none", "shifted", "reordered", "repeated"])),
     )
     names = [f"a{j}" for j in range(k)]
-    rows, dropped = [], []
+    rows, lacking = [], []
     for block in range(complete + incomplete):
         cells = [draw(st.lists(pool, min_size=1, max_size=3)) for _ in names]
         if twins != "none":
@@ -350,10 +350,10 @@ def long_tables(draw):
         if block >= complete:
             missing = draw(st.integers(0, k - 1))
             cells[missing] = []
-            dropped.append(f"{block} (no {names[missing]})")
+            lacking.append(f"{block} (no {names[missing]})")
         rows += [(block, name, v) for name, values in zip(names, cells) for v in values]
     table = pd.DataFrame(draw(st.permutations(rows)), columns=["block", "algorithm", "value"])
-    return table, dropped
+    return table, lacking
 
 
 def reference(table: pd.DataFrame, higher_is_better: bool) -> dict:
