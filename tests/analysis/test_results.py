@@ -1,13 +1,15 @@
 """Results store, run keys, the runs/frames tables, and the experiment x scale sweeps."""
 
+import copy
 import json
 import math
 import time
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pytest
-from omegaconf import open_dict
+from omegaconf import OmegaConf, open_dict
 
 from mmocap import config as mmocap_config
 from mmocap.analysis.results import (
@@ -19,11 +21,36 @@ from mmocap.errors import ConfigError, DataError, MmocapWarning
 from mmocap.sweep import check_sweep, format_seconds, progress_line, sweep_overrides
 from tests.helpers import compose_config, record_of
 
+GOLDEN = Path(__file__).parents[1] / "golden" / "data"
+SCHEMA = 1
 SINGLE_RUNS = ("demo", "fig5")  # experiments that are one run, not a sweep
 EXPERIMENTS = [name for name in mmocap_config.options("experiment") if name not in SINGLE_RUNS]
 #: experiments whose scale is chosen under their own package (its dataset settings describe the
 #: synthetic sequences their recordings are written from)
 SCALE_PACKAGES = {"lossy": "scale@lossy"}
+#: edits of a composed config (dotted key -> value) that cross each rule of the run key
+KEY_EDITS = {
+    "as composed": {},
+    "keypoints none": {"keypoints.source": "none"},
+    "keypoints files": {"keypoints.source": "files"},
+    "fidelity levels": {"fidelity.levels": [{"scale": 0.5, "evaluations": 200}]},
+    "fidelity levels null": {"fidelity.levels": None},
+    "turned": {"dataset.turn_deg": 30},
+    "turn 0.0": {"dataset.turn_deg": 0.0},
+    "detector noise": {"realism.keypoint_noise": 0.7},
+    "detector noise, keypoints none": {"realism.keypoint_noise": 0.7, "keypoints.source": "none"},
+    "start keypoint evaluations": {"start.keypoint_evaluations": 100},
+    "start keypoint evaluations, keypoints none": {"start.keypoint_evaluations": 100, "keypoints.source": "none"},
+}
+
+
+def edited(cfg, edits: dict):
+    """A copy of the composed config ``cfg`` with ``edits`` (dotted key -> value; new keys added)."""
+    cfg = copy.deepcopy(cfg)
+    with open_dict(cfg):
+        for key, value in edits.items():
+            OmegaConf.update(cfg, key, value, force_add=True)
+    return cfg
 
 
 def test_run_key_ignores_outputs_and_presentation_only():
@@ -380,3 +407,19 @@ def test_a_paper_run_keeps_the_key_it_had_before_keypoints_existed():
     with open_dict(cfg):
         cfg.keypoints.source = "auto"
     assert run_key(cfg) != "778a5dbab9f5b3b7"  # with keypoints it is another run
+
+
+def test_every_experiments_run_keys_are_those_its_schema_gave():
+    """The keys of every experiment's config (and its first job at scale smoke), each with the
+    edits that cross the key's rules, as the code that made the schema's records gave them
+    (``made_by`` in the file). A change of the key rules that moves one must declare the new
+    key in ``ADDED_KEYS`` or raise ``SCHEMA`` (and add the new schema's keys here)."""
+    golden = json.loads((GOLDEN / f"run_keys_schema_{SCHEMA}.json").read_text())
+    moved = []
+    for name, case in golden["configs"].items():
+        cfg = compose_config(*case["overrides"])
+        for edit, key in case["keys"].items():
+            if run_key(edited(cfg, golden["edits"][edit])) != key:
+                moved.append(f"{name}: {edit}")
+    assert len(golden["configs"]) >= len(mmocap_config.options("experiment"))
+    assert moved == [], f"{len(moved)} run keys moved, e.g. {moved[:3]}"
