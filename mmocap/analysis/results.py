@@ -1,12 +1,24 @@
 """Results store: one record per finished run, kept in a store that makes sweeps resumable.
 
-A store is a folder (a sweep's folder, or a single run's) holding ``records/<run_id>.json``.
-A record is written once, atomically (temporary file then ``os.replace``), when its run
-finishes: a run killed midway leaves no record and is run again by the next sweep, a
-finished run is never run twice. ``run_id`` is a digest of the run's resolved config
-without what does not change its result (output paths, progress bars, overlays, the
-``scale`` presets, the name of the ``settings`` preset (its optimiser values stay in the
-key), ``run_dir_busy``, Hydra's own settings).
+A store is a folder (a sweep's folder, or a single run's) holding ``records/<run_id>.json``
+and ``store.json`` (the schema of its records). A record is written once, atomically (a
+temporary file in ``records/`` then ``os.replace``: the store needs a file system whose
+rename within a folder is atomic), when its run finishes: a run killed midway leaves no
+record and is run again by the next sweep, a finished run is never run twice. ``run_id`` is
+a digest of the run's resolved config without what does not change its result (output
+paths, progress bars, overlays, the ``scale`` presets, the name of the ``settings`` preset
+(its optimiser values stay in the key), ``run_dir_busy``, Hydra's own settings), and without
+the keys added since the first records while they hold their neutral values
+(:data:`ADDED_KEYS`).
+
+A record carries the schema of its layout and key rules (``schema``, :data:`SCHEMA`; none
+in the records made before it existed: :data:`FIRST_SCHEMA`). A job refuses a store of
+another schema, whose runs it would not find, and :func:`load_runs` a store that mixes them;
+``mmocap store migrate`` (:mod:`mmocap.analysis.migration`) brings one to :data:`SCHEMA`.
+
+Several jobs may write into one store at once (two sweeps sharing ``results.store``): a job
+claims its run (:meth:`ResultsStore.claim`) before running it, and a job that finds the run
+claimed waits for the claim's holder to end, then finds its record instead of running it.
 
 ``load_runs(folder)`` gives the two tables the statistics and reports read:
 
