@@ -187,8 +187,7 @@ def migrate(folder, dry_run: bool = False) -> Plan:
             write_json_atomic(store.path(step.target), migrated(record, step.target, step.source))  # type: ignore[arg-type]
         if step.kind != "update":
             remove(store.path(step.source))
-    if not store.store_file.is_file() or store.schema() != results.SCHEMA:
-        store.set_schema(results.SCHEMA)
+    store.set_schema(results.SCHEMA)  # last: until here, the jobs refuse the store
     return todo
 
 

@@ -288,10 +288,10 @@ class ResultsStore:
         if not self.store_file.is_file():
             return FIRST_SCHEMA if self.run_ids() else None
         fix = f'write {{"schema": N}} into it, N the schema of its records ({FIRST_SCHEMA} for those without one)'
-        schema = read_json_object(self.store_file, fix=fix).get("schema")
-        if not is_integer(schema) or int(schema) < FIRST_SCHEMA:  # type: ignore[arg-type]  # is_integer: an int
+        schema: Any = read_json_object(self.store_file, fix=fix).get("schema")
+        if not is_integer(schema) or int(schema) < FIRST_SCHEMA:
             raise DataError(f"{self.store_file}: schema is {schema!r:.40}, not a whole number; {fix}")
-        return int(schema)  # type: ignore[arg-type]
+        return int(schema)
 
     def check_schema(self) -> None:
         """A DataError, naming the store, if its records are of another schema than this
@@ -360,7 +360,7 @@ class ResultsStore:
         store has none yet); returns its path."""
         self.records_dir.mkdir(parents=True, exist_ok=True)
         if not self.store_file.is_file():
-            self.set_schema(record_schema(record, "to be written"))
+            self.set_schema(record_schema(record, self.path(record["run_id"])))
         path = self.path(record["run_id"])
         write_json_atomic(path, record)
         return path
