@@ -421,7 +421,8 @@ def test_every_experiments_run_keys_are_those_its_schema_gave():
     """The keys of every experiment's config (and its first job at scale smoke), each with the
     edits that cross the key's rules, as the code that made the schema's records gave them
     (``made_by`` in the file). A change of the key rules that moves one must declare the new
-    key in ``ADDED_KEYS`` or raise ``SCHEMA`` (and add the new schema's keys here)."""
+    key in ``ADDED_KEYS``, or raise ``SCHEMA`` and write ``run_keys_schema_<SCHEMA>.json``: the
+    same configs and edits, with the keys the new rules give them (never rewrite an old one)."""
     golden = json.loads((GOLDEN / f"run_keys_schema_{SCHEMA}.json").read_text())
     moved = []
     for name, case in golden["configs"].items():
