@@ -202,6 +202,10 @@ SUBCOMMANDS = {
     ),
     "export": (_main_of("mmocap.writers.export"), "a finished run's motion as TRC, C3D, BVH and CSV files"),
     "collect": (_main_of("mmocap.report.collect"), "write runs.csv and frames.csv of a sweep folder"),
+    "store": (
+        _main_of("mmocap.analysis.migration"),
+        "keep a results store: `mmocap store migrate FOLDER` renames its records for this mmocap's key rules",
+    ),
     "ioh": (_main_of("mmocap.report.ioh"), "the runs' per-frame convergence traces for IOHanalyzer"),
     "summaries": (_main_of("mmocap.report.summaries"), "table of the run summaries below a folder"),
     "stats": (_main_of("mmocap.report.stats"), "Friedman test and Holm's comparisons on a table of results"),

@@ -5,7 +5,9 @@ per frame, written as it goes), ``traces.csv`` (each frame's convergence:
 :mod:`mmocap.writers.traces`), the exports, ``error_per_frame.png``, ``overlays/*.png``, the
 videos (:mod:`mmocap.writers`) and ``summary.json``; and the run's record in
 the results store (:mod:`mmocap.analysis.results`). A run whose record is already in the
-store, or in one of ``results.reuse``, is not run again.
+store, or in one of ``results.reuse``, is not run again. A job claims its run in the store
+before running it; a job that finds the run claimed by another (two sweeps into one store)
+waits for that one's record instead of running it too.
 
 What a stopped run leaves (the rule of :mod:`mmocap.io`: a file appears under its final
 name only when complete): every file is written atomically, except the per-frame rows,
@@ -173,13 +175,28 @@ class Tracking:
 
 def _run(cfg: DictConfig, output_dir: Path, warning_messages: list[str]) -> dict:
     """:func:`run`, in the locked run folder ``output_dir``: the summary's ``warnings`` is
-    ``warning_messages``."""
+    ``warning_messages``. A run whose record is in the store (or in ``results.reuse``) is
+    found, not run; one that another job is running is waited for and then found (its claim:
+    :meth:`~mmocap.analysis.results.ResultsStore.claim`); a store of another schema is
+    refused."""
     output_dir.mkdir(parents=True, exist_ok=True)
     store = ResultsStore(store_folder(cfg, sweep_folder() or output_dir))
     run_id = run_key(cfg)
+    for folder in [store.folder, *cfg.results.reuse]:
+        ResultsStore(folder).check_schema()  # records keyed by other rules would not be found
     done = finished_summary(store, run_id, cfg.results.reuse)
     if done is not None:
         return done
+    with store.claim(run_id):  # waits while another job runs it
+        done = finished_summary(store, run_id, cfg.results.reuse)  # that job finished it meanwhile
+        if done is not None:
+            return done
+        return _track(cfg, output_dir, store, run_id, warning_messages)
+
+
+def _track(cfg: DictConfig, output_dir: Path, store: ResultsStore, run_id: str, warning_messages: list[str]) -> dict:
+    """Track the run ``run_id`` into ``output_dir`` and put its record into ``store``, whose
+    claim of it the caller holds; returns the summary."""
     clear_outputs(output_dir)
     store.clear_unfinished(run_id)
     started = provenance.now()

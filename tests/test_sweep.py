@@ -4,16 +4,19 @@ import importlib.metadata
 import importlib.util
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
 import time
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import pandas as pd
 import pytest
 
 from mmocap import config as mmocap_config
+from mmocap.analysis.results import SCHEMA
 from tests.helpers import mmocap, overrides
 
 
@@ -176,3 +179,34 @@ def test_launcher_configs_compose(name, plugin, target, extra):
         pytest.skip(f"{plugin} not installed (pip install mmocap[{extra}])")
     cfg = mmocap_config.compose(["+experiment=table4", f"hydra/launcher={name}"], return_hydra_config=True)
     assert cfg.hydra.launcher._target_.endswith(target)
+
+
+def test_two_sweeps_into_one_store_at_once_run_each_job_once(tiny_sequence, tmp_path):
+    """Two sweeps at once, over overlapping seeds in the same order, into one results.store:
+    every run is recorded whole, each by exactly one of them; the other one waits for it (its
+    claim in the store) or finds it, and no claim is left."""
+    store = tmp_path / "store"
+
+    def sweep(name: str, seeds: str):
+        extra = {"results.store": store, "evaluator": "numpy", "hydra.launcher.n_jobs": 1}
+        return mmocap(*sweep_args(tiny_sequence.parent, tmp_path / name, seed=seeds, **extra), cwd=tmp_path)
+
+    with ThreadPoolExecutor(2) as pool:
+        outcomes = list(pool.map(sweep, ["a", "b"], ["0,1,2", "0,1,2,3"]))
+    assert all(out.returncode == 0 for out in outcomes), "\n".join(map(str, outcomes))
+    log = "".join(out.stdout + out.stderr for out in outcomes)
+    ran = re.findall(r"run (\w{16}) recorded in", log)
+    found = re.findall(r"run (\w{16}) already finished", log)
+    assert sorted(ran) == sorted(set(ran)), f"a run was run twice: {ran}"
+    assert len(ran) == 4
+    assert len(found) == 3
+    by_seed = {}
+    for path in records(store):
+        record = json.loads(path.read_text())
+        assert record["summary"]["frames"] == 2
+        assert record["run_id"] == path.stem
+        by_seed[record["seed"]] = path.stem
+    assert sorted(by_seed) == [0, 1, 2, 3]
+    assert sorted(by_seed.values()) == sorted(ran)
+    assert list(store.glob("records/.*")) == []
+    assert json.loads((store / "store.json").read_text()) == {"schema": SCHEMA}

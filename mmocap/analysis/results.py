@@ -1,12 +1,24 @@
 """Results store: one record per finished run, kept in a store that makes sweeps resumable.
 
-A store is a folder (a sweep's folder, or a single run's) holding ``records/<run_id>.json``.
-A record is written once, atomically (temporary file then ``os.replace``), when its run
-finishes: a run killed midway leaves no record and is run again by the next sweep, a
-finished run is never run twice. ``run_id`` is a digest of the run's resolved config
-without what does not change its result (output paths, progress bars, overlays, the
-``scale`` presets, the name of the ``settings`` preset (its optimiser values stay in the
-key), ``run_dir_busy``, Hydra's own settings).
+A store is a folder (a sweep's folder, or a single run's) holding ``records/<run_id>.json``
+and ``store.json`` (the schema of its records). A record is written once, atomically (a
+temporary file in ``records/`` then ``os.replace``: the store needs a file system whose
+rename within a folder is atomic), when its run finishes: a run killed midway leaves no
+record and is run again by the next sweep, a finished run is never run twice. ``run_id`` is
+a digest of the run's resolved config without what does not change its result (output
+paths, progress bars, overlays, the ``scale`` presets, the name of the ``settings`` preset
+(its optimiser values stay in the key), ``run_dir_busy``, Hydra's own settings), and without
+the keys added since the first records while they hold their neutral values
+(:data:`ADDED_KEYS`).
+
+A record carries the schema of its layout and key rules (``schema``, :data:`SCHEMA`; none
+in the records made before it existed: :data:`FIRST_SCHEMA`). A job refuses a store of
+another schema, whose runs it would not find, and :func:`load_runs` a store that mixes them;
+``mmocap store migrate`` (:mod:`mmocap.analysis.migration`) brings one to :data:`SCHEMA`.
+
+Several jobs may write into one store at once (two sweeps sharing ``results.store``): a job
+claims its run (:meth:`ResultsStore.claim`) before running it, and a job that finds the run
+claimed waits for the claim's holder to end, then finds its record instead of running it.
 
 ``load_runs(folder)`` gives the two tables the statistics and reports read:
 
@@ -37,9 +49,17 @@ or holding one of the wrong kind, is a DataError naming the record file and the 
 
 from __future__ import annotations
 
+import fcntl
+import fnmatch
 import hashlib
 import json
+import logging
+import os
+import socket
 import warnings
+from collections.abc import Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -50,8 +70,10 @@ from omegaconf import DictConfig, OmegaConf
 from mmocap import provenance
 from mmocap.data.realism import DETECTOR_SETTINGS
 from mmocap.errors import DataError, MmocapWarning
-from mmocap.io import read_json_object, write_json_atomic
+from mmocap.io import read_json_object, write_json_atomic, writing
 from mmocap.validate import is_integer, is_real
+
+log = logging.getLogger(__name__)
 
 # Top-level config keys that do not change a run's result.
 NOT_IN_KEY = (
@@ -101,35 +123,91 @@ RUN_COLUMNS = [
 FRAME_COLUMNS = ["run_id", "frame", "marker_error_mm", "fitness"]
 
 
+#: a config key that the config does not hold (a value of :attr:`AddedKey.neutral`)
+ABSENT = object()
+
+
+@dataclass(frozen=True)
+class AddedKey:
+    """A config key added after records were made without it, and its neutral values: those
+    at which a run is the run it was before the key existed. While the key holds one of them,
+    it stays out of the run's key, and so does what such a run does not read (``drops``), so
+    that the records made before keep their keys.
+
+    ``key`` and the paths of ``drops`` are dotted paths into the resolved config, outside
+    :data:`NOT_IN_KEY`; the last part of a path in ``drops`` may be a glob pattern
+    (``start.keypoint_*``), and ``drops`` left empty means the key alone. A value is neutral
+    when it equals (``==``) one of ``neutral``; :data:`ABSENT` there stands for a config that
+    lacks the key."""
+
+    key: str
+    neutral: tuple
+    drops: tuple[str, ...] = ()
+
+    def left_out(self, config: dict) -> tuple[str, ...]:
+        """The paths this rule leaves out of the key of the resolved ``config``: ``drops`` (or
+        the key) when the key's value is neutral, else none."""
+        value = _lookup(config, self.key)
+        return (self.drops or (self.key,)) if any(value == neutral for neutral in self.neutral) else ()
+
+
+#: every config key added after the first records were made, with its neutral values: the one
+#: place a new block or setting is declared so that it does not move the keys of older records
+#: (a block is declared through a setting that turns it off, dropping the whole block). A key
+#: that no neutral value can keep out moves keys: that needs a new :data:`SCHEMA` instead.
+ADDED_KEYS = (
+    # multi-fidelity search: without levels, an exact search as before
+    AddedKey("fidelity.levels", (ABSENT, None, []), drops=("fidelity",)),
+    # the synthetic motion turned about the vertical: not turned, the sequence as before
+    AddedKey("dataset.turn_deg", (0,)),
+    # 2-D keypoints in the fitness: without them (silhouettes only), a run reads neither the
+    # keypoint settings, nor the realism's simulated detector, nor the start's keypoint settings
+    AddedKey(
+        "keypoints.source",
+        ("none",),
+        drops=(
+            "keypoints",
+            *(f"realism.{setting}" for setting in DETECTOR_SETTINGS),
+            *(f"dataset.realism.{setting}" for setting in DETECTOR_SETTINGS),
+            "start.keypoint_*",
+        ),
+    ),
+)
+
+
+def _lookup(config: dict, path: str):
+    """The value at the dotted ``path`` of the nested dict ``config``, :data:`ABSENT` if none."""
+    node: Any = config
+    for part in path.split("."):
+        if not isinstance(node, dict) or part not in node:
+            return ABSENT
+        node = node[part]
+    return node
+
+
+def _drop(config: dict, path: str) -> None:
+    """Remove the entries at the dotted ``path`` (its last part a glob pattern) of ``config``."""
+    *parents, pattern = path.split(".")
+    node: Any = config
+    for part in parents:
+        node = node.get(part) if isinstance(node, dict) else None
+    if isinstance(node, dict):
+        for key in [k for k in node if fnmatch.fnmatchcase(str(k), pattern)]:
+            del node[key]
+
+
 def key_config(cfg: DictConfig) -> dict:
-    """The resolved config that identifies a run: everything but ``NOT_IN_KEY``, and the
-    blocks of stages that the run does not use, so that the records made before those
-    stages existed still match: ``fidelity`` when it has no levels (an exact search), and
-    ``dataset.turn_deg`` at 0 (the sequence not turned), and ``keypoints`` when its source is
-    ``none`` (silhouettes only), and then the realism's simulated detector
-    (:data:`~mmocap.data.realism.DETECTOR_SETTINGS`) and the start's ``keypoint_*`` settings,
-    which such a run does not read."""
+    """The resolved config that identifies a run: everything but ``NOT_IN_KEY``, less what the
+    rules of :data:`ADDED_KEYS` leave out (keys added since the first records, at their neutral
+    values), so that the records made before those keys existed still match."""
     kept: dict[str, Any] = {}
-    silhouettes_only = cfg.get("keypoints") is not None and cfg.keypoints.get("source") == "none"
     for key in cfg:
-        if key == "fidelity" and not cfg[key].get("levels"):
-            continue
-        if key == "keypoints" and silhouettes_only:
-            continue
         if key not in NOT_IN_KEY:
             node = cfg[key]  # interpolations resolve against the whole config
             kept[str(key)] = OmegaConf.to_container(node, resolve=True) if OmegaConf.is_config(node) else node
-    dataset: dict = kept["dataset"] if isinstance(kept.get("dataset"), dict) else {}
-    if dataset.get("turn_deg") == 0:  # not turned: the sequence as before
-        del dataset["turn_deg"]
-    if silhouettes_only:  # the keypoint files and the start's keypoint settings are not read
-        for realism in (kept.get("realism"), dataset.get("realism")):
-            if isinstance(realism, dict):
-                for setting in DETECTOR_SETTINGS:
-                    realism.pop(setting, None)
-        start: dict = kept["start"] if isinstance(kept.get("start"), dict) else {}
-        for setting in [k for k in start if str(k).startswith("keypoint_")]:
-            del start[setting]
+    left_out = [path for added in ADDED_KEYS for path in added.left_out(kept)]  # decided before any is dropped
+    for path in left_out:
+        _drop(kept, path)
     return kept
 
 
@@ -145,16 +223,56 @@ def store_folder(cfg: DictConfig, fallback: Path) -> Path:
     return Path(cfg.results.store if cfg.results.store is not None else fallback)
 
 
+#: the schema of the records a store holds: their layout and the rules of :func:`run_key`
+#: that named them. A record without ``schema`` is of :data:`FIRST_SCHEMA`, made before
+#: records had one. Raise it when a change moves the key of a config that records hold (the
+#: golden keys in ``tests/golden/data/run_keys_schema_<SCHEMA>.json`` say so) and cannot be
+#: declared in :data:`ADDED_KEYS`; ``mmocap store migrate`` (:mod:`mmocap.analysis.migration`)
+#: then renames the records of older stores.
+SCHEMA = 1
+FIRST_SCHEMA = 1
+#: the store's own file, beside ``records/``: ``{"schema": N}``, written when its first record is
+STORE_FILE = "store.json"
+
+
+def migrate_hint(folder) -> str:
+    """How to bring the store ``folder`` to :data:`SCHEMA`."""
+    return f"run `mmocap store migrate {folder}` to bring them to schema {SCHEMA}"
+
+
+def record_schema(record: dict, source) -> int:
+    """The schema of ``record`` (read from ``source``): its ``schema``, :data:`FIRST_SCHEMA` if it
+    has none; a DataError for one that is not a whole number from FIRST_SCHEMA on, or that is
+    newer than this mmocap's :data:`SCHEMA`."""
+    schema = record.get("schema", FIRST_SCHEMA) if isinstance(record, dict) else FIRST_SCHEMA
+    if not is_integer(schema) or int(schema) < FIRST_SCHEMA:
+        raise DataError(
+            f"run record {source}: schema is {schema!r:.40}, not a whole number from {FIRST_SCHEMA}; {DAMAGED}"
+        )
+    if int(schema) > SCHEMA:
+        raise DataError(
+            f"run record {source} is of schema {schema}, newer than this mmocap's {SCHEMA}: "
+            "read it with the mmocap that wrote it (its provenance.versions says which) or upgrade mmocap"
+        )
+    return int(schema)
+
+
 class ResultsStore:
-    """The records of finished runs under ``folder/records/``."""
+    """The records of finished runs under ``folder/records/``, the store's schema in
+    ``folder/store.json``, and the claims of the runs being run (see module doc)."""
 
     def __init__(self, folder):
         self.folder = Path(folder)
         self.records_dir = self.folder / "records"
+        self.store_file = self.folder / STORE_FILE
 
     def path(self, run_id: str) -> Path:
         """The record file of ``run_id``: ``records/<run_id>.json`` in the store's folder."""
         return self.records_dir / f"{run_id}.json"
+
+    def claim_path(self, run_id: str) -> Path:
+        """The claim file of ``run_id``: ``records/.<run_id>.claim``, there while a job runs it."""
+        return self.records_dir / f".{run_id}.claim"
 
     def get(self, run_id: str) -> dict | None:
         """The record of ``run_id``, or None if that run has not finished here."""
@@ -163,15 +281,86 @@ class ResultsStore:
             return None
         return read_json_object(path, name=f"run record {path}", fix="delete it to run again")
 
+    def schema(self) -> int | None:
+        """The schema of the store's records: its ``store.json``'s; :data:`FIRST_SCHEMA` for a
+        store with records but no ``store.json`` (made before stores had a schema); None for an
+        empty store."""
+        if not self.store_file.is_file():
+            return FIRST_SCHEMA if self.run_ids() else None
+        fix = f'write {{"schema": N}} into it, N the schema of its records ({FIRST_SCHEMA} for those without one)'
+        schema: Any = read_json_object(self.store_file, fix=fix).get("schema")
+        if not is_integer(schema) or int(schema) < FIRST_SCHEMA:
+            raise DataError(f"{self.store_file}: schema is {schema!r:.40}, not a whole number; {fix}")
+        return int(schema)
+
+    def check_schema(self) -> None:
+        """A DataError, naming the store, if its records are of another schema than this
+        mmocap's :data:`SCHEMA`: their keys are not those this mmocap gives its runs, so a
+        finished run would not be found there."""
+        schema = self.schema()
+        if schema is None or schema == SCHEMA:
+            return
+        if schema > SCHEMA:
+            raise DataError(
+                f"results store {self.folder} is of schema {schema} ({self.store_file}), newer than this "
+                f"mmocap's {SCHEMA}: use the mmocap that wrote it, or another results.store"
+            )
+        raise DataError(
+            f"results store {self.folder} holds records of schema {schema}, keyed by older rules than this "
+            f"mmocap's (schema {SCHEMA}): {migrate_hint(self.folder)}, or use another results.store"
+        )
+
+    def set_schema(self, schema: int) -> None:
+        """Write ``store.json`` saying the store's records are of ``schema``, atomically."""
+        write_json_atomic(self.store_file, {"schema": schema})
+
     def clear_unfinished(self, run_id: str) -> None:
         """Remove what an interrupted write of ``run_id``'s record left (its temporaries);
-        called by the job that now runs ``run_id``, the only writer of that record."""
+        called by the job that holds ``run_id``'s claim (:meth:`claim`), the only writer of
+        that record."""
         for path in self.records_dir.glob(f".{run_id}.json.*.tmp"):
             path.unlink(missing_ok=True)
 
+    @contextmanager
+    def claim(self, run_id: str) -> Iterator[None]:
+        """Hold the claim of ``run_id`` for the block: while a job holds it, no other job runs
+        that run. Where another process holds it, log so and wait until that process ends
+        (its record written, or it failed or was killed: the kernel then releases its lock,
+        and the claim it left is taken over), then hold it.
+
+        The claim is the file ``records/.<run_id>.claim`` holding an exclusive ``flock`` lock
+        and the holder's process, host and start; it is removed when the block ends. A waiter
+        whose claim file was removed meanwhile claims the new one (the inode is checked)."""
+        path = self.claim_path(run_id)
+        with writing(path):
+            self.records_dir.mkdir(parents=True, exist_ok=True)
+        while True:
+            with writing(path):
+                fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o666)
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                holder = os.pread(fd, 200, 0).decode(errors="replace").strip() or "another process"
+                log.info("run %s is being run by %s (%s): waiting for its record", run_id, holder, path)
+                fcntl.flock(fd, fcntl.LOCK_EX)
+            if _same_file(fd, path):
+                break
+            os.close(fd)  # its holder removed that claim: claim the file there now
+        try:
+            with writing(path):
+                os.ftruncate(fd, 0)
+                os.pwrite(fd, f"process {os.getpid()} on {socket.gethostname()} since {provenance.now()}\n".encode(), 0)
+            yield
+        finally:
+            path.unlink(missing_ok=True)  # while locked: a waiter that gets this file sees it is gone
+            os.close(fd)
+
     def put(self, record: dict) -> Path:
-        """Write ``record`` atomically; returns its path."""
+        """Write ``record`` atomically (and ``store.json``, with the record's schema, if the
+        store has none yet); returns its path."""
         self.records_dir.mkdir(parents=True, exist_ok=True)
+        if not self.store_file.is_file():
+            self.set_schema(record_schema(record, self.path(record["run_id"])))
         path = self.path(record["run_id"])
         write_json_atomic(path, record)
         return path
@@ -197,6 +386,14 @@ class ResultsStore:
         return [self.get(run_id) for run_id in self.run_ids()]  # type: ignore[misc]  # listed: each exists
 
 
+def _same_file(fd: int, path: Path) -> bool:
+    """Whether the open file ``fd`` is the file at ``path`` (not removed or replaced since)."""
+    try:
+        return os.path.samestat(os.fstat(fd), os.stat(path))
+    except FileNotFoundError:
+        return False
+
+
 def make_record(
     cfg: DictConfig,
     summary: dict,
@@ -220,6 +417,7 @@ def make_record(
     n = max(len(frames), 1)
     return {
         "run_id": run_key(cfg),
+        "schema": SCHEMA,
         "summary": {k: v for k, v in summary.items() if k not in ("config", "provenance")},
         "frames": frames,
         "timings": {
@@ -411,11 +609,19 @@ def load_runs(folder) -> tuple[pd.DataFrame, pd.DataFrame]:
     if not run_ids:
         raise DataError(f"no run records in {store.records_dir}: has a sweep run into {store.folder}?")
     rows, frames, files = [], [], []
+    schemas: dict[int, Path] = {}  # schema -> the first record of it
     for run_id in run_ids:
         record, source = store.get(run_id), store.path(run_id)
         rows.append(run_row(record, str(source)))  # type: ignore[arg-type]  # listed: it exists
         frames += frame_rows(record, str(source))  # type: ignore[arg-type]
         files.append(source.name)
+        schemas.setdefault(record_schema(record, source), source)  # type: ignore[arg-type]
+    if len(schemas) > 1:
+        mixed = " and ".join(f"schema {schema} ({path.name})" for schema, path in sorted(schemas.items()))
+        raise DataError(
+            f"results store {store.folder} mixes records of {mixed}, keyed by different rules: "
+            f"{migrate_hint(store.folder)}"
+        )
     for column, why in EMPTY_MEANS.items():
         empty = [name for name, row in zip(files, rows) if np.isnan(row[column])]
         if empty:

@@ -1,17 +1,28 @@
 """Results store, run keys, the runs/frames tables, and the experiment x scale sweeps."""
 
+import copy
 import json
+import logging
 import math
+import os
+import subprocess
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pytest
-from omegaconf import open_dict
+from omegaconf import OmegaConf, open_dict
 
 from mmocap import config as mmocap_config
+from mmocap.analysis import results
 from mmocap.analysis.results import (
+    FIRST_SCHEMA,
+    SCHEMA,
+    AddedKey,
     ResultsStore,
+    key_config,
     load_runs,
     run_key,
 )
@@ -19,11 +30,35 @@ from mmocap.errors import ConfigError, DataError, MmocapWarning
 from mmocap.sweep import check_sweep, format_seconds, progress_line, sweep_overrides
 from tests.helpers import compose_config, record_of
 
+GOLDEN = Path(__file__).parents[1] / "golden" / "data"
 SINGLE_RUNS = ("demo", "fig5")  # experiments that are one run, not a sweep
 EXPERIMENTS = [name for name in mmocap_config.options("experiment") if name not in SINGLE_RUNS]
 #: experiments whose scale is chosen under their own package (its dataset settings describe the
 #: synthetic sequences their recordings are written from)
 SCALE_PACKAGES = {"lossy": "scale@lossy"}
+#: edits of a composed config (dotted key -> value) that cross each rule of the run key
+KEY_EDITS = {
+    "as composed": {},
+    "keypoints none": {"keypoints.source": "none"},
+    "keypoints files": {"keypoints.source": "files"},
+    "fidelity levels": {"fidelity.levels": [{"scale": 0.5, "evaluations": 200}]},
+    "fidelity levels null": {"fidelity.levels": None},
+    "turned": {"dataset.turn_deg": 30},
+    "turn 0.0": {"dataset.turn_deg": 0.0},
+    "detector noise": {"realism.keypoint_noise": 0.7},
+    "detector noise, keypoints none": {"realism.keypoint_noise": 0.7, "keypoints.source": "none"},
+    "start keypoint evaluations": {"start.keypoint_evaluations": 100},
+    "start keypoint evaluations, keypoints none": {"start.keypoint_evaluations": 100, "keypoints.source": "none"},
+}
+
+
+def edited(cfg, edits: dict):
+    """A copy of the composed config ``cfg`` with ``edits`` (dotted key -> value; new keys added)."""
+    cfg = copy.deepcopy(cfg)
+    with open_dict(cfg):
+        for key, value in edits.items():
+            OmegaConf.update(cfg, key, value, force_add=True)
+    return cfg
 
 
 def test_run_key_ignores_outputs_and_presentation_only():
@@ -380,3 +415,118 @@ def test_a_paper_run_keeps_the_key_it_had_before_keypoints_existed():
     with open_dict(cfg):
         cfg.keypoints.source = "auto"
     assert run_key(cfg) != "778a5dbab9f5b3b7"  # with keypoints it is another run
+
+
+def test_every_experiments_run_keys_are_those_its_schema_gave():
+    """The keys of every experiment's config (and its first job at scale smoke), each with the
+    edits that cross the key's rules, as the code that made the schema's records gave them
+    (``made_by`` in the file). A change of the key rules that moves one must declare the new
+    key in ``ADDED_KEYS``, or raise ``SCHEMA`` and write ``run_keys_schema_<SCHEMA>.json``: the
+    same configs and edits, with the keys the new rules give them (never rewrite an old one)."""
+    golden = json.loads((GOLDEN / f"run_keys_schema_{SCHEMA}.json").read_text())
+    moved = []
+    for name, case in golden["configs"].items():
+        cfg = compose_config(*case["overrides"])
+        for edit, key in case["keys"].items():
+            if run_key(edited(cfg, golden["edits"][edit])) != key:
+                moved.append(f"{name}: {edit}")
+    assert len(golden["configs"]) >= len(mmocap_config.options("experiment"))
+    assert moved == [], f"{len(moved)} run keys moved, e.g. {moved[:3]}"
+
+
+def test_a_new_block_or_key_at_its_neutral_value_keeps_every_key_and_otherwise_moves_it(monkeypatch):
+    """What a new config block needs so that the records made before it keep their keys: one
+    line in ADDED_KEYS. Without it, even a block that changes nothing moves every key."""
+    golden = json.loads((GOLDEN / f"run_keys_schema_{SCHEMA}.json").read_text())
+    cases = [golden["configs"][name] for name in ("table4 smoke, first job", "demo", "lossy smoke, first job")]
+    gizmo = {"gizmo": {"enabled": False, "strength": 3}}
+    for case in cases:
+        cfg, key = compose_config(*case["overrides"]), case["keys"]["as composed"]
+        assert run_key(edited(cfg, gizmo)) != key  # not declared
+        with monkeypatch.context() as patch:
+            patch.setattr(
+                results,
+                "ADDED_KEYS",
+                (
+                    *results.ADDED_KEYS,
+                    AddedKey("gizmo.enabled", (False,), drops=("gizmo",)),
+                    AddedKey("tracking.jitter_mm", (0, None)),
+                ),
+            )
+            assert run_key(edited(cfg, gizmo)) == key
+            assert run_key(edited(cfg, {"tracking.jitter_mm": 0.0})) == key
+            assert run_key(edited(cfg, {"tracking.jitter_mm": None})) == key
+            assert run_key(edited(cfg, {"gizmo.enabled": True, "gizmo.strength": 3})) != key
+            assert run_key(edited(cfg, {"tracking.jitter_mm": 2.0})) != key
+            assert "gizmo" not in key_config(edited(cfg, gizmo))
+
+
+def test_a_store_knows_its_schema_and_a_record_carries_it(tmp_path):
+    store = ResultsStore(tmp_path)
+    assert store.schema() is None  # empty: any mmocap may write into it
+    path = store.put(record_of(compose_config("seed=3"), [10.0]))
+    assert json.loads(path.read_text())["schema"] == SCHEMA
+    assert json.loads((tmp_path / "store.json").read_text()) == {"schema": SCHEMA}
+    assert store.schema() == SCHEMA
+    (tmp_path / "store.json").unlink()  # a store made before stores had a schema
+    assert store.schema() == FIRST_SCHEMA
+    store.check_schema()
+
+
+def test_a_store_of_another_schema_is_refused_saying_what_to_do(tmp_path, monkeypatch):
+    store = ResultsStore(tmp_path)
+    store.put(record_of(compose_config("seed=3"), [10.0]))
+    monkeypatch.setattr(results, "SCHEMA", SCHEMA + 1)
+    with pytest.raises(DataError, match=rf"holds records of schema {SCHEMA}.*`mmocap store migrate {tmp_path}`"):
+        store.check_schema()
+    store.set_schema(SCHEMA + 2)
+    with pytest.raises(DataError, match=rf"is of schema {SCHEMA + 2} .*newer than this mmocap's {SCHEMA + 1}"):
+        store.check_schema()
+
+
+#: a process that holds the claim of run argv[2] in the store argv[1] for argv[3] seconds
+CLAIM_HOLDER = """
+import sys, time
+from mmocap.analysis.results import ResultsStore
+with ResultsStore(sys.argv[1]).claim(sys.argv[2]):
+    print("claimed", flush=True)
+    time.sleep(float(sys.argv[3]))
+"""
+RUN_ID = "0123456789abcdef"
+
+
+def hold_claim(folder, seconds: float) -> subprocess.Popen:
+    """A process holding the claim of :data:`RUN_ID` in the store ``folder`` for ``seconds``."""
+    holder = subprocess.Popen(
+        [sys.executable, "-c", CLAIM_HOLDER, str(folder), RUN_ID, str(seconds)], stdout=subprocess.PIPE, text=True
+    )
+    assert holder.stdout.readline().strip() == "claimed"
+    return holder
+
+
+def test_a_run_claimed_by_another_process_is_waited_for(tmp_path, caplog):
+    store = ResultsStore(tmp_path)
+    holder = hold_claim(tmp_path, 1.5)
+    assert store.claim_path(RUN_ID).read_text().startswith(f"process {holder.pid} on ")
+    start = time.monotonic()
+    with caplog.at_level(logging.INFO, logger="mmocap.analysis.results"), store.claim(RUN_ID):
+        waited = time.monotonic() - start
+        assert store.claim_path(RUN_ID).read_text().startswith(f"process {os.getpid()} on ")
+    assert waited > 1.0  # the holder slept 1.5 s after claiming
+    assert holder.wait(timeout=10) == 0
+    assert f"run {RUN_ID} is being run by process {holder.pid} on" in caplog.text
+    assert "waiting for its record" in caplog.text
+    assert not store.claim_path(RUN_ID).exists()
+
+
+def test_the_claim_a_killed_process_left_is_taken_over(tmp_path):
+    store = ResultsStore(tmp_path)
+    holder = hold_claim(tmp_path, 60)
+    holder.kill()
+    holder.wait()
+    assert store.claim_path(RUN_ID).exists()  # a killed job leaves its claim
+    start = time.monotonic()
+    with store.claim(RUN_ID):
+        assert time.monotonic() - start < 5
+        assert store.claim_path(RUN_ID).read_text().startswith(f"process {os.getpid()} on ")
+    assert list(store.records_dir.iterdir()) == []

@@ -9,7 +9,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from tests.helpers import assert_clean_error
+from mmocap.analysis.results import SCHEMA
+from tests.helpers import assert_clean_error, track_args
 from tests.helpers import mmocap_in_process as mmocap
 
 HEADER = "sequence,seed,algorithm,mean_marker_error_mm"
@@ -213,6 +214,8 @@ BAD_RECORDS = {
         ("summary.dof", "'many'", "an integer"),
     ),
     "frame-without-error": (good_record(frames=[{"frame": 0}]), ("frames[0].marker_error_mm",)),
+    "text-schema": (good_record(schema="two"), ("schema is 'two'", "whole number")),
+    "newer-schema": (good_record(schema=SCHEMA + 1), (f"schema {SCHEMA + 1}", "newer than this mmocap's")),
 }
 
 
@@ -222,6 +225,25 @@ def test_collect_names_a_broken_record(tmp_path, case):
     store = store_with(tmp_path, record)
     assert_clean_error(mmocap("collect", store), str(store / "records" / "abc.json"), *culprits)
     assert not (store / "runs.csv").exists()
+
+
+#: a store.json -> what the one line says besides its path
+BAD_STORE_FILES = {
+    "newer-schema": (json.dumps({"schema": SCHEMA + 1}), (f"schema {SCHEMA + 1}", "newer than this mmocap's")),
+    "text-schema": (json.dumps({"schema": "1"}), ("schema is '1'", "not a whole number")),
+    "truncated": ('{"sche', ("not valid JSON",)),
+}
+
+
+@pytest.mark.parametrize("case", list(BAD_STORE_FILES))
+def test_a_run_into_a_store_it_cannot_use_is_refused_before_it_runs(tiny_original, tmp_path, case):
+    text, culprits = BAD_STORE_FILES[case]
+    store = tmp_path / "store"
+    store.mkdir()
+    (store / "store.json").write_text(text)
+    outcome = mmocap(*track_args(tiny_original, tmp_path / "run"), f"results.store={store}")
+    assert_clean_error(outcome, str(store / "store.json"), *culprits)
+    assert not (store / "records").exists()
 
 
 def test_collect_keeps_a_run_without_ground_truth_empty_and_says_so(tmp_path):
