@@ -68,6 +68,7 @@ import pandas as pd
 from omegaconf import DictConfig, OmegaConf
 
 from mmocap import provenance
+from mmocap.analysis.statistics import overflow_free_mean
 from mmocap.data.realism import DETECTOR_SETTINGS
 from mmocap.errors import DataError, MmocapWarning
 from mmocap.io import read_json_object, write_json_atomic, writing
@@ -515,9 +516,11 @@ def _number(value) -> float:
 def mean_best_fitness(fitness) -> float:
     """The mean of the frames' best fitness (n,), NaN if any of them is NaN or infinite, or
     there is no frame: a mean over the other frames would compare the run with the runs of
-    the same sequence on fewer frames than theirs."""
+    the same sequence on fewer frames than theirs. The mean is correctly rounded
+    (:func:`~mmocap.analysis.statistics.overflow_free_mean`), so runs whose frames' fitness has
+    equal exact means tie in the statistics whatever the frames' order."""
     fitness = np.asarray(fitness, dtype=float)
-    return float(np.mean(fitness)) if len(fitness) and np.isfinite(fitness).all() else np.nan
+    return overflow_free_mean(fitness) if len(fitness) and np.isfinite(fitness).all() else np.nan
 
 
 def variant_names(config) -> tuple[str | None, str | None]:

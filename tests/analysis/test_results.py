@@ -530,3 +530,10 @@ def test_the_claim_a_killed_process_left_is_taken_over(tmp_path):
         assert time.monotonic() - start < 5
         assert store.claim_path(RUN_ID).read_text().startswith(f"process {os.getpid()} on ")
     assert list(store.records_dir.iterdir()) == []
+
+
+def test_a_runs_mean_fitness_does_not_depend_on_the_frames_order():
+    # summed in order, 0.1 + 0.2 + 0.3 and 0.3 + 0.2 + 0.1 differ in the last bit: two runs
+    # with the same frames' fitness would then not tie in the statistics
+    assert (0.1 + 0.2) + 0.3 != (0.3 + 0.2) + 0.1
+    assert results.mean_best_fitness([0.1, 0.2, 0.3]) == results.mean_best_fitness([0.3, 0.2, 0.1]) == 0.2
