@@ -199,5 +199,5 @@ def test_no_ground_truth_at_all(folder):
 
 
 def test_an_unknown_missing_markers_action_is_a_config_error():
-    with pytest.raises(ConfigError, match="evaluation.missing_markers must be one of warn, stop, got 'skip'"):
+    with pytest.raises(ConfigError, match="evaluation.missing_markers must be one of warn, stop, score, got 'skip'"):
         check_missing_markers("skip")

@@ -54,7 +54,7 @@ def read_mocap(path: Path) -> tuple[list[str], np.ndarray]:
     try:
         mat = scipy.io.loadmat(str(path), simplify_cells=True)
     except Exception as exc:  # scipy raises many types for a damaged file
-        raise DataError(f"cannot read mocap file {path}: {exc}") from None
+        raise DataError(f"cannot read mocap file {path}: {' '.join(str(exc).split())}") from None
     markers = np.asarray(mat.get("Markers", np.empty(0)), dtype=np.float64)
     if markers.ndim == 2 and markers.shape[1] == 3:  # a single label comes squeezed
         markers = markers[:, None, :]

@@ -77,7 +77,7 @@ def test_x0_is_fitted_to_the_first_frame_markers(synthetic, exported, tmp_path):
     # a user-given x0 is taken as it is
     np.savetxt(tmp_path / "x0.txt", truth.x0)
     np.testing.assert_allclose(open_he(exported, x0=str(tmp_path / "x0.txt")).x0, truth.x0)
-    (tmp_path / "bad.txt").write_text("1 2 3")
+    (tmp_path / "bad.txt").write_text("1 2 3\n")
     with pytest.raises(DataError, match="bad.txt must hold 51"):
         open_he(exported, x0=str(tmp_path / "bad.txt"))
 
@@ -85,8 +85,8 @@ def test_x0_is_fitted_to_the_first_frame_markers(synthetic, exported, tmp_path):
 @pytest.mark.parametrize(
     ("damage", "message"),
     [
-        (lambda r: (r / "S1/Calibration_Data/C1.cal").write_text("600 610 320\n240 0 0"), r"C1.cal holds 6 numbers"),
-        (lambda r: (r / "S1/Calibration_Data/BW1.cal").write_text("x " * 22), r"BW1.cal: non-numeric"),
+        (lambda r: (r / "S1/Calibration_Data/C1.cal").write_text("600 610 320\n240 0 0\n"), r"C1.cal holds 6 numbers"),
+        (lambda r: (r / "S1/Calibration_Data/BW1.cal").write_text("x " * 22 + "\n"), r"BW1.cal: non-numeric"),
         (
             lambda r: SyncOffsets(50, 1, 2).save(r / "S1/Sync_Data/Walking_1_(C1).ofs"),
             r"Walking_1_\(C1\).ofs starts at image 50, past the end of .*Walking_1_\(C1\).avi \(8 images\)",
@@ -95,7 +95,7 @@ def test_x0_is_fitted_to_the_first_frame_markers(synthetic, exported, tmp_path):
             lambda r: SyncOffsets(-40, 1, 2).save(r / "S1/Sync_Data/Walking_1_(BW1).ofs"),
             r"Walking_1_\(BW1\).ofs: no image of .* falls within",
         ),
-        (lambda r: (r / "S1/Sync_Data/Walking_1_(C1).ofs").write_text("1 2"), r"\(C1\).ofs must hold 3"),
+        (lambda r: (r / "S1/Sync_Data/Walking_1_(C1).ofs").write_text("1 2\n"), r"\(C1\).ofs must hold 3"),
         (
             lambda r: (r / "S1/Image_Data/Walking_1_(BW1).avi").unlink(),
             r"camera BW1: image data not found: .*Walking_1_\(BW1\).avi",
@@ -270,7 +270,7 @@ def test_cal_values_are_checked_like_every_calibration(damaged, index, value, me
     numbers[index] = repr(value)
     if index == 11:
         numbers[10:19] = ["1", "0.5", "0", "0", "1", "0", "0", "0", "1"]
-    path.write_text("\n".join(numbers))
+    path.write_text("\n".join(numbers) + "\n")
     with pytest.raises(DataError, match=rf"camera BW1: .*BW1.cal: {message}"):
         open_he(damaged)
 
