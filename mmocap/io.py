@@ -46,6 +46,7 @@ import os
 import shutil
 import socket
 import uuid
+import warnings
 from collections.abc import Iterator
 from pathlib import Path
 from typing import IO
@@ -408,9 +409,20 @@ def read_csv_table(path: Path, columns: tuple[str, ...], rows: str, **read_optio
         raise DataError(read_failure(exc, str(path))) from None
     check_whole_lines(data, str(path))
     try:
-        table = pd.read_csv(io.BytesIO(data), **read_options)
+        with warnings.catch_warnings():
+            # pandas reads a first row longer than the header as an index, shifting its cells: refused
+            warnings.simplefilter("error", pd.errors.ParserWarning)
+            table = pd.read_csv(io.BytesIO(data), index_col=False, **read_options)
     except pd.errors.EmptyDataError:
         raise DataError(f"{path} is empty; it needs the header {','.join(columns)} and {rows}") from None
+    except pd.errors.ParserWarning:
+        lines = data.splitlines()
+        fields = lines[0].count(b",") + 1
+        number = next((n for n, line in enumerate(lines[1:], 2) if line.count(b",") + 1 > fields), None)
+        where = "a row" if number is None else f"line {number}"
+        raise DataError(
+            f"{path} is not a readable CSV table: {where} holds more than the header's {fields} fields"
+        ) from None
     except (pd.errors.ParserError, UnicodeDecodeError) as exc:
         raise DataError(f"{path} is not a readable CSV table: {' '.join(str(exc).split())}") from None
     absent = [c for c in columns if c not in table.columns]
