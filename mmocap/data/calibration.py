@@ -422,6 +422,11 @@ def _read_filestorage(paths: list[Path], single_name: str | None, format_name: s
     storages = [_open_filestorage(path) for path in paths]
     try:
         return _read_storages([storage.root() for storage in storages], paths, single_name, format_name)
+    except UnicodeDecodeError as exc:  # OpenCV hands a damaged file's text on undecoded
+        raise DataError(
+            f"calibration file {' + '.join(str(p) for p in paths)} holds text that is not UTF-8 ({exc.reason}); "
+            "is it damaged? write it again"
+        ) from None
     finally:
         for storage in storages:
             storage.release()
