@@ -272,8 +272,10 @@ class Damage:
 
 def damages(data: bytes, kinds: tuple[str, ...] = ("cut", "byte")) -> st.SearchStrategy[Damage]:
     """The :class:`Damage` of ``data``'s bytes that Hypothesis draws: a cut anywhere before its
-    end, or a byte replaced by another."""
-    cuts = st.builds(Damage, st.just("cut"), st.integers(0, len(data) - 1))
+    end (half of them in its last 64 bytes, where a cut can leave a file that parses), or a
+    byte replaced by another."""
+    offsets = st.integers(0, len(data) - 1) | st.integers(max(0, len(data) - 64), len(data) - 1)
+    cuts = st.builds(Damage, st.just("cut"), offsets)
     changes = st.builds(Damage, st.just("byte"), st.integers(0, len(data) - 1), st.integers(0, 255)).filter(
         lambda d: d.byte != data[d.offset]
     )
