@@ -55,12 +55,10 @@ def read_pose_file(path: Path) -> np.ndarray:
     path = Path(path)
     if not path.is_file():
         raise DataError(f"x0 file not found: {path}")
+    text = None if path.suffix == ".npy" else read_lines_file(path, f"x0 file {path}")
     try:
-        if path.suffix == ".npy":
-            x = np.load(path)
-        else:
-            x = np.loadtxt(io.StringIO(read_lines_file(path, f"x0 file {path}")), delimiter=None, ndmin=1)
-    except (ValueError, EOFError, OSError) as exc:  # numpy's errors for a damaged .npy or text
+        x = np.load(path) if text is None else np.loadtxt(io.StringIO(text), delimiter=None, ndmin=1)
+    except Exception as exc:  # numpy raises many types for a damaged .npy header or a text that is not numbers
         raise DataError(f"x0 file {path} is not a list of numbers: {' '.join(str(exc).split())}") from None
     x = np.asarray(x, dtype=np.float64).ravel()
     if x.shape != (51,) or not np.all(np.isfinite(x)):
