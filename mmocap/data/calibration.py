@@ -423,10 +423,7 @@ def _read_filestorage(paths: list[Path], single_name: str | None, format_name: s
     try:
         return _read_storages([storage.root() for storage in storages], paths, single_name, format_name)
     except UnicodeDecodeError as exc:  # OpenCV hands a damaged file's text on undecoded
-        raise DataError(
-            f"calibration file {' + '.join(str(p) for p in paths)} holds text that is not UTF-8 ({exc.reason}); "
-            "is it damaged? write it again"
-        ) from None
+        raise DataError(_not_utf8(" + ".join(str(p) for p in paths), exc)) from None
     finally:
         for storage in storages:
             storage.release()
@@ -492,7 +489,33 @@ def _open_filestorage(path: Path) -> cv2.FileStorage:
     if not storage.root().isMap():
         storage.release()
         raise DataError(f"calibration file {path} holds no keys at its top level")
+    try:
+        repeated = _repeated_key(storage.root(), "its top level")
+    except UnicodeDecodeError as exc:  # OpenCV hands a damaged file's keys on undecoded
+        storage.release()
+        raise DataError(_not_utf8(str(path), exc)) from None
+    if repeated is not None:
+        storage.release()
+        raise DataError(f"calibration file {path} gives the key {repeated}; keep one")
     return storage
+
+
+def _not_utf8(source: str, exc: UnicodeDecodeError) -> str:
+    return f"calibration file {source} holds text that is not UTF-8 ({exc.reason}); is it damaged? write it again"
+
+
+def _repeated_key(node, where: str) -> str | None:
+    """``'<key>' twice in <where>`` for the first key a FileStorage map ``node`` (or a map
+    below it) gives twice, which FileStorage would read as its first value; None if none is."""
+    keys = list(node.keys())
+    twice = next((key for k, key in enumerate(keys) if key in keys[:k]), None)
+    if twice is not None:
+        return f"{twice!r} twice in {where}"
+    for key in keys:
+        child = node.getNode(key)
+        if child.isMap() and (found := _repeated_key(child, f"the map {key}")) is not None:
+            return found
+    return None
 
 
 def _cv_message(exc: Exception) -> str:

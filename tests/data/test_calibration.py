@@ -723,3 +723,23 @@ def test_a_damaged_calibration_is_refused_or_read_whole(calibration_files, name,
         assert_same_cameras(read, cameras[: len(read)])
         if len(read) < len(cameras):
             assert name == "Calib.toml", f"{damage}: {len(read)} of {len(cameras)} cameras read from {name}"
+
+
+@pytest.mark.parametrize("suffix", [".yml", ".xml", ".json"])
+def test_a_filestorage_key_given_twice_is_refused(tmp_path, suffix):
+    """FileStorage would read the first of the two values; the file is refused instead."""
+    text = (
+        filestorage_text(suffix) if suffix != ".yml" else write_opencv_yaml(tmp_path / "w.yml", SMALL_RIG).read_text()
+    )
+    path = tmp_path / f"twice{suffix}"
+    if suffix == ".yml":
+        path.write_text(text.replace("   image_height: 48\n", "   image_height: 48\n   image_height: 4\n", 1))
+        expected = "'image_height' twice in the map C1"
+    elif suffix == ".xml":
+        path.write_text(text.replace("<units>", "<units>m</units>\n<units>", 1))
+        expected = "'units' twice in its top level"
+    else:
+        path.write_text(text.replace('"units"', '"units": "m",\n    "units"', 1))
+        expected = "'units' twice in its top level"
+    with pytest.raises(DataError, match=f"twice{suffix} gives the key {expected}; keep one"):
+        read_calibration(path)
