@@ -22,7 +22,7 @@ import cv2
 import numpy as np
 
 from mmocap.errors import DataError
-from mmocap.io import read_json_object
+from mmocap.io import read_json_object, read_lines_file
 from mmocap.validate import is_integer
 
 #: Largest image side, in pixels, that a calibration may give: a bigger size is taken for a
@@ -241,13 +241,15 @@ class Camera:
         fraction of fc[0]), kc (5, ``k1 k2 p1 p2 k3``), R (9, row-major) and T (3, mm), with
         ``X_cam = R X + T``.  The file holds no image size: ``width`` and ``height`` come
         from the images.  ``name`` defaults to the file's stem.  The values are checked by
-        :func:`checked_camera`; errors name the file, the camera and the ``.cal`` field.
+        :func:`checked_camera`; errors name the file, the camera and the ``.cal`` field. A file
+        whose last line has no line end is refused: it may be cut inside its last number
+        (:func:`mmocap.io.check_whole_lines`).
         """
         path = Path(path)
         name = name or path.stem
         if not path.is_file():
             raise DataError(f"camera {name}: calibration file not found: {path}")
-        tokens = path.read_text(errors="replace").split()
+        tokens = read_lines_file(path, f"camera {name}: calibration file {path}").split()
         try:
             v = np.array([float(t) for t in tokens])
         except ValueError as exc:

@@ -21,6 +21,17 @@ never leaves a file that looks finished but is not:
   and how to fix it; the command line prints it as one line and exits with status 2.
 - Locks (:func:`locked`, :func:`exclusive`) are advisory ``flock`` locks on a lock file; the
   kernel releases them when their process ends, however it ends.
+
+And the rules of every reader of an input file, so that a file cut short (a copy or a download
+that stopped, a full disk) is never read as a whole one:
+
+- A JSON file is whole when it parses (:func:`read_json_object`): a cut one does not. A key
+  given twice is refused, not read as its last value.
+- A file of lines (CSV, TOML, YAML, lists of numbers) whose last line has no line end may be
+  cut inside that line, a number among it shortened (``1234.5`` read as ``12``): it is refused
+  with one line naming the file and that line (:func:`check_whole_lines`). A file cut at a line
+  end is a shorter file of whole lines; what it lacks is found by the checks of counts against
+  the sequence (frames, markers, cameras) that each reader makes.
 """
 
 from __future__ import annotations
@@ -28,12 +39,14 @@ from __future__ import annotations
 import contextlib
 import errno
 import fcntl
+import io
 import json
 import logging
 import os
 import shutil
 import socket
 import uuid
+import warnings
 from collections.abc import Iterator
 from pathlib import Path
 from typing import IO
@@ -235,6 +248,59 @@ def read_json_lines(path: str | Path) -> list[dict]:
     return records
 
 
+class _RepeatedKeyError(Exception):
+    """A JSON object gives ``key`` twice."""
+
+    def __init__(self, key: str):
+        self.key = key
+
+
+def _unique_keys(pairs: list[tuple[str, object]]) -> dict:
+    """The object of JSON ``pairs``; :class:`_RepeatedKeyError` when a key comes twice (``json``
+    would keep the last silently)."""
+    data: dict = {}
+    for key, value in pairs:
+        if key in data:
+            raise _RepeatedKeyError(key)
+        data[key] = value
+    return data
+
+
+def read_failure(exc: OSError, name: str) -> str:
+    """One line about a file ``name`` that could not be read: what is wrong and how to fix it."""
+    problem, how = _FAULTS.get(exc.errno, (exc.strerror or str(exc), "check the path"))
+    return f"cannot read {name}: {problem}; {how}"
+
+
+def check_whole_lines(data: bytes, name: str) -> None:
+    """A DataError of one line unless the file of lines ``name``, whose bytes are ``data``,
+    is empty or ends with a line end: a last line without one may be cut short, and a number
+    in it shortened. The message names the file and that line, and says how to fix it."""
+    if not data or data.endswith((b"\n", b"\r")):
+        return
+    number = data.count(b"\n") + 1
+    last = data.rsplit(b"\n", 1)[-1].decode("utf-8", errors="replace")
+    raise DataError(
+        f"{name}: its last line (line {number}: {last!r:.60}) has no line end, so the file may be cut short "
+        "there; copy or write it again, or, if that line is whole, end the file with a newline"
+    )
+
+
+def read_lines_file(path: str | Path, name: str | None = None, errors: str = "replace") -> str:
+    """The text (UTF-8, its undecodable bytes handled as ``errors`` says: ``str.decode``'s
+    argument) of the file of lines ``path``, checked to end with a line end
+    (:func:`check_whole_lines`); a DataError of one line naming it as ``name`` (default: the
+    path) when it cannot be read or may be cut short."""
+    path = Path(path)
+    name = str(path) if name is None else name
+    try:
+        data = path.read_bytes()
+    except OSError as exc:
+        raise DataError(read_failure(exc, name)) from None
+    check_whole_lines(data, name)
+    return data.decode("utf-8", errors=errors)
+
+
 def read_json_object(
     path: str | Path, *, name: str | None = None, wanted: str = "a JSON object", fix: str = ""
 ) -> dict:
@@ -248,12 +314,13 @@ def read_json_object(
     name = str(path) if name is None else name
     tail = f"; {fix}" if fix else ""
     try:
-        data = json.loads(path.read_text(encoding="utf-8"))
+        data = json.loads(path.read_text(encoding="utf-8"), object_pairs_hook=_unique_keys)
     except (json.JSONDecodeError, UnicodeDecodeError) as exc:
         raise DataError(f"{name} is not valid JSON ({exc}){tail}") from None
+    except _RepeatedKeyError as exc:
+        raise DataError(f"{name} gives the key {exc.key!r:.80} twice in one object; keep one{tail}") from None
     except OSError as exc:
-        problem, how = _FAULTS.get(exc.errno, (exc.strerror or str(exc), "check the path"))
-        raise DataError(f"cannot read {name}: {problem}; {how}") from None
+        raise DataError(read_failure(exc, name)) from None
     if not isinstance(data, dict):
         raise DataError(f"{name} is not {wanted} but {type(data).__name__}{tail}")
     return data
@@ -334,11 +401,28 @@ def exclusive(path: Path | None):
 def read_csv_table(path: Path, columns: tuple[str, ...], rows: str, **read_options) -> pd.DataFrame:
     """The CSV table at ``path`` (``pd.read_csv`` with ``read_options``), with a header holding
     ``columns`` (names); a DataError naming the file when it is empty (saying it needs the header and
-    ``rows``, e.g. "one row per frame and marker"), unreadable, or lacks a column."""
+    ``rows``, e.g. "one row per frame and marker"), unreadable, lacks a column, or may be cut
+    short (its last line has no line end: :func:`check_whole_lines`)."""
     try:
-        table = pd.read_csv(path, **read_options)
+        data = Path(path).read_bytes()
+    except OSError as exc:
+        raise DataError(read_failure(exc, str(path))) from None
+    check_whole_lines(data, str(path))
+    try:
+        with warnings.catch_warnings():
+            # pandas reads a first row longer than the header as an index, shifting its cells: refused
+            warnings.simplefilter("error", pd.errors.ParserWarning)
+            table = pd.read_csv(io.BytesIO(data), index_col=False, **read_options)
     except pd.errors.EmptyDataError:
         raise DataError(f"{path} is empty; it needs the header {','.join(columns)} and {rows}") from None
+    except pd.errors.ParserWarning:
+        lines = data.splitlines()
+        fields = lines[0].count(b",") + 1
+        number = next((n for n, line in enumerate(lines[1:], 2) if line.count(b",") + 1 > fields), None)
+        where = "a row" if number is None else f"line {number}"
+        raise DataError(
+            f"{path} is not a readable CSV table: {where} holds more than the header's {fields} fields"
+        ) from None
     except (pd.errors.ParserError, UnicodeDecodeError) as exc:
         raise DataError(f"{path} is not a readable CSV table: {' '.join(str(exc).split())}") from None
     absent = [c for c in columns if c not in table.columns]

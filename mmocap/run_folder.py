@@ -69,7 +69,9 @@ class Summary:
     mean_best_fitness: float | None = None
     #: frames tracked
     frames: int
-    #: frames with ground truth, over which the errors are taken
+    #: frames scored, over which the errors are taken: those with every ground-truth marker
+    #: (:meth:`mmocap.data.sequence.SequenceBase.ground_truth`; with
+    #: ``evaluation.missing_markers=score``, those with any)
     frames_scored: int | None = None
     #: the exact search's evaluations per frame
     evaluations_per_frame: int

@@ -27,6 +27,7 @@ from pathlib import Path
 
 import cv2
 import numpy as np
+from hypothesis import strategies as st
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.collections import PathCollection
 from matplotlib.text import Text
@@ -38,6 +39,7 @@ from mmocap.analysis.results import make_record
 from mmocap.data.calibration import read_calibration, write_opencv_yaml
 from mmocap.data.humaneva.dataset import HumanEvaDataset
 from mmocap.data.humaneva.layout import TOOLBOX_FIRST_FRAME
+from mmocap.errors import DataError, MmocapWarning
 
 #: the tiny synthetic sequence of the session fixture ``tiny_sequence`` (tests/conftest.py):
 #: 4 frames, 3 cameras (two colour, one greyscale), 320x240
@@ -243,6 +245,56 @@ def assert_warned(outcome: Outcome, summary: dict, *words: str) -> str:
     recorded = [w for w in summary.get("warnings", []) if all(x.lower() in w.lower() for x in words)]
     assert recorded, f"summary.json does not record the warning {words}: {summary.get('warnings')}"
     return lines[0]
+
+
+# -- files cut short or damaged: the property tests of every reader -------------------------------
+
+
+@dataclass(frozen=True)
+class Damage:
+    """A valid file's bytes damaged as a copy, a download or a disk damages them: ``cut`` at
+    ``offset`` (the bytes before it kept) or one byte at ``offset`` replaced by ``byte``."""
+
+    kind: str
+    offset: int
+    byte: int = 0
+
+    def apply(self, data: bytes) -> bytes:
+        """``data`` damaged."""
+        if self.kind == "cut":
+            return data[: self.offset]
+        return data[: self.offset] + bytes([self.byte]) + data[self.offset + 1 :]
+
+    def whole_lines(self, data: bytes) -> int:
+        """How many whole lines (each with its line end) a cut of ``data`` keeps."""
+        return data[: self.offset].count(b"\n")
+
+
+def damages(data: bytes, kinds: tuple[str, ...] = ("cut", "byte")) -> st.SearchStrategy[Damage]:
+    """The :class:`Damage` of ``data``'s bytes that Hypothesis draws: a cut anywhere before its
+    end (half of them in its last 64 bytes, where a cut can leave a file that parses), or a
+    byte replaced by another."""
+    offsets = st.integers(0, len(data) - 1) | st.integers(max(0, len(data) - 64), len(data) - 1)
+    cuts = st.builds(Damage, st.just("cut"), offsets)
+    changes = st.builds(Damage, st.just("byte"), st.integers(0, len(data) - 1), st.integers(0, 255)).filter(
+        lambda d: d.byte != data[d.offset]
+    )
+    return st.one_of(*([cuts] if "cut" in kinds else []), *([changes] if "byte" in kinds else []))
+
+
+def read_or_refused(read, name: str, *args, **kwargs):
+    """``(read(*args, **kwargs), the MmocapWarning messages it gave)``, or None when it refuses
+    with a one-line DataError naming ``name``. Any other exception fails the test."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            result = read(*args, **kwargs)
+        except DataError as exc:
+            message = str(exc)
+            assert "\n" not in message, f"a message of several lines: {message!r}"
+            assert name in message, f"the message does not name {name}: {message!r}"
+            return None
+    return result, [str(w.message) for w in caught if issubclass(w.category, MmocapWarning)]
 
 
 # -- figures: what a user sees of a saved plot ---------------------------------------------------

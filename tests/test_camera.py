@@ -4,9 +4,12 @@ import tracemalloc
 import cv2
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from mmocap.camera import MAX_IMAGE_SIDE_PX, Camera, checked_camera
 from mmocap.errors import DataError
+from tests.helpers import damages, read_or_refused
 
 
 @pytest.fixture
@@ -122,7 +125,7 @@ def test_cal_layout_is_fc_cc_alpha_kc_r_t(tmp_path):
 )
 def test_bad_cal_files_name_the_file(tmp_path, text, message):
     path = tmp_path / "C2.cal"
-    path.write_text(text)
+    path.write_text(text + "\n")
     with pytest.raises(DataError, match=f"C2.cal.*{message}"):
         Camera.load_cal(path, 640, 480)
 
@@ -351,3 +354,41 @@ def test_ideal_pixels_of_a_camera_without_distortion_are_the_pixels(camera):
     pixels = np.array([[0.0, 0.0], [320.5, 240.25], [639.0, 479.0]])
     np.testing.assert_array_equal(camera.ideal().ideal_pixels(pixels), pixels)
     assert camera.ideal_pixels(np.zeros((0, 2))).shape == (0, 2)
+
+
+# --- files cut short or damaged (Hypothesis: tests/helpers.py damages) -----------------------
+
+#: the camera whose files the property tests damage
+SMALL_CAMERA = Camera.look_at(
+    "C1", (3000, 1800, 2500), (0, 900, 0), 62.0, 64, 48, dist=(-0.22, 0.11, 8e-4, -6e-4, 0.02)
+)
+
+
+@pytest.fixture(scope="module")
+def camera_files(tmp_path_factory):
+    """:data:`SMALL_CAMERA` as mmocap's JSON and as a HumanEva-I ``.cal``: name -> (path, bytes)."""
+    folder = tmp_path_factory.mktemp("camera_files")
+    SMALL_CAMERA.save(folder / "C1.json")
+    SMALL_CAMERA.save_cal(folder / "C1.cal")
+    return {name: (folder / name, (folder / name).read_bytes()) for name in ("C1.json", "C1.cal")}
+
+
+def load_small(path):
+    return Camera.load(path) if path.suffix == ".json" else Camera.load_cal(path, 64, 48, name="C1")
+
+
+@pytest.mark.parametrize("name", ["C1.json", "C1.cal"])
+@settings(max_examples=100)
+@given(data=st.data())
+def test_a_damaged_camera_file_is_refused_or_read_whole(camera_files, name, data):
+    """A cut file is refused unless only its last line end is lost (the ``.cal``'s last
+    number, cut, would read as another: refused too); a byte changed is refused or read."""
+    path, whole = camera_files[name]
+    damage = data.draw(damages(whole))
+    damaged = path.with_name("damaged-" + name)
+    damaged.write_bytes(damage.apply(whole))
+    outcome = read_or_refused(load_small, str(damaged), damaged)
+    if damage.kind == "cut" and outcome is not None:
+        read = outcome[0]
+        for attr in ("K", "dist", "R", "t"):
+            np.testing.assert_array_equal(getattr(read, attr), getattr(SMALL_CAMERA, attr), err_msg=f"{damage}: {attr}")

@@ -20,12 +20,15 @@ from mmocap.io import (
     append_line,
     atomic_path,
     atomic_writer,
+    check_whole_lines,
     check_writable_folder,
     describe_os_error,
     exclusive,
     locked,
+    read_csv_table,
     read_json_lines,
     read_json_object,
+    read_lines_file,
     write_image,
     write_json_atomic,
     write_text_atomic,
@@ -244,3 +247,44 @@ def test_a_json_object_error_names_the_file_as_told_and_ends_with_the_fix(tmp_pa
         "delete it$",
     ):
         read_json_object(path, name=f"run record {path}", wanted="a record (a JSON object)", fix="delete it")
+
+
+def test_a_json_key_given_twice_is_refused_at_any_depth(tmp_path):
+    """Python's json keeps the last of two values silently; mmocap's reader refuses the file."""
+    path = tmp_path / "sequence.json"
+    for text, key in (('{"frames": 60, "frames": 6}', "frames"), ('{"a": {"x": 1, "y": 2, "x": 3}}', "x")):
+        path.write_text(text)
+        with pytest.raises(DataError, match=rf"^{path} gives the key '{key}' twice in one object; keep one; fix it$"):
+            read_json_object(path, fix="fix it")
+
+
+def test_a_file_of_lines_without_a_last_line_end_is_refused_naming_that_line(tmp_path):
+    check_whole_lines(b"", "empty.csv")
+    check_whole_lines(b"a,b\n1,2\n", "whole.csv")
+    check_whole_lines(b"a,b\r\n1,2\r\n", "windows.csv")
+    with pytest.raises(
+        DataError,
+        match=r"^cut.csv: its last line \(line 3: '3,4'\) has no line end, so the file may be cut short there; "
+        "copy or write it again, or, if that line is whole, end the file with a newline$",
+    ):
+        check_whole_lines(b"a,b\n1,2\n3,4", "cut.csv")
+    path = tmp_path / "numbers.txt"
+    path.write_bytes(b"1 2\n3 4")
+    with pytest.raises(DataError, match=r"^x0 file .*numbers.txt: its last line \(line 2: '3 4'\)"):
+        read_lines_file(path, f"x0 file {path}")
+    path.write_bytes(b"1 2\n3 \xff\n")
+    assert read_lines_file(path) == "1 2\n3 \ufffd\n"
+    with pytest.raises(DataError, match=r"^cannot read .*none.txt: no such file or folder"):
+        read_lines_file(tmp_path / "none.txt")
+
+
+def test_a_csv_table_cut_short_or_with_a_row_longer_than_its_header_is_refused(tmp_path):
+    path = tmp_path / "t.csv"
+    path.write_bytes(b"a,b\n1,2\n3,4\n")
+    assert read_csv_table(path, ("a", "b"), "rows")["b"].tolist() == [2, 4]
+    path.write_bytes(b"a,b\n1,2\n3,")
+    with pytest.raises(DataError, match=r"t.csv: its last line \(line 3: '3,'\) has no line end"):
+        read_csv_table(path, ("a", "b"), "rows")
+    path.write_bytes(b"a,b\n1,2,5\n3,4\n")  # pandas would make column a the index and shift the cells
+    with pytest.raises(DataError, match=r"t.csv is not a readable CSV table: line 2 holds more than the header's 2"):
+        read_csv_table(path, ("a", "b"), "rows")

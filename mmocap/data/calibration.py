@@ -77,6 +77,13 @@ reason are logged in one line and returned.
 
 Errors are one-line :class:`~mmocap.errors.DataError` messages naming the file, the camera
 and the key as the file spells it.
+
+A file cut short is refused, never read as a rig with fewer or different cameras: JSON and XML
+files that do not parse, a YAML or TOML file whose last line has no line end (it may be cut
+inside a number: :func:`mmocap.io.check_whole_lines`), and a YAML ``names`` list that names a
+camera whose values are not all there. A TOML file cut between two camera tables is a whole
+file with fewer cameras: the recording's check of its videos against the calibration names
+the cameras it lacks.
 """
 
 from __future__ import annotations
@@ -95,7 +102,7 @@ import numpy as np
 
 from mmocap.camera import ROTATION_TOLERANCE, Camera, checked_camera
 from mmocap.errors import DataError
-from mmocap.io import write_text_atomic
+from mmocap.io import check_whole_lines, read_lines_file, write_text_atomic
 from mmocap.validate import check_choice, is_real
 
 log = logging.getLogger(__name__)
@@ -415,6 +422,8 @@ def _read_filestorage(paths: list[Path], single_name: str | None, format_name: s
     storages = [_open_filestorage(path) for path in paths]
     try:
         return _read_storages([storage.root() for storage in storages], paths, single_name, format_name)
+    except UnicodeDecodeError as exc:  # OpenCV hands a damaged file's text on undecoded
+        raise DataError(_not_utf8(" + ".join(str(p) for p in paths), exc)) from None
     finally:
         for storage in storages:
             storage.release()
@@ -456,9 +465,12 @@ def _read_storages(roots: list, paths: list[Path], single_name: str | None, form
 
 
 def _open_filestorage(path: Path) -> cv2.FileStorage:
-    """The FileStorage file ``path``, opened; a DataError if it cannot be parsed."""
+    """The FileStorage file ``path``, opened; a DataError if it cannot be parsed, or if it is
+    YAML (a file of lines) whose last line has no line end (:func:`mmocap.io.check_whole_lines`)."""
     if path.stat().st_size == 0:
         raise DataError(f"calibration file {path} is empty")
+    if calibration_suffix(path) in (".yml", ".yaml"):
+        check_whole_lines(path.read_bytes(), f"calibration file {path}")
     try:
         storage = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
     except (cv2.error, SystemError) as exc:  # OpenCV's Python binding wraps a parse error in a SystemError
@@ -477,7 +489,33 @@ def _open_filestorage(path: Path) -> cv2.FileStorage:
     if not storage.root().isMap():
         storage.release()
         raise DataError(f"calibration file {path} holds no keys at its top level")
+    try:
+        repeated = _repeated_key(storage.root(), "its top level")
+    except UnicodeDecodeError as exc:  # OpenCV hands a damaged file's keys on undecoded
+        storage.release()
+        raise DataError(_not_utf8(str(path), exc)) from None
+    if repeated is not None:
+        storage.release()
+        raise DataError(f"calibration file {path} gives the key {repeated}; keep one")
     return storage
+
+
+def _not_utf8(source: str, exc: UnicodeDecodeError) -> str:
+    return f"calibration file {source} holds text that is not UTF-8 ({exc.reason}); is it damaged? write it again"
+
+
+def _repeated_key(node, where: str) -> str | None:
+    """``'<key>' twice in <where>`` for the first key a FileStorage map ``node`` (or a map
+    below it) gives twice, which FileStorage would read as its first value; None if none is."""
+    keys = list(node.keys())
+    twice = next((key for k, key in enumerate(keys) if key in keys[:k]), None)
+    if twice is not None:
+        return f"{twice!r} twice in {where}"
+    for key in keys:
+        child = node.getNode(key)
+        if child.isMap() and (found := _repeated_key(child, f"the map {key}")) is not None:
+            return found
+    return None
 
 
 def _cv_message(exc: Exception) -> str:
@@ -582,8 +620,7 @@ def _holds_camera(value: Callable[[str], object], which: Sequence[str] = ("K", "
 def _read_toml(path: Path) -> _Parsed:
     source = f"calibration file {path}"
     try:
-        with path.open("rb") as f:
-            document = tomllib.load(f)
+        document = tomllib.loads(read_lines_file(path, source, errors="strict"))
     except tomllib.TOMLDecodeError as exc:
         raise DataError(f"{source} is not valid TOML: {' '.join(str(exc).split())}") from None
     except UnicodeDecodeError as exc:

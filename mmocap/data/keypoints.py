@@ -143,7 +143,8 @@ def json_folders(folder: Path) -> dict[str, Path]:
 
 def read_people(path: Path) -> list[np.ndarray]:
     """The ``pose_keypoints_2d`` of every person in the OpenPose JSON file ``path``, each a
-    flat float64 array; a DataError naming the file when it is not one."""
+    flat float64 array; a DataError naming the file when it is not one (a file cut short does
+    not parse: refused too)."""
     data = read_json_object(path, wanted="an OpenPose JSON object", fix="write it again with the detector")
     people = data.get("people")
     if not isinstance(people, list):
@@ -173,6 +174,11 @@ class KeypointFiles:
     holding several people gives the one with the highest summed confidence (a
     :class:`MmocapWarning` per camera lists the frames); a file holding nobody gives every
     joint confidence 0.
+
+    A file cut short is refused: a JSON file that does not parse, a table whose last line has
+    no line end (a cut number would read as another: :func:`mmocap.io.check_whole_lines`). A
+    table cut at a row's end holds whole rows: the frames it lacks are refused, and the joints
+    of its last frame whose rows were lost read as not found, as a row left out means.
 
     Args:
         root: the recording or sequence folder.

@@ -21,7 +21,8 @@ naming the file and what is wrong with it: ``sequence.json`` (a JSON object with
 of :data:`META_KEYS`, each of its type), every selected camera's calibration (see
 :func:`mmocap.camera.checked_camera`), its image folder (every frame present when the
 sequence is opened), each image (:func:`read_image`) and ``markers_mm.csv``
-(:meth:`Sequence.markers`).
+(:meth:`Sequence.markers`; a file cut inside a row is refused, and frames lacking markers
+are warned about, see :meth:`SequenceBase.ground_truth`).
 
 :class:`SequenceBase` is what the pipeline reads from any dataset; :class:`Sequence` reads
 this folder layout and :class:`mmocap.data.humaneva.dataset.HumanEvaSequence` the HumanEva-I one.
@@ -52,8 +53,11 @@ FORMAT = "mmocap-sequence/1"
 META_KEYS = ("format", "subject", "action", "fps", "frames", "cameras", "marker_names", "x0")
 #: The columns of ``markers_mm.csv``.
 MARKER_COLUMNS = ("frame", "marker", "x_mm", "y_mm", "z_mm")
-#: What ``evaluation.missing_markers`` may say about tracked frames without ground truth.
-MISSING_MARKERS_ACTIONS = ("warn", "stop")
+#: What ``evaluation.missing_markers`` may say about tracked frames that lack ground-truth
+#: markers: ``warn`` (a frame lacking any marker is left out of the marker error, warned),
+#: ``stop`` (an error naming the frames) or ``score`` (a frame with some markers is scored over
+#: those it has, warned; one with none is left out).
+MISSING_MARKERS_ACTIONS = ("warn", "stop", "score")
 #: Items listed at most in a message (frames, files).
 LISTED = 5
 
@@ -243,35 +247,61 @@ class SequenceBase(ABC):
 
     def ground_truth(self, frames: int, missing_markers: str = "warn") -> np.ndarray:
         """:meth:`markers` of the first ``frames`` frames, (frames, M, 3) mm, after checking
-        that each has ground truth (at least one marker present): the error of a frame
-        without any is not measured, and the run's mean is over the frames that have it.
+        that each has ground truth: every marker of ``meta['marker_names']`` (M). The run's
+        mean error is over the frames that are scored.
 
-        Frames without ground truth are a DataError naming the file and the frames with
-        ``missing_markers="stop"``; with ``"warn"`` (the default, as in ``conf/config.yaml``)
-        a :class:`MmocapWarning` that says how many frames are scored.
+        A frame with no marker is never scored; a frame with some (``frame 1 has 7 of 15
+        markers``: a file cut short, an occluded marker) is scored only with
+        ``missing_markers="score"``, over the markers it has, and is otherwise all NaN in the
+        result, so that no mean averages a partial frame. Frames lacking markers are a
+        DataError naming the file and the frames with ``missing_markers="stop"``; otherwise
+        (``"warn"``, the default as in ``conf/config.yaml``, or ``"score"``) a
+        :class:`MmocapWarning` for each kind says which frames and how many are scored.
         """
         check_missing_markers(missing_markers)
         truth = self.markers()[:frames]
-        unscored = np.flatnonzero(np.isnan(truth).any(axis=2).all(axis=1))
-        if unscored.size == 0:
+        absent = np.isnan(truth).any(axis=2)  # (frames, M): the markers a frame lacks
+        empty = np.flatnonzero(absent.all(axis=1))
+        partial = np.flatnonzero(absent.any(axis=1) & ~absent.all(axis=1))
+        if empty.size == 0 and partial.size == 0:
             return truth
-        which = (
-            f"none of the {len(truth)} tracked frames has ground-truth markers"
-            if unscored.size == len(truth)
-            else f"{unscored.size} of the {len(truth)} tracked frames (frame{'s' * (unscored.size > 1)} "
-            f"{listed(unscored)}) have no ground-truth markers"
-        )
+        problems = []
+        if empty.size:
+            problems.append(
+                f"none of the {len(truth)} tracked frames has ground-truth markers"
+                if empty.size == len(truth)
+                else f"{empty.size} of the {len(truth)} tracked frames (frame{'s' * (empty.size > 1)} "
+                f"{listed(empty)}) have no ground-truth markers"
+            )
+        if partial.size:
+            markers = truth.shape[1]
+            counts = [f"frame {f} has {markers - absent[f].sum()} of {markers} markers" for f in partial]
+            problems.append(listed(counts))
         if missing_markers == "stop":
             raise DataError(
-                f"{self.markers_source}: {which}; add them, track other frames, or set "
+                f"{self.markers_source}: {'; '.join(problems)}; add them, track other frames, or set "
                 "evaluation.missing_markers=warn to score only the frames that have them"
             )
-        scored = (
+        scoring = missing_markers == "score"
+        scored = len(truth) - empty.size - (0 if scoring else partial.size)
+        over = (
             "no marker error is measured (null in summary.json)"
-            if unscored.size == len(truth)
-            else f"the marker error is over the {len(truth) - unscored.size} frames scored"
+            if scored == 0
+            else f"the marker error is over the {scored} frame{'s' * (scored > 1)} scored"
         )
-        warnings.warn(f"{self.markers_source}: {which}: {scored}", MmocapWarning, stacklevel=2)
+        if empty.size:
+            warnings.warn(f"{self.markers_source}: {problems[0]}: {over}", MmocapWarning, stacklevel=2)
+        if partial.size:
+            how = (
+                "scored over the markers present (evaluation.missing_markers=score)"
+                if scoring
+                else "not scored, the marker error being over whole frames only "
+                "(evaluation.missing_markers=score scores them over the markers present)"
+            )
+            warnings.warn(f"{self.markers_source}: {problems[-1]}: {how}; {over}", MmocapWarning, stacklevel=2)
+            if not scoring:
+                truth = truth.copy()
+                truth[partial] = np.nan
         return truth
 
 
@@ -356,7 +386,12 @@ def read_markers(path: Path, n_frames: int, names: list[str]) -> np.ndarray:
     columns of :data:`MARKER_COLUMNS`, at least one row, integer frames in [0, n_frames),
     known marker names, each (frame, marker) once,
     coordinates that are numbers (an empty cell is a missing coordinate, NaN). Frames
-    and markers without a row are NaN. Errors name the file, the column and the line."""
+    and markers without a row are NaN. Errors name the file, the column and the line.
+
+    A file cut short inside a row (its last line has no line end) is refused: a cut number
+    would be read as another one (:func:`mmocap.io.check_whole_lines`). A file cut at a row's
+    end is read as the rows it holds; the frames it lacks, or lacks markers of, are then
+    warned about or refused by :meth:`SequenceBase.ground_truth`."""
     if not path.is_file():
         raise DataError(f"ground-truth markers not found: {path}")
     table = read_csv_table(

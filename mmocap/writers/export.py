@@ -56,7 +56,7 @@ from mmocap.body.model import BodyModel
 from mmocap.data.recording.reader import UP_AXES
 from mmocap.data.sequence import write_markers
 from mmocap.errors import ConfigError, DataError, MmocapError, MmocapWarning
-from mmocap.io import atomic_writer, write_text_atomic
+from mmocap.io import atomic_writer, check_whole_lines, write_text_atomic
 from mmocap.run_folder import EXPORT_FOLDER, FRAMES, FRAMES_PARTIAL, SUMMARY, Summary, read_summary
 from mmocap.validate import check_choice, check_number
 
@@ -162,12 +162,15 @@ def wrap_angles(poses: np.ndarray) -> np.ndarray:
 
 def read_poses(path: Path) -> np.ndarray:
     """(F, 51) poses (mm, rad) of a run's ``frames.csv``, whose frames must be 0 ... F-1 in
-    order; a DataError naming the file and the column or line that is wrong."""
+    order; a DataError naming the file and the column or line that is wrong, or its last line
+    when that has no line end (the file may be cut short: :func:`mmocap.io.check_whole_lines`)."""
     path = Path(path)
+    if not path.is_file():
+        raise DataError(f"{path} not found: the run has not finished")
+    data = path.read_bytes()
+    check_whole_lines(data, str(path))
     try:
-        table = pd.read_csv(path)
-    except FileNotFoundError:
-        raise DataError(f"{path} not found: the run has not finished") from None
+        table = pd.read_csv(io.BytesIO(data))
     except (pd.errors.EmptyDataError, pd.errors.ParserError, UnicodeDecodeError) as exc:
         raise DataError(f"{path} is not a readable CSV table: {' '.join(str(exc).split())}") from None
     columns = ["frame", *skeleton.parameter_names()]

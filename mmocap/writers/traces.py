@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from mmocap.errors import DataError
-from mmocap.io import write_text_atomic
+from mmocap.io import check_whole_lines, write_text_atomic
 
 TRACE_COLUMNS = ("frame", "evaluations", "best_fitness")
 
@@ -34,14 +34,16 @@ def read_traces(path: str | Path) -> dict[int, np.ndarray]:
     """The traces of ``traces.csv``: frame -> (k, 2) float64 rows (evaluations, best fitness so
     far). A DataError naming the file and line if it is missing or is not a trace table: the
     columns of :data:`TRACE_COLUMNS`, integer frames and evaluations, finite fitness, each
-    frame's rows together with the evaluations rising from 1 and the fitness never rising."""
+    frame's rows together with the evaluations rising from 1 and the fitness never rising; or
+    its last line when that has no line end (the file may be cut short:
+    :func:`mmocap.io.check_whole_lines`)."""
     path = Path(path)
+    if not path.is_file():
+        raise DataError(f"{path} is missing: that run was tracked before traces were recorded; track it again")
+    data = path.read_bytes()
+    check_whole_lines(data, str(path))
     try:
-        lines = path.read_text(encoding="utf-8").splitlines()
-    except FileNotFoundError:
-        raise DataError(
-            f"{path} is missing: that run was tracked before traces were recorded; track it again"
-        ) from None
+        lines = data.decode("utf-8").splitlines()
     except UnicodeDecodeError:
         raise DataError(f"{path} is not a text file") from None
     if not lines or lines[0].strip() != ",".join(TRACE_COLUMNS):

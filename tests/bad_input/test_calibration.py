@@ -7,10 +7,12 @@ determinant 1 tracked with exit 0 and errors of hundreds of mm."""
 
 import json
 import re
+from pathlib import Path
 
 import numpy as np
 import pytest
 
+from mmocap.data.calibration import write_opencv_yaml
 from mmocap.data.synthetic import camera_rig
 from tests.helpers import assert_clean_error, qtm_calibration_xml, track_args, vicon_calibration_xml
 from tests.helpers import mmocap_in_process as mmocap
@@ -123,12 +125,29 @@ LAB_CASES = {
         ("camera C1", "'POSITION'", "x y z in mm", "4,1e3"),
     ),
     "vicon-no-cameras": (".xcp", replaced(r"<Camera .*</Camera>\n", ""), ("holds no cameras", "<Camera>")),
+    "qtm-cut-mid-file": (".qca.txt", lambda text: text[: len(text) // 2], ("not valid XML", "line")),
+    "vicon-cut-mid-file": (".xcp", lambda text: text[: len(text) // 2], ("not valid XML",)),
     "vicon-duplicate-deviceid": (
         ".xcp",
         replaced('DEVICEID="C2"', 'DEVICEID="C1"'),
         ("camera C1", "'DEVICEID'", "also"),
     ),
 }
+
+
+def cut_yaml(path: Path) -> None:
+    """The OpenCV YAML ``path`` cut inside the last camera's image height: ``image_height: 1``
+    still parses (a 1-pixel-high image), so only the missing line end tells the cut."""
+    text = path.read_text()
+    path.write_text(text[: text.rindex("image_height: ") + len("image_height: 1")])
+
+
+def test_a_recording_calibration_cut_inside_a_number_is_refused(tmp_path):
+    root = tmp_path / "recording"
+    root.mkdir()
+    path = write_opencv_yaml(root / "calibration.yml", camera_rig(["C1", "C2"], 160, 120, np.random.default_rng(3)))
+    cut_yaml(path)
+    assert_clean_error(mmocap("check-recording", str(root)), str(path), "no line end", "cut short", "newline")
 
 
 @pytest.mark.parametrize(("suffix", "edit", "culprits"), LAB_CASES.values(), ids=LAB_CASES.keys())

@@ -73,6 +73,14 @@ def table(root: Path, confidence: float) -> list[str]:
     return []
 
 
+def cut_table(root: Path) -> list[str]:
+    """The keypoints as ``keypoints.csv``, cut inside its last row's confidence."""
+    table(root, 0.5)
+    path = root / KEYPOINTS_CSV
+    path.write_text(path.read_text()[:-4])
+    return []
+
+
 CASES = {
     "wrong-value-count": (short_person, ["C1_000001.json", "person 1", "75 values", "HALPE_26", "keypoints.skeleton"]),
     "missing-frame": (
@@ -97,6 +105,14 @@ CASES = {
     "unreadable-json": (
         lambda root: rewrite(root, '{"people": ['),
         ["C1_000000.json", "not valid JSON"],
+    ),
+    "json-cut-short": (
+        lambda root: rewrite(root, openpose_path(root, "C1", 0).read_text()[:-7]),
+        ["C1_000000.json", "not valid JSON"],
+    ),
+    "table-cut-inside-a-row": (
+        cut_table,
+        [KEYPOINTS_CSV, "no line end", "cut short"],
     ),
     "json-without-people": (
         lambda root: rewrite(root, '{"version": 1.3}'),

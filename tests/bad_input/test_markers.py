@@ -132,3 +132,49 @@ def test_an_unknown_missing_markers_action_is_a_config_error(sequence_copy, tmp_
         "evaluation.missing_markers",
         "ignore",
     )
+
+
+def cut_after(path, rows: int, extra: int = 0) -> None:
+    """``markers_mm.csv`` cut after its first ``rows`` rows (whole, with their line ends), and
+    ``extra`` bytes of the next: a copy or download that stopped there."""
+    lines = path.read_bytes().splitlines(keepends=True)
+    path.write_bytes(b"".join(lines[: rows + 1]) + lines[rows + 1][:extra])
+
+
+def test_a_marker_file_cut_inside_a_row_is_refused_naming_the_line(sequence_copy, tmp_path):
+    """The issue's case: cut inside frame 1's eighth row. Before, the torn row was dropped
+    (or a cut number read as another) and frame 1 was scored with 7 of its 15 markers, exit 0."""
+    path = sequence_copy / "markers_mm.csv"
+    cut_after(path, 15 + 7, extra=12)
+    out = tmp_path / "run"
+    assert_clean_error(mmocap(*track_args(sequence_copy, out)), str(path), "line 24", "no line end", "cut short")
+    assert not (out / "summary.json").exists()
+
+
+def test_a_frame_with_some_markers_is_warned_of_and_not_scored(sequence_copy, tmp_path):
+    """Cut at the end of frame 1's seventh row: frame 1 has 7 of its 15 markers. The warning
+    names the frame and the count, summary.json records it, and the mean is frame 0's alone;
+    ``score`` scores frame 1 over its 7 markers, ``stop`` ends the run."""
+    path = sequence_copy / "markers_mm.csv"
+    cut_after(path, 15 + 7)
+    out = tmp_path / "run"
+    outcome = mmocap(*track_args(sequence_copy, out))
+    summary = run_summary(out)
+    assert_warned(outcome, summary, str(path), "frame 1 has 7 of 15 markers", "not scored", "missing_markers=score")
+    assert (summary["frames"], summary["frames_scored"]) == (2, 1)
+    frames = pd.read_csv(out / "frames.csv")
+    assert frames["marker_error_mm"].isna().tolist() == [False, True]
+    assert summary["mean_marker_error_mm"] == pytest.approx(frames["marker_error_mm"][0], abs=1e-3)
+
+    scored = tmp_path / "scored"
+    outcome = mmocap(*track_args(sequence_copy, scored), "evaluation.missing_markers=score")
+    summary = run_summary(scored)
+    assert_warned(outcome, summary, "frame 1 has 7 of 15 markers", "scored over the markers present")
+    assert summary["frames_scored"] == 2
+
+    assert_clean_error(
+        mmocap(*track_args(sequence_copy, tmp_path / "stopped"), "evaluation.missing_markers=stop"),
+        str(path),
+        "frame 1 has 7 of 15 markers",
+        "evaluation.missing_markers=warn",
+    )

@@ -6,12 +6,14 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from mmocap.camera import Camera
 from mmocap.data.calibration import read_calibration, write_opencv_yaml
 from mmocap.data.synthetic import camera_rig
 from mmocap.errors import ConfigError, DataError
-from tests.helpers import qtm_calibration_xml, vicon_calibration_xml
+from tests.helpers import damages, qtm_calibration_xml, read_or_refused, vicon_calibration_xml
 
 
 @pytest.fixture
@@ -641,3 +643,103 @@ def test_writer_refuses_names_filestorage_cannot_hold(tmp_path, rig):
     with pytest.raises(DataError, match="must end in .yml or .yaml"):
         write_opencv_yaml(tmp_path / "calibration.xml", rig)
     assert not any(tmp_path.iterdir())
+
+
+# --- files cut short or damaged (Hypothesis: tests/helpers.py damages) -----------------------
+
+#: a small rig whose files the property tests damage (the TOML rig's translations in metres)
+SMALL_RIG = camera_rig(["C1", "BW1"], 64, 48, np.random.default_rng(11))
+
+
+def filestorage_text(suffix: str) -> str:
+    """The rig in EasyMocap's ``names`` layout as OpenCV FileStorage writes it (``.xml``, ``.json``)."""
+    storage = cv2.FileStorage(f"rig{suffix}", cv2.FILE_STORAGE_WRITE | cv2.FILE_STORAGE_MEMORY)
+    storage.write("names", [c.name for c in SMALL_RIG])
+    storage.write("units", "mm")
+    for c in SMALL_RIG:
+        for key, value in (("K", c.K), ("dist", c.dist), ("R", c.R), ("T", c.t), ("W", c.width), ("H", c.height)):
+            storage.write(f"{key}_{c.name}", value)
+    return storage.releaseAndGetString()
+
+
+def single_camera_yaml(path: Path) -> None:
+    """The rig's first camera in a file of its own, its keys at the top level, the image
+    height last (a cut inside that number leaves a file that parses)."""
+    c = SMALL_RIG[0]
+    storage = cv2.FileStorage(str(path), cv2.FILE_STORAGE_WRITE)
+    for key, value in (("units", "mm"), ("K", c.K), ("dist", c.dist), ("R", c.R), ("t", c.t)):
+        storage.write(key, value)
+    storage.write("image_width", c.width)
+    storage.write("image_height", c.height)
+    storage.release()
+
+
+#: file name -> the rig's file in that format, written by mmocap or as the tool writes it
+CALIBRATION_FILES = {
+    "calibration.yml": lambda path: write_opencv_yaml(path, SMALL_RIG),
+    "rig.xml": lambda path: path.write_text(filestorage_text(".xml")),
+    "rig.json": lambda path: path.write_text(filestorage_text(".json")),
+    "C1.json": lambda path: SMALL_RIG[0].save(path),
+    "C1.yml": single_camera_yaml,
+    "Calib.toml": lambda path: path.write_text(pose2sim_toml(SMALL_RIG)),
+    "Calib.qca.txt": lambda path: path.write_text(qtm_calibration_xml(SMALL_RIG)),
+    "rig.xcp": lambda path: path.write_text(vicon_calibration_xml(SMALL_RIG)),
+}
+
+
+def read_rig(path: Path) -> list[Camera]:
+    units = "m" if path.suffix == ".toml" else "mm"
+    return read_calibration(path, units).cameras
+
+
+@pytest.fixture(scope="module")
+def calibration_files(tmp_path_factory):
+    """Per name of :data:`CALIBRATION_FILES`: its path, bytes and cameras as read whole."""
+    folder = tmp_path_factory.mktemp("calibrations")
+    files = {}
+    for name, write in CALIBRATION_FILES.items():
+        write(folder / name)
+        files[name] = (folder / name, (folder / name).read_bytes(), read_rig(folder / name))
+    return files
+
+
+@pytest.mark.parametrize("name", CALIBRATION_FILES)
+@settings(max_examples=60)
+@given(data=st.data())
+def test_a_damaged_calibration_is_refused_or_read_whole(calibration_files, name, data):
+    """A cut file is refused, or is a whole file with its cameras read exactly (a TOML or
+    YAML file cut between two cameras: the first ones); a byte changed is refused or read,
+    never an error of another kind."""
+    path, whole, cameras = calibration_files[name]
+    if name.startswith("C1."):
+        cameras = cameras[:1]
+    damage = data.draw(damages(whole))
+    damaged = path.with_name("damaged-" + path.name)
+    damaged.write_bytes(damage.apply(whole))
+    outcome = read_or_refused(read_rig, str(damaged), damaged)
+    if damage.kind == "cut" and outcome is not None:
+        read = outcome[0]
+        assert read, f"{damage}: no camera read"
+        assert_same_cameras(read, cameras[: len(read)])
+        if len(read) < len(cameras):
+            assert name == "Calib.toml", f"{damage}: {len(read)} of {len(cameras)} cameras read from {name}"
+
+
+@pytest.mark.parametrize("suffix", [".yml", ".xml", ".json"])
+def test_a_filestorage_key_given_twice_is_refused(tmp_path, suffix):
+    """FileStorage would read the first of the two values; the file is refused instead."""
+    text = (
+        filestorage_text(suffix) if suffix != ".yml" else write_opencv_yaml(tmp_path / "w.yml", SMALL_RIG).read_text()
+    )
+    path = tmp_path / f"twice{suffix}"
+    if suffix == ".yml":
+        path.write_text(text.replace("   image_height: 48\n", "   image_height: 48\n   image_height: 4\n", 1))
+        expected = "'image_height' twice in the map C1"
+    elif suffix == ".xml":
+        path.write_text(text.replace("<units>", "<units>m</units>\n<units>", 1))
+        expected = "'units' twice in its top level"
+    else:
+        path.write_text(text.replace('"units"', '"units": "m",\n    "units"', 1))
+        expected = "'units' twice in its top level"
+    with pytest.raises(DataError, match=f"twice{suffix} gives the key {expected}; keep one"):
+        read_calibration(path)

@@ -8,6 +8,8 @@ from dataclasses import replace
 import numpy as np
 import pandas as pd
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from mmocap.camera import Camera
 from mmocap.data.keypoints import (
@@ -16,11 +18,13 @@ from mmocap.data.keypoints import (
     KeypointFiles,
     frame_ranges,
     openpose_path,
+    read_people,
     write_openpose_json,
 )
 from mmocap.data.sequence import Sequence
 from mmocap.data.skeletons import SKELETONS
 from mmocap.errors import ConfigError, DataError, MmocapWarning
+from tests.helpers import damages, read_or_refused
 
 CAMERAS = ["C1", "C2"]
 FRAMES = 4
@@ -229,3 +233,72 @@ def test_a_table_beside_pose2sim_s_videos_is_read_and_no_files_at_all_are_refuse
     write_csv(tmp_path, data, SKELETONS["BODY_25"])
     (tmp_path / "pose" / "C1_img").mkdir(parents=True)  # not keypoints: no "holds keypoints twice"
     np.testing.assert_array_equal(KeypointFiles(tmp_path, CAMERAS, FRAMES).frame(3), data[3])
+
+
+# --- files cut short or damaged (Hypothesis: tests/helpers.py damages) -----------------------
+
+#: two frames of both cameras, the smallest table that still has a second frame to lose
+SMALL = detections("COCO_17")[:2]
+
+
+@pytest.fixture(scope="module")
+def keypoint_table(tmp_path_factory):
+    """A folder holding the :data:`KEYPOINTS_CSV` of :data:`SMALL`, and its bytes."""
+    root = tmp_path_factory.mktemp("keypoint_table")
+    write_csv(root, SMALL, SKELETONS["COCO_17"])
+    return root, (root / KEYPOINTS_CSV).read_bytes()
+
+
+@settings(max_examples=100)
+@given(data=st.data())
+def test_a_cut_keypoint_table_is_refused_or_read_as_its_whole_rows(keypoint_table, data):
+    """A cut inside a row is refused; a cut at a row's end gives exactly the rows kept, the
+    joints of the rows lost unseen (a row left out is a joint not found), or is refused when
+    a camera's last frame has no row left."""
+    root, whole = keypoint_table
+    damage = data.draw(damages(whole, ("cut",)))
+    (root / KEYPOINTS_CSV).write_bytes(damage.apply(whole))
+    outcome = read_or_refused(KeypointFiles, KEYPOINTS_CSV, root, CAMERAS, len(SMALL), "COCO_17")
+    rows = damage.whole_lines(whole) - 1
+    F, C, J, _ = SMALL.shape
+    if not whole[: damage.offset].endswith(b"\n") or rows <= (F - 1) * C * J + (C - 1) * J:
+        assert outcome is None, f"{damage}: read, not refused"
+        return
+    assert outcome is not None, f"{damage}: refused, but every frame has its rows"
+    expected = SMALL.reshape(-1, 3).copy()
+    expected[rows:] = 0.0
+    np.testing.assert_array_equal(np.stack([outcome[0].frame(k) for k in range(F)]), expected.reshape(SMALL.shape))
+
+
+@settings(max_examples=100)
+@given(data=st.data())
+def test_a_damaged_byte_of_a_keypoint_table_changes_one_joint_at_most(keypoint_table, data):
+    root, whole = keypoint_table
+    damage = data.draw(damages(whole, ("byte",)))
+    (root / KEYPOINTS_CSV).write_bytes(damage.apply(whole))
+    outcome = read_or_refused(KeypointFiles, KEYPOINTS_CSV, root, CAMERAS, len(SMALL), "COCO_17")
+    if outcome is not None:
+        read = np.stack([outcome[0].frame(k) for k in range(len(SMALL))])
+        assert (read != SMALL).any(axis=3).sum() <= 1, f"{damage}: more than one joint differs"
+
+
+@pytest.fixture(scope="module")
+def openpose_file(tmp_path_factory):
+    """One OpenPose JSON file of two people (write_openpose_json), and its bytes."""
+    path = tmp_path_factory.mktemp("openpose") / "C1_000000.json"
+    write_openpose_json(path, [SMALL[0, 0], SMALL[1, 1]])
+    return path, path.read_bytes()
+
+
+@settings(max_examples=100)
+@given(data=st.data())
+def test_a_damaged_openpose_file_is_refused_or_read_as_it_says(openpose_file, data):
+    """A cut JSON file is refused (it does not parse); a byte changed is refused or read."""
+    path, whole = openpose_file
+    damage = data.draw(damages(whole))
+    path.write_bytes(damage.apply(whole))
+    outcome = read_or_refused(read_people, path.name, path)
+    if damage.kind == "cut":
+        assert outcome is None, f"{damage}: read, not refused"
+    elif outcome is not None:
+        assert all(person.dtype == np.float64 and person.ndim == 1 for person in outcome[0])

@@ -4,11 +4,15 @@ checked as it is read (the command-line cases are in tests/bad_input/)."""
 import inspect
 import json
 import shutil
+import tempfile
 import warnings
+from pathlib import Path
 
 import cv2
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from mmocap import config
 from mmocap.body.model import MARKER_NAMES
@@ -19,10 +23,12 @@ from mmocap.data.sequence import (
     SequenceBase,
     check_missing_markers,
     read_image,
+    read_markers,
     read_meta,
     write_markers,
 )
 from mmocap.errors import ConfigError, DataError, MmocapWarning
+from tests.helpers import damages, read_or_refused
 
 
 @pytest.fixture
@@ -199,5 +205,122 @@ def test_no_ground_truth_at_all(folder):
 
 
 def test_an_unknown_missing_markers_action_is_a_config_error():
-    with pytest.raises(ConfigError, match="evaluation.missing_markers must be one of warn, stop, got 'skip'"):
+    with pytest.raises(ConfigError, match="evaluation.missing_markers must be one of warn, stop, score, got 'skip'"):
         check_missing_markers("skip")
+
+
+# --- files cut short or damaged (Hypothesis: tests/helpers.py damages) -----------------------
+
+#: the small marker table the property tests damage: 2 frames of every marker, mm
+SMALL_MARKERS = np.round(np.random.default_rng(3).uniform(-900, 1800, (2, len(MARKER_NAMES), 3)), 3)
+
+
+@pytest.fixture(scope="module")
+def marker_file(tmp_path_factory):
+    """``markers_mm.csv`` of :data:`SMALL_MARKERS` (write_markers) and its bytes; each example
+    writes its damaged copy to ``damaged.csv`` beside it."""
+    path = tmp_path_factory.mktemp("markers") / "markers_mm.csv"
+    write_markers(path, SMALL_MARKERS, MARKER_NAMES)
+    return path, path.read_bytes()
+
+
+def read_small_markers(path):
+    return read_markers(path, len(SMALL_MARKERS), list(MARKER_NAMES))
+
+
+@settings(max_examples=100)
+@given(data=st.data())
+def test_a_cut_marker_file_is_refused_or_read_as_its_whole_rows(marker_file, data):
+    """A cut inside a row is refused (a cut number would read as another); a cut at a row's
+    end gives exactly the rows kept, every other marker NaN."""
+    path, whole = marker_file
+    damage = data.draw(damages(whole, ("cut",)))
+    damaged = path.with_name("damaged.csv")
+    damaged.write_bytes(damage.apply(whole))
+    outcome = read_or_refused(read_small_markers, str(damaged), damaged)
+    rows = damage.whole_lines(whole) - 1  # the header is the first line
+    if damage.offset == 0 or not whole[: damage.offset].endswith(b"\n") or rows < 1:
+        assert outcome is None, f"{damage}: read, not refused"
+        return
+    assert outcome is not None, f"{damage}: refused, but {rows} whole rows were kept"
+    expected = np.full_like(SMALL_MARKERS, np.nan).reshape(-1, 3)
+    expected[:rows] = SMALL_MARKERS.reshape(-1, 3)[:rows]
+    np.testing.assert_array_equal(outcome[0], expected.reshape(SMALL_MARKERS.shape))
+
+
+@settings(max_examples=100)
+@given(data=st.data())
+def test_a_damaged_byte_of_a_marker_file_changes_one_marker_at_most(marker_file, data):
+    """A byte changed is refused, or read as the file says: one marker of one frame at most
+    differs from the whole file's (a digit for a digit cannot be told without a checksum)."""
+    path, whole = marker_file
+    damage = data.draw(damages(whole, ("byte",)))
+    damaged = path.with_name("damaged.csv")
+    damaged.write_bytes(damage.apply(whole))
+    outcome = read_or_refused(read_small_markers, str(damaged), damaged)
+    if outcome is not None:
+        differs = ~((outcome[0] == SMALL_MARKERS) | (np.isnan(outcome[0]) & np.isnan(SMALL_MARKERS))).all(axis=2)
+        assert differs.sum() <= 1, f"{damage}: {differs.sum()} markers differ"
+
+
+@settings(max_examples=50)
+@given(data=st.data())
+def test_ground_truth_of_a_file_cut_at_a_row_end_scores_whole_frames_only(marker_file, data):
+    """The issue's case: a file cut after frame 1's seventh marker. Its frames are whole or
+    not scored (all NaN), with a warning naming each frame lacking markers and its count;
+    ``score`` keeps the partial frame's markers, ``stop`` refuses."""
+    path, whole = marker_file
+    lines = whole.splitlines(keepends=True)
+    rows = data.draw(st.integers(1, len(lines) - 2), label="rows kept")
+    sequence = MarkerFile(path.with_name("damaged.csv"), len(SMALL_MARKERS))
+    sequence.root.write_bytes(b"".join(lines[: rows + 1]))
+    frame, present = divmod(rows, len(MARKER_NAMES))
+    outcome = read_or_refused(sequence.ground_truth, str(sequence.root), len(SMALL_MARKERS))
+    truth, messages = outcome
+    whole_frames = np.isfinite(truth).all(axis=(1, 2))
+    assert (whole_frames | np.isnan(truth).all(axis=(1, 2))).all(), "a partial frame left to be scored"
+    np.testing.assert_array_equal(truth[whole_frames], SMALL_MARKERS[whole_frames])
+    assert whole_frames.sum() == frame
+    if present:
+        assert any(f"frame {frame} has {present} of {len(MARKER_NAMES)} markers" in m for m in messages), messages
+        scored = read_or_refused(sequence.ground_truth, str(sequence.root), len(SMALL_MARKERS), "score")[0]
+        np.testing.assert_array_equal(scored[frame, :present], SMALL_MARKERS[frame, :present])
+        assert read_or_refused(sequence.ground_truth, str(sequence.root), len(SMALL_MARKERS), "stop") is None
+    assert bool(messages) == (frame < len(SMALL_MARKERS))
+
+
+class MarkerFile(SequenceBase):
+    """A sequence that is only its ``markers_mm.csv`` at ``root`` (for :meth:`ground_truth`)."""
+
+    def __init__(self, path, frames: int):
+        super().__init__(path, {"frames": frames, "marker_names": list(MARKER_NAMES)}, [])
+
+    def images(self, frame):
+        raise NotImplementedError
+
+    def background(self, camera):
+        raise NotImplementedError
+
+    @property
+    def markers_source(self) -> str:
+        return str(self.root)
+
+    def markers(self) -> np.ndarray:
+        return read_markers(self.root, self.n_frames, list(MARKER_NAMES))
+
+
+@settings(max_examples=60)
+@given(data=st.data())
+def test_a_damaged_sequence_json_is_refused_or_read_as_it_was(tiny_sequence, data):
+    whole = (tiny_sequence / "sequence.json").read_bytes()
+    damage = data.draw(damages(whole))
+    folder = Path(tempfile.mkdtemp(dir=tiny_sequence.parent))
+    try:
+        path = folder / "sequence.json"
+        path.write_bytes(damage.apply(whole))
+        outcome = read_or_refused(read_meta, str(path), path)
+        if damage.kind == "cut" and outcome is not None:
+            assert whole[damage.offset :].strip() == b"", f"{damage}: a cut file read"
+            assert outcome[0] == json.loads(whole)
+    finally:
+        shutil.rmtree(folder)

@@ -24,6 +24,8 @@ import numpy as np
 import pandas as pd
 import pytest
 from hydra.errors import InstantiationException
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from omegaconf import OmegaConf
 
 from mmocap.body import skeleton
@@ -48,7 +50,7 @@ from mmocap.writers.export import (
     write_c3d,
     write_trc,
 )
-from tests.helpers import Outcome, assert_clean_error, mmocap, run_cli
+from tests.helpers import Outcome, assert_clean_error, damages, mmocap, read_or_refused, run_cli
 
 FPS = 50.0
 #: a complete summary.json, of a run of the demo config on a tiny sequence
@@ -615,3 +617,33 @@ def test_bad_export_options_are_config_errors():
             check_config(compose([f"export_options.{key}={value}"]))
         assert isinstance(raised.value.__cause__, ConfigError)
         assert str(raised.value.__cause__) == f"export_options.{key} must be one of {choices}, got {value!r}"
+
+
+# --- frames.csv cut short or damaged (Hypothesis: tests/helpers.py damages) ------------------
+
+#: three frames' poses (mm, rad) written the way FrameLog writes them (6 decimals)
+SMALL_POSES = np.round(np.random.default_rng(9).uniform(-3, 3, (3, 51)), 6)
+
+
+@pytest.fixture(scope="module")
+def frames_file(tmp_path_factory):
+    path = tmp_path_factory.mktemp("frames") / "frames.csv"
+    log = FrameLog(path)
+    for frame, pose in enumerate(SMALL_POSES):
+        log.write(frame, 10.0, 0.1, 100, 0.5, pose)
+    log.close()
+    return path, path.read_bytes()
+
+
+@settings(max_examples=60)
+@given(data=st.data())
+def test_a_cut_frames_file_is_refused_or_read_as_its_whole_rows(frames_file, data):
+    """A cut inside a row is refused; a cut at a row's end gives the poses of the frames kept."""
+    path, whole = frames_file
+    damage = data.draw(damages(whole))
+    damaged = path.with_name("damaged.csv")
+    damaged.write_bytes(damage.apply(whole))
+    outcome = read_or_refused(read_poses, str(damaged), damaged)
+    if damage.kind == "cut" and outcome is not None:
+        assert whole[: damage.offset].endswith(b"\n"), f"{damage}: a row cut inside was read"
+        np.testing.assert_array_equal(outcome[0], SMALL_POSES[: damage.whole_lines(whole) - 1])

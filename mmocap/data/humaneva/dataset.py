@@ -18,6 +18,7 @@ the rest pose).
 
 from __future__ import annotations
 
+import io
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -44,17 +45,21 @@ from mmocap.data.humaneva.mocap import check_marker_map, default_marker_map, mod
 from mmocap.data.humaneva.synchronisation import SyncOffsets, toolbox_frame_offsets
 from mmocap.data.sequence import SequenceBase
 from mmocap.errors import ConfigError, DataError
+from mmocap.io import read_lines_file
 
 
 def read_pose_file(path: Path) -> np.ndarray:
-    """(51,) pose (mm, rad) from a .npy file or a text file of 51 numbers."""
+    """(51,) pose (mm, rad) from a .npy file or a text file of 51 numbers; a DataError naming
+    the file if it is not one, or if the text file's last line has no line end (it may be cut
+    inside its last number: :func:`mmocap.io.check_whole_lines`)."""
     path = Path(path)
     if not path.is_file():
         raise DataError(f"x0 file not found: {path}")
+    text = None if path.suffix == ".npy" else read_lines_file(path, f"x0 file {path}")
     try:
-        x = np.load(path) if path.suffix == ".npy" else np.loadtxt(path, delimiter=None, ndmin=1)
-    except ValueError as exc:
-        raise DataError(f"x0 file {path} is not a list of numbers: {exc}") from None
+        x = np.load(path) if text is None else np.loadtxt(io.StringIO(text), delimiter=None, ndmin=1)
+    except Exception as exc:  # numpy raises many types for a damaged .npy header or a text that is not numbers
+        raise DataError(f"x0 file {path} is not a list of numbers: {' '.join(str(exc).split())}") from None
     x = np.asarray(x, dtype=np.float64).ravel()
     if x.shape != (51,) or not np.all(np.isfinite(x)):
         raise DataError(f"x0 file {path} must hold 51 finite numbers (mm, rad), got {x.size}")

@@ -16,6 +16,10 @@ frames (NaN if either is missing, :func:`sample_mocap`).
 
 from __future__ import annotations
 
+import faulthandler
+import multiprocessing
+from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 
 import numpy as np
@@ -43,18 +47,38 @@ def _as_list(x) -> list:
     return [x]
 
 
+def _load_mat_here(path: str) -> dict:
+    """``scipy.io.loadmat`` in the child process of :func:`load_mat`, which dies quietly if it
+    crashes (no fault handler's traceback: the parent says what happened)."""
+    faulthandler.disable()
+    return scipy.io.loadmat(path, simplify_cells=True)
+
+
+def load_mat(path: Path) -> dict:
+    """``scipy.io.loadmat(path, simplify_cells=True)``, run in a child process: scipy's reader
+    can crash on a damaged file (a segmentation fault, which ends the process that runs it),
+    and such a file must be refused with one line like any other. Any failure is a DataError
+    naming the file."""
+    with ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("fork")) as child:
+        try:
+            return child.submit(_load_mat_here, str(path)).result()
+        except BrokenProcessPool:
+            problem = "scipy's reader crashed on it"
+        except Exception as exc:  # scipy raises many types for a damaged file
+            problem = " ".join(str(exc).split())
+    raise DataError(f"cannot read mocap file {path}: {problem}; is it damaged or cut short? download it again")
+
+
 def read_mocap(path: Path) -> tuple[list[str], np.ndarray]:
     """A HumanEva ``.mat`` marker file -> labels (L,) and (mocap frames, L, 3) mm, NaN = missing.
 
-    Labels lose any ``subject:`` prefix; a marker stored as (0, 0, 0) is missing.
+    Labels lose any ``subject:`` prefix; a marker stored as (0, 0, 0) is missing. A damaged
+    or cut file is a DataError naming it (:func:`load_mat`).
     """
     path = Path(path)
     if not path.is_file():
         raise DataError(f"mocap file not found: {path}")
-    try:
-        mat = scipy.io.loadmat(str(path), simplify_cells=True)
-    except Exception as exc:  # scipy raises many types for a damaged file
-        raise DataError(f"cannot read mocap file {path}: {exc}") from None
+    mat = load_mat(path)
     markers = np.asarray(mat.get("Markers", np.empty(0)), dtype=np.float64)
     if markers.ndim == 2 and markers.shape[1] == 3:  # a single label comes squeezed
         markers = markers[:, None, :]

@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from mmocap.errors import DataError
+from mmocap.io import read_lines_file
 
 
 @dataclass(frozen=True)
@@ -36,12 +37,13 @@ class SyncOffsets:
 
     @staticmethod
     def load(path: Path) -> SyncOffsets:
-        """Read an ``.ofs`` file; a DataError naming the file if it is missing or does not hold
-        three finite numbers, ``MC_SC`` > 0."""
+        """Read an ``.ofs`` file; a DataError naming the file if it is missing, does not hold
+        three finite numbers, ``MC_SC`` > 0, or its last line has no line end (it may be cut
+        inside its last number: :func:`mmocap.io.check_whole_lines`)."""
         path = Path(path)
         if not path.is_file():
             raise DataError(f"sync file not found: {path}")
-        tokens = path.read_text(errors="replace").split()
+        tokens = read_lines_file(path, f"sync file {path}").split()
         try:
             values = [float(t) for t in tokens]
         except ValueError as exc:

@@ -8,12 +8,14 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from mmocap import config as mmocap_config
 from mmocap.body.model import MARKER_NAMES, BodyModel
 from mmocap.body.skeleton import dof_mask
 from mmocap.camera import Camera
-from mmocap.data.humaneva.dataset import HumanEvaDataset
+from mmocap.data.humaneva.dataset import HumanEvaDataset, read_pose_file
 from mmocap.data.humaneva.frames import FrameSource
 from mmocap.data.humaneva.layout import is_colour
 from mmocap.data.humaneva.mocap import default_marker_map, read_mocap, write_mocap
@@ -21,7 +23,7 @@ from mmocap.data.humaneva.synchronisation import SyncOffsets
 from mmocap.data.sequence import Sequence
 from mmocap.errors import ConfigError, DataError
 from mmocap.stages.accuracy import marker_error
-from tests.helpers import HE_CAMERAS, HE_FIRST, HE_FRAMES, HE_LEAD, open_he
+from tests.helpers import HE_CAMERAS, HE_FIRST, HE_FRAMES, HE_LEAD, damages, open_he, read_or_refused
 
 
 def test_calibration_round_trip(synthetic, exported):
@@ -77,7 +79,7 @@ def test_x0_is_fitted_to_the_first_frame_markers(synthetic, exported, tmp_path):
     # a user-given x0 is taken as it is
     np.savetxt(tmp_path / "x0.txt", truth.x0)
     np.testing.assert_allclose(open_he(exported, x0=str(tmp_path / "x0.txt")).x0, truth.x0)
-    (tmp_path / "bad.txt").write_text("1 2 3")
+    (tmp_path / "bad.txt").write_text("1 2 3\n")
     with pytest.raises(DataError, match="bad.txt must hold 51"):
         open_he(exported, x0=str(tmp_path / "bad.txt"))
 
@@ -85,8 +87,8 @@ def test_x0_is_fitted_to_the_first_frame_markers(synthetic, exported, tmp_path):
 @pytest.mark.parametrize(
     ("damage", "message"),
     [
-        (lambda r: (r / "S1/Calibration_Data/C1.cal").write_text("600 610 320\n240 0 0"), r"C1.cal holds 6 numbers"),
-        (lambda r: (r / "S1/Calibration_Data/BW1.cal").write_text("x " * 22), r"BW1.cal: non-numeric"),
+        (lambda r: (r / "S1/Calibration_Data/C1.cal").write_text("600 610 320\n240 0 0\n"), r"C1.cal holds 6 numbers"),
+        (lambda r: (r / "S1/Calibration_Data/BW1.cal").write_text("x " * 22 + "\n"), r"BW1.cal: non-numeric"),
         (
             lambda r: SyncOffsets(50, 1, 2).save(r / "S1/Sync_Data/Walking_1_(C1).ofs"),
             r"Walking_1_\(C1\).ofs starts at image 50, past the end of .*Walking_1_\(C1\).avi \(8 images\)",
@@ -95,7 +97,7 @@ def test_x0_is_fitted_to_the_first_frame_markers(synthetic, exported, tmp_path):
             lambda r: SyncOffsets(-40, 1, 2).save(r / "S1/Sync_Data/Walking_1_(BW1).ofs"),
             r"Walking_1_\(BW1\).ofs: no image of .* falls within",
         ),
-        (lambda r: (r / "S1/Sync_Data/Walking_1_(C1).ofs").write_text("1 2"), r"\(C1\).ofs must hold 3"),
+        (lambda r: (r / "S1/Sync_Data/Walking_1_(C1).ofs").write_text("1 2\n"), r"\(C1\).ofs must hold 3"),
         (
             lambda r: (r / "S1/Image_Data/Walking_1_(BW1).avi").unlink(),
             r"camera BW1: image data not found: .*Walking_1_\(BW1\).avi",
@@ -270,7 +272,7 @@ def test_cal_values_are_checked_like_every_calibration(damaged, index, value, me
     numbers[index] = repr(value)
     if index == 11:
         numbers[10:19] = ["1", "0.5", "0", "0", "1", "0", "0", "0", "1"]
-    path.write_text("\n".join(numbers))
+    path.write_text("\n".join(numbers) + "\n")
     with pytest.raises(DataError, match=rf"camera BW1: .*BW1.cal: {message}"):
         open_he(damaged)
 
@@ -281,3 +283,30 @@ def test_a_trial_without_mocap_has_no_ground_truth_to_score(damaged, synthetic, 
     seq = open_he(damaged, x0=str(tmp_path / "x0.txt"))
     with pytest.raises(DataError, match=r"Walking_1.mat: none of the 3 tracked frames has ground-truth markers"):
         seq.ground_truth(3, "stop")
+
+
+# --- x0 files cut short or damaged (Hypothesis: tests/helpers.py damages) --------------------
+
+SMALL_X0 = np.round(np.random.default_rng(2).uniform(-3, 3, 51), 6)
+
+
+@pytest.fixture(scope="module")
+def x0_files(tmp_path_factory):
+    """The pose :data:`SMALL_X0` as the text file np.savetxt writes and as a .npy file."""
+    folder = tmp_path_factory.mktemp("x0")
+    np.savetxt(folder / "x0.txt", SMALL_X0)
+    np.save(folder / "x0.npy", SMALL_X0)
+    return {name: (folder / name, (folder / name).read_bytes()) for name in ("x0.txt", "x0.npy")}
+
+
+@pytest.mark.parametrize("name", ["x0.txt", "x0.npy"])
+@settings(max_examples=60)
+@given(data=st.data())
+def test_a_damaged_x0_file_is_refused_or_read_whole(x0_files, name, data):
+    path, whole = x0_files[name]
+    damage = data.draw(damages(whole))
+    damaged = path.with_name("damaged-" + name)
+    damaged.write_bytes(damage.apply(whole))
+    outcome = read_or_refused(read_pose_file, str(damaged), damaged)
+    if damage.kind == "cut":
+        assert outcome is None, f"{damage}: read, not refused"

@@ -3,12 +3,14 @@
 import numpy as np
 import pytest
 import scipy.io
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from mmocap.body.model import MARKER_NAMES
 from mmocap.data.humaneva.mocap import read_mocap, sample_mocap, write_mocap
 from mmocap.data.sequence import Sequence
 from mmocap.errors import DataError
-from tests.helpers import HE_FIRST, HE_FRAMES, HE_LEAD, HE_LEAD_IN, open_he
+from tests.helpers import HE_FIRST, HE_FRAMES, HE_LEAD, HE_LEAD_IN, Damage, damages, open_he, read_or_refused
 
 
 def test_markers_at_fractional_mocap_indices_are_interpolated():
@@ -50,3 +52,45 @@ def test_mocap_without_a_mapped_label(damaged):
     write_mocap(path, labels, markers)
     with pytest.raises(DataError, match=r"Walking_1.mat has no marker labelled LELB \(mapped to 'l_elbow'"):
         open_he(damaged)
+
+
+# --- files cut short or damaged (Hypothesis: tests/helpers.py damages) -----------------------
+
+#: labels and (mocap frames, L, 3) mm markers of the small .mat file the property tests damage
+SMALL_LABELS = ["LKNE", "RKNE", "C7"]
+SMALL_MOCAP = np.round(np.random.default_rng(5).uniform(-900, 1800, (3, len(SMALL_LABELS), 3)), 3)
+
+
+@pytest.fixture(scope="module")
+def mocap_file(tmp_path_factory):
+    path = tmp_path_factory.mktemp("mocap") / "Walking_1.mat"
+    write_mocap(path, SMALL_LABELS, SMALL_MOCAP)
+    return path, path.read_bytes()
+
+
+@settings(max_examples=30)  # each read forks a process
+@given(data=st.data())
+def test_a_damaged_mocap_file_is_refused_or_read_as_it_says(mocap_file, data):
+    """A cut ``.mat`` file is refused, or holds every variable still (only padding lost): read
+    whole; a byte changed is refused or read (a number for a number cannot be told)."""
+    path, whole = mocap_file
+    damage = data.draw(damages(whole))
+    damaged = path.with_name("damaged.mat")
+    damaged.write_bytes(damage.apply(whole))
+    outcome = read_or_refused(read_mocap, str(damaged), damaged)
+    if outcome is not None:
+        labels, markers = outcome[0]
+        assert markers.shape[1:] == (len(labels), 3)
+        if damage.kind == "cut":
+            assert labels == SMALL_LABELS
+            np.testing.assert_array_equal(markers, SMALL_MOCAP)
+
+
+def test_a_file_that_crashes_scipy_s_reader_is_refused(mocap_file):
+    """The array flags of the first variable all set: scipy's reader dies of a segmentation
+    fault in the child process, and the file is refused with one line."""
+    path, whole = mocap_file
+    damaged = path.with_name("crashing.mat")
+    damaged.write_bytes(Damage("byte", 145, 255).apply(whole))
+    with pytest.raises(DataError, match=r"crashing.mat: scipy's reader crashed on it; is it damaged"):
+        read_mocap(damaged)

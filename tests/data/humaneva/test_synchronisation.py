@@ -1,8 +1,12 @@
 """The ``.ofs`` arithmetic, and the toolbox's frame numbers."""
 
 import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from mmocap.data.humaneva.synchronisation import SyncOffsets, toolbox_frame_offsets
+from tests.helpers import damages, read_or_refused
 
 
 def test_sync_offsets_arithmetic(tmp_path):
@@ -20,3 +24,24 @@ def test_toolbox_frame_numbering():
     assert toolbox_frame_offsets([SyncOffsets(2, 5, 2.0), SyncOffsets(1, 5, 2.0)]).tolist() == [2, 1]
     # the second camera's image 1 at mocap 6: the first's image 2.5 at that time, rounded up as in MATLAB
     assert toolbox_frame_offsets([SyncOffsets(2, 5, 2.0), SyncOffsets(1, 6, 2.0)]).tolist() == [3, 1]
+
+
+@pytest.fixture(scope="module")
+def sync_file(tmp_path_factory):
+    path = tmp_path_factory.mktemp("sync") / "Walking_1_(C1).ofs"
+    SyncOffsets(12.0, 7.0, 2.0000000001).save(path)
+    return path, path.read_bytes()
+
+
+@settings(max_examples=100)
+@given(data=st.data())
+def test_a_damaged_sync_file_is_refused_or_read_whole(sync_file, data):
+    """A cut ``.ofs`` is refused (its last number, cut, would read as another); a byte
+    changed is refused or read."""
+    path, whole = sync_file
+    damage = data.draw(damages(whole))
+    damaged = path.with_name("damaged.ofs")
+    damaged.write_bytes(damage.apply(whole))
+    outcome = read_or_refused(SyncOffsets.load, str(damaged), damaged)
+    if damage.kind == "cut":
+        assert outcome is None, f"{damage}: read, not refused"
