@@ -242,14 +242,14 @@ class Camera:
         ``X_cam = R X + T``.  The file holds no image size: ``width`` and ``height`` come
         from the images.  ``name`` defaults to the file's stem.  The values are checked by
         :func:`checked_camera`; errors name the file, the camera and the ``.cal`` field. A file
-        whose last line has no line end is refused: it may be cut inside its last number
-        (:func:`mmocap.io.check_whole_lines`).
+        whose last line has no line end is read as HumanEva distributes it, with a warning that
+        it may be cut inside its last number (:func:`mmocap.io.check_whole_lines`).
         """
         path = Path(path)
         name = name or path.stem
         if not path.is_file():
             raise DataError(f"camera {name}: calibration file not found: {path}")
-        tokens = read_lines_file(path, f"camera {name}: calibration file {path}").split()
+        tokens = read_lines_file(path, f"camera {name}: calibration file {path}", unended="warn").split()
         try:
             v = np.array([float(t) for t in tokens])
         except ValueError as exc:

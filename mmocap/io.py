@@ -29,7 +29,9 @@ that stopped, a full disk) is never read as a whole one:
   given twice is refused, not read as its last value.
 - A file of lines (CSV, TOML, YAML, lists of numbers) whose last line has no line end may be
   cut inside that line, a number among it shortened (``1234.5`` read as ``12``): it is refused
-  with one line naming the file and that line (:func:`check_whole_lines`). A file cut at a line
+  with one line naming the file and that line (:func:`check_whole_lines`); a published
+  dataset's file (HumanEva-I's ``.cal`` and ``.ofs``) is read as distributed, with a warning
+  saying so. A file cut at a line
   end is a shorter file of whole lines; what it lacks is found by the checks of counts against
   the sequence (frames, markers, cameras) that each reader makes.
 """
@@ -55,7 +57,7 @@ import cv2
 import numpy as np
 import pandas as pd
 
-from mmocap.errors import DataError
+from mmocap.errors import DataError, MmocapWarning
 
 log = logging.getLogger(__name__)
 
@@ -272,32 +274,45 @@ def read_failure(exc: OSError, name: str) -> str:
     return f"cannot read {name}: {problem}; {how}"
 
 
-def check_whole_lines(data: bytes, name: str) -> None:
-    """A DataError of one line unless the file of lines ``name``, whose bytes are ``data``,
-    is empty or ends with a line end: a last line without one may be cut short, and a number
-    in it shortened. The message names the file and that line, and says how to fix it."""
+def check_whole_lines(data: bytes, name: str, *, unended: str = "refuse") -> None:
+    """Check that the file of lines ``name``, whose bytes are ``data``, is empty or ends with a
+    line end: a last line without one may be cut short, and a number in it shortened.
+
+    ``unended="refuse"`` (a file the user's own tools write) makes such a file a DataError of
+    one line naming the file and that line and saying how to fix it; ``"warn"`` (a published
+    dataset's file, read as distributed: whether it ends with a line end is not known) reads it
+    with an :class:`~mmocap.errors.MmocapWarning` saying so."""
     if not data or data.endswith((b"\n", b"\r")):
         return
     number = data.count(b"\n") + 1
     last = data.rsplit(b"\n", 1)[-1].decode("utf-8", errors="replace")
+    where = f"{name}: its last line (line {number}: {last!r:.60}) has no line end"
+    if unended == "warn":
+        warnings.warn(
+            f"{where}: read as it is; if the file was cut short there, its last number may be shortened: "
+            "compare it with the dataset's copy",
+            MmocapWarning,
+            stacklevel=3,
+        )
+        return
     raise DataError(
-        f"{name}: its last line (line {number}: {last!r:.60}) has no line end, so the file may be cut short "
-        "there; copy or write it again, or, if that line is whole, end the file with a newline"
+        f"{where}, so the file may be cut short there; copy or write it again, or, if that line is whole, "
+        "end the file with a newline"
     )
 
 
-def read_lines_file(path: str | Path, name: str | None = None, errors: str = "replace") -> str:
+def read_lines_file(path: str | Path, name: str | None = None, errors: str = "replace", unended: str = "refuse") -> str:
     """The text (UTF-8, its undecodable bytes handled as ``errors`` says: ``str.decode``'s
     argument) of the file of lines ``path``, checked to end with a line end
-    (:func:`check_whole_lines`); a DataError of one line naming it as ``name`` (default: the
-    path) when it cannot be read or may be cut short."""
+    (:func:`check_whole_lines`, which ``unended`` is passed to); a DataError of one line naming
+    it as ``name`` (default: the path) when it cannot be read or may be cut short."""
     path = Path(path)
     name = str(path) if name is None else name
     try:
         data = path.read_bytes()
     except OSError as exc:
         raise DataError(read_failure(exc, name)) from None
-    check_whole_lines(data, name)
+    check_whole_lines(data, name, unended=unended)
     return data.decode("utf-8", errors=errors)
 
 

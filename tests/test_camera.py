@@ -381,14 +381,19 @@ def load_small(path):
 @settings(max_examples=100)
 @given(data=st.data())
 def test_a_damaged_camera_file_is_refused_or_read_whole(camera_files, name, data):
-    """A cut file is refused unless only its last line end is lost (the ``.cal``'s last
-    number, cut, would read as another: refused too); a byte changed is refused or read."""
+    """A cut JSON file is refused unless only its last line end is lost; a cut ``.cal`` is
+    refused (too few numbers) or read as HumanEva distributes it, with a warning that its last
+    number may be cut; a byte changed is refused or read."""
     path, whole = camera_files[name]
     damage = data.draw(damages(whole))
     damaged = path.with_name("damaged-" + name)
     damaged.write_bytes(damage.apply(whole))
     outcome = read_or_refused(load_small, str(damaged), damaged)
     if damage.kind == "cut" and outcome is not None:
-        read = outcome[0]
+        read, messages = outcome
+        if name == "C1.cal":
+            assert any("has no line end: read as it is" in message for message in messages), f"{damage}: not warned"
+            if damage.apply(whole) != whole.rstrip():
+                return  # its last number may be shortened, as the warning says
         for attr in ("K", "dist", "R", "t"):
             np.testing.assert_array_equal(getattr(read, attr), getattr(SMALL_CAMERA, attr), err_msg=f"{damage}: {attr}")

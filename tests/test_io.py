@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from mmocap import io
-from mmocap.errors import DataError
+from mmocap.errors import DataError, MmocapWarning
 from mmocap.io import (
     LockBusyError,
     WriteError,
@@ -276,6 +276,13 @@ def test_a_file_of_lines_without_a_last_line_end_is_refused_naming_that_line(tmp
     assert read_lines_file(path) == "1 2\n3 \ufffd\n"
     with pytest.raises(DataError, match=r"^cannot read .*none.txt: no such file or folder"):
         read_lines_file(tmp_path / "none.txt")
+
+
+def test_a_datasets_file_without_a_last_line_end_is_read_with_a_warning(tmp_path):
+    path = tmp_path / "C1.cal"
+    path.write_bytes(b"1 2\n3 4")
+    with pytest.warns(MmocapWarning, match=r"C1.cal: its last line \(line 2: '3 4'\) has no line end: read as it is; "):
+        assert read_lines_file(path, unended="warn") == "1 2\n3 4"
 
 
 def test_a_csv_table_cut_short_or_with_a_row_longer_than_its_header_is_refused(tmp_path):

@@ -38,12 +38,13 @@ class SyncOffsets:
     @staticmethod
     def load(path: Path) -> SyncOffsets:
         """Read an ``.ofs`` file; a DataError naming the file if it is missing, does not hold
-        three finite numbers, ``MC_SC`` > 0, or its last line has no line end (it may be cut
-        inside its last number: :func:`mmocap.io.check_whole_lines`)."""
+        three finite numbers, ``MC_SC`` > 0. A file whose last line has no line end is read as
+        HumanEva distributes it, with a warning that it may be cut inside its last number
+        (:func:`mmocap.io.check_whole_lines`)."""
         path = Path(path)
         if not path.is_file():
             raise DataError(f"sync file not found: {path}")
-        tokens = read_lines_file(path, f"sync file {path}").split()
+        tokens = read_lines_file(path, f"sync file {path}", unended="warn").split()
         try:
             values = [float(t) for t in tokens]
         except ValueError as exc:
