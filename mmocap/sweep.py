@@ -175,15 +175,16 @@ def progress_line(progress_file: Path, info: dict) -> str:
 def unfinished_jobs(sweep_dir: Path, jobs: list[list[str]]) -> list[str]:
     """The jobs of the sweep session of ``sweep_dir/sweep.json`` that did not end completed (no
     line of ``progress.jsonl`` says so: their worker died, they failed, or the sweep stopped
-    first), each as "#<job number> (<the overrides that set it apart>)"; ``jobs`` holds every
-    job's overrides in launch order (:func:`job_overrides`). Empty without a ``sweep.json``."""
+    first), each as "#<job number> (<the overrides that set it apart from the other jobs>)";
+    ``jobs`` holds every job's overrides in launch order (:func:`job_overrides`). Empty without
+    a ``sweep.json``."""
     try:
         session = read_json_object(sweep_dir / "sweep.json")["session"]
         lines = read_json_lines(sweep_dir / "progress.jsonl") if (sweep_dir / "progress.jsonl").is_file() else []
     except (DataError, KeyError):  # no readable sweep.json: no session to name jobs of
         return []
     done = {line.get("job") for line in lines if line.get("session") == session and line.get("status") == "COMPLETED"}
-    shared = set.intersection(*(set(job) for job in jobs)) if jobs else set()
+    shared = set.intersection(*(set(job) for job in jobs)) if len(jobs) > 1 else set()
     return [
         f"#{number} ({' '.join(o for o in job if o not in shared) or 'no overrides'})"
         for number, job in enumerate(jobs)

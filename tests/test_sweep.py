@@ -14,6 +14,7 @@ import pandas as pd
 import pytest
 
 from mmocap import config as mmocap_config
+from mmocap.sweep import unfinished_jobs
 from tests.helpers import mmocap, overrides
 
 
@@ -176,3 +177,22 @@ def test_launcher_configs_compose(name, plugin, target, extra):
         pytest.skip(f"{plugin} not installed (pip install mmocap[{extra}])")
     cfg = mmocap_config.compose(["+experiment=table4", f"hydra/launcher={name}"], return_hydra_config=True)
     assert cfg.hydra.launcher._target_.endswith(target)
+
+
+def test_unfinished_jobs_are_those_of_this_session_without_a_completed_line(tmp_path):
+    jobs = [["seed=0", "evaluator=numpy"], ["seed=1", "evaluator=numpy"], ["seed=2", "evaluator=numpy"]]
+    assert unfinished_jobs(tmp_path, jobs) == []  # no sweep.json: no session to speak of
+    (tmp_path / "sweep.json").write_text(json.dumps({"session": "now"}))
+    assert unfinished_jobs(tmp_path, jobs) == ["#0 (seed=0)", "#1 (seed=1)", "#2 (seed=2)"]  # no job has ended
+    lines = [
+        {"session": "now", "job": 0, "status": "COMPLETED", "ran": True},
+        {"session": "before", "job": 1, "status": "COMPLETED", "ran": True},  # an earlier session's
+        {"session": "now", "job": 2, "status": "FAILED", "ran": False},
+    ]
+    text = "".join(json.dumps(line) + "\n" for line in lines) + '{"session": "now", "job": 1, "sta'  # torn
+    (tmp_path / "progress.jsonl").write_text(text)
+    assert unfinished_jobs(tmp_path, jobs) == ["#1 (seed=1)", "#2 (seed=2)"]
+    assert unfinished_jobs(tmp_path, [["seed=0"]]) == []
+    (tmp_path / "progress.jsonl").unlink()
+    assert unfinished_jobs(tmp_path, [["seed=0", "evaluator=numpy"]]) == ["#0 (seed=0 evaluator=numpy)"]  # alone
+    assert unfinished_jobs(tmp_path, [[]]) == ["#0 (no overrides)"]
