@@ -379,6 +379,7 @@ def main(argv: list[str] | None = None) -> None:
         return
     name = args.pop(0) if args and args[0] in SUBCOMMANDS else "track"
     command, _ = SUBCOMMANDS[name]
+    _sweep_jobs.clear()  # a sweep of an earlier call in this process (the tests run several)
     with _interruptible():
         try:
             guarded(lambda: command(args, f"mmocap {name}"))
