@@ -22,6 +22,7 @@ import pytest
 
 from mmocap.analysis.results import load_runs
 from mmocap.data.synthetic import generate
+from mmocap.io import read_json_lines
 from mmocap.run_folder import FRAMES_PARTIAL, RUN_LOCK, SUMMARY
 from tests.helpers import TINY_BAD_INPUT as TINY
 from tests.helpers import end_session, session_processes
@@ -30,11 +31,7 @@ JOBS = 3
 #: the job whose worker is killed: it runs beside job 0, so that job 0 finishes either way
 KILLED = 1
 
-# 40-70 s each on the 2-core machine (a cluster, several Python processes per sweep): slow tests
-pytestmark = [
-    pytest.mark.slow,
-    pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs Linux /proc to find the processes"),
-]
+pytestmark = pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs Linux /proc to find the processes")
 
 
 @pytest.fixture(scope="module")
@@ -99,12 +96,12 @@ def assert_nothing_half_written(folder: Path) -> None:
 
 
 def assert_resumes_exactly_the_missing_jobs(command: list[str], folder: Path, before: dict, env: dict) -> None:
-    """The same command again runs the jobs without a record, and no other."""
+    """The same command again runs the jobs without a record, and no other (each job's line in
+    ``progress.jsonl`` says whether it ran: the jobs' own logs stay with the engine)."""
     again = subprocess.run(command, capture_output=True, text=True, timeout=300, env=env, start_new_session=True)
     assert again.returncode == 0, again.stderr
     session = json.loads((folder / "sweep.json").read_text())["session"]
-    lines = [json.loads(line) for line in (folder / "progress.jsonl").read_text().splitlines()]
-    ended = [line for line in lines if line["session"] == session]  # the jobs' own lines: any engine
+    ended = [line for line in read_json_lines(folder / "progress.jsonl") if line["session"] == session]
     assert sorted(line["job"] for line in ended) == list(range(JOBS))
     assert sum(line["ran"] for line in ended) == JOBS - len(before)
     after = records(folder)
@@ -218,6 +215,7 @@ def test_a_ray_job_out_of_retries_is_named_and_resumed(sequence, ray_cluster, tm
 # --- SLURM (Submitit's local executor) -------------------------------------------------------
 
 
+@pytest.mark.slow  # 45 s: each job, and each job of the resume, is a Python process of its own
 @pytest.mark.skipif(
     importlib.util.find_spec("hydra_plugins.hydra_submitit_launcher") is None,
     reason="hydra-submitit-launcher not installed (pip install mmocap[slurm])",
