@@ -33,7 +33,7 @@ from omegaconf import DictConfig  # noqa: E402
 from mmocap.config import CONFIG_NAME, CONFIG_PATH, HYDRA_VERSION_BASE  # noqa: E402
 from mmocap.errors import DataError, MmocapError  # noqa: E402
 from mmocap.io import check_writable_folder, describe_os_error  # noqa: E402
-from mmocap.sweep import SweepProgress  # noqa: E402
+from mmocap.sweep import SweepProgress, job_overrides, unfinished_jobs  # noqa: E402
 
 
 def _user_error(exc: BaseException | None) -> MmocapError | None:
@@ -106,6 +106,7 @@ class SweepCallback(SweepProgress):
     def on_multirun_start(self, config: DictConfig, **kwargs) -> None:
         _resume_hint["folder"] = str(config.hydra.sweep.dir)
         guarded(lambda: SweepProgress.on_multirun_start(self, config, **kwargs))
+        _sweep_jobs[:] = job_overrides(config)
 
     def on_multirun_end(self, config: DictConfig, **kwargs) -> None:
         guarded(lambda: SweepProgress.on_multirun_end(self, config, **kwargs))
@@ -266,6 +267,10 @@ def _end_with_parent() -> None:
 _LAUNCHER_PID = os.getpid()
 # the sweep folder of this command, once known: the interruption message tells how to resume it
 _resume_hint: dict[str, str] = {}
+# each job's overrides, once the sweep has started: a sweep that ends in an error names those left
+_sweep_jobs: list[list[str]] = []
+# the most unfinished jobs that line names one by one
+NAMED_JOBS = 10
 # seconds the worker processes get to end after SIGTERM before they are killed
 WORKER_GRACE_SECONDS = 3.0
 
@@ -333,6 +338,22 @@ def _interrupted(signum, frame) -> None:
     os._exit(128 + signum)
 
 
+def _report_unfinished_jobs() -> None:
+    """After a sweep that ended in an error (a job failed, or its worker died and the launcher
+    gave up on it): one line naming the jobs that did not finish and how to run only them."""
+    folder = _resume_hint.get("folder")
+    left = unfinished_jobs(Path(folder), _sweep_jobs) if folder and _sweep_jobs else []
+    if not left:
+        return
+    named = ", ".join(left[:NAMED_JOBS]) + (f" and {len(left) - NAMED_JOBS} more" if len(left) > NAMED_JOBS else "")
+    print(
+        f"mmocap: error: {len(left)} of {len(_sweep_jobs)} sweep jobs did not finish: {named}; finished runs "
+        f"are kept in {folder}/records; run the same command with hydra.sweep.dir={folder} to run only the rest",
+        file=sys.stderr,
+        flush=True,
+    )
+
+
 @contextlib.contextmanager
 def _interruptible():
     """SIGTERM and SIGINT handled by :func:`_interrupted` for the block (main thread only)."""
@@ -362,8 +383,14 @@ def main(argv: list[str] | None = None) -> None:
         return
     name = args.pop(0) if args and args[0] in SUBCOMMANDS else "track"
     command, _ = SUBCOMMANDS[name]
+    _sweep_jobs.clear()  # a sweep of an earlier call in this process (the tests run several)
     with _interruptible():
-        guarded(lambda: command(args, f"mmocap {name}"))
+        try:
+            guarded(lambda: command(args, f"mmocap {name}"))
+        except SystemExit as end:
+            if end.code:
+                _report_unfinished_jobs()
+            raise
 
 
 if __name__ == "__main__":

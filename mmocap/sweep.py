@@ -33,7 +33,7 @@ from omegaconf import DictConfig
 
 from mmocap import provenance, registry
 from mmocap.analysis.results import ResultsStore, run_key, store_folder
-from mmocap.errors import ConfigError
+from mmocap.errors import ConfigError, DataError
 from mmocap.io import WriteError, append_line, read_json_lines, read_json_object, write_json_atomic
 from mmocap.preflight import check_config
 from mmocap.report.collect import collect
@@ -170,6 +170,26 @@ def progress_line(progress_file: Path, info: dict) -> str:
     if ran and done < total:
         text += f", about {format_seconds(elapsed / ran * (total - done))} left"
     return text + f", {format_seconds(elapsed)} elapsed"
+
+
+def unfinished_jobs(sweep_dir: Path, jobs: list[list[str]]) -> list[str]:
+    """The jobs of the sweep session of ``sweep_dir/sweep.json`` that did not end completed (no
+    line of ``progress.jsonl`` says so: their worker died, they failed, or the sweep stopped
+    first), each as "#<job number> (<the overrides that set it apart from the other jobs>)";
+    ``jobs`` holds every job's overrides in launch order (:func:`job_overrides`). Empty without
+    a ``sweep.json``."""
+    try:
+        session = read_json_object(sweep_dir / "sweep.json")["session"]
+        lines = read_json_lines(sweep_dir / "progress.jsonl") if (sweep_dir / "progress.jsonl").is_file() else []
+    except (DataError, KeyError):  # no readable sweep.json: no session to name jobs of
+        return []
+    done = {line.get("job") for line in lines if line.get("session") == session and line.get("status") == "COMPLETED"}
+    shared = set.intersection(*(set(job) for job in jobs)) if len(jobs) > 1 else set()
+    return [
+        f"#{number} ({' '.join(o for o in job if o not in shared) or 'no overrides'})"
+        for number, job in enumerate(jobs)
+        if number not in done
+    ]
 
 
 def format_seconds(seconds: float) -> str:

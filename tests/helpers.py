@@ -219,6 +219,35 @@ def run_cli(*args) -> int:
     return 0
 
 
+def session_processes(session: int) -> list[int]:
+    """Live (not zombie) processes of the session ``session`` (Linux ``/proc``): what is left of
+    a command started with ``start_new_session=True``, whose pid is its session's id."""
+    alive = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        if int(fields[3]) == session and fields[0] != "Z":
+            alive.append(int(stat.parent.name))
+    return alive
+
+
+def end_session(session: int, grace: float = 3.0) -> None:
+    """SIGTERM to every process of the session ``session``, then SIGKILL to those still there
+    after ``grace`` seconds; returns when none is left."""
+    import signal
+    import time
+
+    for sig, wait in ((signal.SIGTERM, grace), (signal.SIGKILL, grace)):
+        for pid in session_processes(session):
+            with contextlib.suppress(ProcessLookupError):
+                os.kill(pid, sig)
+        deadline = time.monotonic() + wait
+        while session_processes(session) and time.monotonic() < deadline:
+            time.sleep(0.1)
+
+
 def assert_clean_error(outcome: Outcome, *culprits: str) -> str:
     """Exit status 2, no traceback, and one ``mmocap: error:`` line naming every culprit
     (case-insensitive); returns that line."""

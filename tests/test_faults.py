@@ -13,6 +13,7 @@ import pytest
 
 from mmocap.data.synthetic import generate
 from tests.helpers import TINY_BAD_INPUT as TINY
+from tests.helpers import session_processes
 
 JOBS = 6
 
@@ -40,19 +41,6 @@ def sweep_command(sequence: Path, folder: Path) -> list[str]:
         f"hydra.sweep.dir={folder}",
         "hydra.launcher.n_jobs=2",
     ]
-
-
-def session_processes(session: int) -> list[int]:
-    """Live (not zombie) processes of the session ``session``."""
-    alive = []
-    for stat in Path("/proc").glob("[0-9]*/stat"):
-        try:
-            fields = stat.read_text().rsplit(")", 1)[1].split()
-        except OSError:
-            continue
-        if int(fields[3]) == session and fields[0] != "Z":
-            alive.append(int(stat.parent.name))
-    return alive
 
 
 def records(folder: Path) -> dict[str, float]:

@@ -1,5 +1,6 @@
 """Multirun sweeps end to end: launchers, resuming a killed sweep, progress, bad sweeps."""
 
+import fcntl
 import importlib.metadata
 import importlib.util
 import json
@@ -17,6 +18,7 @@ import pytest
 
 from mmocap import config as mmocap_config
 from mmocap.analysis.results import SCHEMA
+from mmocap.sweep import unfinished_jobs
 from tests.helpers import mmocap, overrides
 
 
@@ -210,3 +212,42 @@ def test_two_sweeps_into_one_store_at_once_run_each_job_once(tiny_sequence, tmp_
     assert sorted(by_seed.values()) == sorted(ran)
     assert list(store.glob("records/.*")) == []
     assert json.loads((store / "store.json").read_text()) == {"schema": SCHEMA}
+
+
+def test_unfinished_jobs_are_those_of_this_session_without_a_completed_line(tmp_path):
+    jobs = [["seed=0", "evaluator=numpy"], ["seed=1", "evaluator=numpy"], ["seed=2", "evaluator=numpy"]]
+    assert unfinished_jobs(tmp_path, jobs) == []  # no sweep.json: no session to speak of
+    (tmp_path / "sweep.json").write_text(json.dumps({"session": "now"}))
+    assert unfinished_jobs(tmp_path, jobs) == ["#0 (seed=0)", "#1 (seed=1)", "#2 (seed=2)"]  # no job has ended
+    lines = [
+        {"session": "now", "job": 0, "status": "COMPLETED", "ran": True},
+        {"session": "before", "job": 1, "status": "COMPLETED", "ran": True},  # an earlier session's
+        {"session": "now", "job": 2, "status": "FAILED", "ran": False},
+    ]
+    text = "".join(json.dumps(line) + "\n" for line in lines) + '{"session": "now", "job": 1, "sta'  # torn
+    (tmp_path / "progress.jsonl").write_text(text)
+    assert unfinished_jobs(tmp_path, jobs) == ["#1 (seed=1)", "#2 (seed=2)"]
+    assert unfinished_jobs(tmp_path, [["seed=0"]]) == []
+    (tmp_path / "progress.jsonl").unlink()
+    assert unfinished_jobs(tmp_path, [["seed=0", "evaluator=numpy"]]) == ["#0 (seed=0 evaluator=numpy)"]  # alone
+    assert unfinished_jobs(tmp_path, [[]]) == ["#0 (no overrides)"]
+
+
+def test_a_sweep_that_stops_on_a_failed_job_names_the_jobs_left(tiny_sequence, tmp_path):
+    """Job 1's run folder is held by another process: the job stops, and with it the sweep
+    (its jobs run in turn here); the line names the jobs that did not finish."""
+    sweep = tmp_path / "sweep"
+    (sweep / "1").mkdir(parents=True)
+    with (sweep / "1" / ".run.lock").open("w") as held:
+        fcntl.flock(held, fcntl.LOCK_EX)
+        out = mmocap(
+            *sweep_args(tiny_sequence.parent, sweep, seed="0,1,2", **{"hydra.launcher.n_jobs": 1}), cwd=tmp_path
+        )
+    assert out.returncode == 2, out.stderr
+    assert "is in use by another run" in out.stderr
+    line = (
+        f"mmocap: error: 2 of 3 sweep jobs did not finish: #1 (seed=1), #2 (seed=2); finished runs are kept in {sweep}"
+    )
+    assert line in out.stderr
+    assert "Traceback" not in out.stderr
+    assert len(records(sweep)) == 1
