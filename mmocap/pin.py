@@ -129,9 +129,11 @@ def _compared(before: dict[str, str], after: dict[str, str], show) -> list[str]:
 
 
 def _versions(kind: str, before: dict[str, str | None], after: dict[str, str | None]) -> list[str]:
-    """``plugin mmocap-pycma 0.1.0, now 0.2.0``, ``... (new)``, ``... (uninstalled)``."""
+    """``plugin mmocap-pycma (0.1.0, now 0.2.0)``, ``plugin x 1.0 (new)``, ``plugin y 1.0 (uninstalled)``."""
     changed = [
-        f"{kind} {n} {before[n]}, now {after[n]}" for n in sorted(before.keys() & after.keys()) if before[n] != after[n]
+        f"{kind} {n} ({before[n]}, now {after[n]})"
+        for n in sorted(before.keys() & after.keys())
+        if before[n] != after[n]
     ]
     changed += [f"{kind} {n} {after[n]} (new)" for n in sorted(after.keys() - before.keys())]
     return changed + [f"{kind} {n} {before[n]} (uninstalled)" for n in sorted(before.keys() - after.keys())]
@@ -140,7 +142,7 @@ def _versions(kind: str, before: dict[str, str | None], after: dict[str, str | N
 def changes(pinned: dict, now: dict) -> list[str]:
     """What differs between the pin ``pinned`` (:func:`take` when the sweep started) and
     ``now``, configs first: ``conf/optimizer/cmaes.yaml``, ``mmocap/pipeline.py (new)``,
-    ``plugin mmocap-pycma 0.1.0, now 0.2.0``, ``numpy 2.0.2, now 2.1.0``; empty when
+    ``plugin mmocap-pycma (0.1.0, now 0.2.0)``, ``package numpy (2.0.2, now 2.1.0)``; empty when
     nothing does."""
     found = []
     for source in sorted(pinned["configs"].keys() | now["configs"].keys()):
