@@ -15,7 +15,7 @@ import hashlib
 import importlib.resources
 from collections.abc import Iterable, Iterator
 from importlib.abc import Traversable
-from importlib.metadata import entry_points
+from importlib.metadata import distributions
 from pathlib import Path
 
 from mmocap import provenance
@@ -84,10 +84,14 @@ def configs(sources: Iterable[tuple[str, str]]) -> dict[str, dict[str, str]]:
 
 def plugins() -> dict[str, str]:
     """``{distribution: version}`` of every installed distribution that registers an entry
-    point in one of mmocap's groups (:data:`mmocap.registry.GROUPS`), mmocap itself included."""
-    installed = entry_points()  # one scan of the installed distributions for all the groups
-    found = {ep.dist.name: ep.dist for group in GROUPS.values() for ep in installed.select(group=group) if ep.dist}
-    return {name: found[name].version for name in sorted(found)}
+    point in one of mmocap's groups (:data:`mmocap.registry.GROUPS`), mmocap itself included;
+    the first found on ``sys.path`` where one is installed twice, as Python loads it."""
+    groups = set(GROUPS.values())
+    found: dict[str, str] = {}
+    for dist in distributions():  # entry_points.txt read first: only the few plugins' metadata is parsed
+        if groups & {ep.group for ep in dist.entry_points}:
+            found.setdefault(dist.metadata["Name"], dist.version)
+    return dict(sorted(found.items()))
 
 
 def take(sources: Iterable[tuple[str, str]]) -> dict:

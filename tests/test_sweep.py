@@ -147,6 +147,7 @@ def test_an_experiment_runs_on_the_tiny_sequence(tiny_sequence, tmp_path):
         "-m",
         "+experiment=fig10",
         "scale=smoke",
+        "+allow_dirty=true",  # a paper experiment, run from a working tree that may have changes
         *overrides(tiny_sequence.parent),
         "overlays=0",
         f"hydra.sweep.dir={sweep}",
