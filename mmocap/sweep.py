@@ -121,7 +121,7 @@ def check_clean(config: DictConfig) -> list[str] | None:
     dirty = pin.dirty_files()
     if dirty and required and not allowed:
         raise ConfigError(
-            f"this experiment makes a paper result, but the checkout has uncommitted changes "
+            f"pin.require_clean is set (a paper experiment), but the checkout has uncommitted changes "
             f"({pin.named(dirty)}): commit them, or add +allow_dirty=true to run anyway (sweep.json "
             "and the records then say so)"
         )
@@ -130,10 +130,11 @@ def check_clean(config: DictConfig) -> list[str] | None:
 
 def pin_refused(found: list[str], sweep_dir: Path | str) -> str:
     """The one line that refuses a job or a resumed sweep whose pin no longer holds."""
-    it = "it" if len(found) == 1 else "them"
+    change = "the change" if len(found) == 1 else "the changes"
     return (
-        f"{pin.named(found)} changed since the sweep in {sweep_dir} started: put {it} back and run the "
-        f"same command to finish the sweep, or start it again in another folder (hydra.sweep.dir=...)"
+        f"{pin.named(found)} changed since the sweep in {sweep_dir} started: undo {change} and run the same "
+        f"command to finish the sweep, or start it again (delete {sweep_dir}, or sweep into another folder: "
+        "hydra.sweep.dir=...)"
     )
 
 

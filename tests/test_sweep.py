@@ -283,7 +283,7 @@ def test_a_change_after_the_first_job_stops_the_sweep_and_the_same_command_resum
     monkeypatch.setattr(pipeline, "run", run_then_change)
     stopped = mmocap_in_process(*args, cwd=tmp_path)
     line = assert_clean_error(stopped, named, f"the sweep in {sweep} started", "hydra.sweep.dir=")
-    assert "put it back and run the same command" in line
+    assert "undo the change and run the same command" in line
     assert len(records(sweep)) == 1, "the refused job wrote a record"
     assert not (sweep / "2").exists(), "the sweep went on after a job refused"
 

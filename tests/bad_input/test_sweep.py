@@ -48,7 +48,7 @@ def test_a_config_file_changed_while_the_jobs_run_stops_the_sweep(sequence_copy,
         env={"PYTHONPATH": str(REPOSITORY)},
     )
     line = assert_clean_error(outcome, "myconf/experiment/mine.yaml changed since the sweep", "hydra.sweep.dir=")
-    assert "put it back and run the same command" in line
+    assert "undo the change and run the same command" in line
     assert records(sweep) == []
 
 
