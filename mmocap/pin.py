@@ -27,6 +27,8 @@ CHECKOUT_PATHS = ("mmocap", "conf", "plugins", "pyproject.toml")
 PACKAGE = Path(__file__).resolve().parent
 #: folders never searched for code or configs, besides hidden ones (``.git``, a job's ``.hydra``)
 SKIPPED_FOLDERS = ("__pycache__",)
+#: files that are no config: what Hydra writes into a sweep's folder (a config folder may hold one, ``--config-dir .``)
+SKIPPED_FILES = ("multirun.yaml",)
 #: how many changed things a message names before it counts the rest
 NAMED = 3
 
@@ -36,10 +38,10 @@ def _digest(file: Traversable) -> str:
 
 
 def _files(folder: Traversable, prefix: str = "") -> Iterator[tuple[str, Traversable]]:
-    """``(relative path with '/', file)`` of every file under ``folder``, hidden and
-    :data:`SKIPPED_FOLDERS` folders left out."""
+    """``(relative path with '/', file)`` of every file under ``folder``, hidden ones,
+    :data:`SKIPPED_FILES` and those in hidden or :data:`SKIPPED_FOLDERS` folders left out."""
     for entry in sorted(folder.iterdir(), key=lambda e: e.name):
-        if entry.name.startswith(".") or entry.name in SKIPPED_FOLDERS:
+        if entry.name.startswith(".") or entry.name in SKIPPED_FOLDERS or entry.name in SKIPPED_FILES:
             continue
         if entry.is_dir():
             yield from _files(entry, f"{prefix}{entry.name}/")

@@ -36,6 +36,8 @@ def test_configs_digest_every_yaml_file_of_each_source_with_files(tmp_path):
     (tmp_path / "notes.txt").write_text("not a config\n")
     (tmp_path / ".hydra").mkdir()
     (tmp_path / ".hydra" / "config.yaml").write_text("a job's saved config\n")
+    (tmp_path / "sweep").mkdir()
+    (tmp_path / "sweep" / "multirun.yaml").write_text("what Hydra wrote when a sweep started\n")
     found = pin.configs([SHIPPED, ("file", str(tmp_path)), ("structured", "")])
     assert list(found) == ["pkg://mmocap.conf", f"file://{tmp_path}"]
     assert found[f"file://{tmp_path}"] == {"optimizer/mine.yaml": sha256(tmp_path / "optimizer" / "mine.yaml")}
