@@ -1,12 +1,13 @@
 """What a sweep is pinned to, so that every job of it runs the same: mmocap's code, every
 config file its jobs compose from, and the installed plugins and numerical packages.
 
-:func:`take` is recorded once in the sweep's ``sweep.json`` when the sweep starts, and every
-job takes it again and refuses to run when :func:`changes` finds a difference
-(:mod:`mmocap.sweep`). The config files are those of Hydra's config search path, given here
-as ``(schema, path)`` pairs (Hydra's ``hydra.runtime.config_sources``): every ``.yaml`` file
-under each ``pkg`` package and ``file`` folder. Digests are SHA-256 of the files' bytes, so
-a pin holds from a wheel (no git) as from a checkout.
+:func:`take` is recorded once in the sweep's ``sweep.json`` when the sweep first starts in
+its folder, and every job, and every later start in that folder, takes it again and refuses
+to run when :func:`changes` finds a difference (:mod:`mmocap.sweep`). The config files are
+those of Hydra's config search path, given here as ``(schema, path)`` pairs (Hydra's
+``hydra.runtime.config_sources``): every ``.yaml`` file under each ``pkg`` package and
+``file`` folder. Digests are SHA-256 of the files' bytes, so a pin holds from a wheel (no
+git) as from a checkout.
 """
 
 from __future__ import annotations
