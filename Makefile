@@ -107,7 +107,8 @@ table2: $(STAMP) ## Cano Table 2 for this machine: time per model-view per backe
 
 # Paper tables and figures: each runs (or resumes) its sweep into outputs/sweeps/<name>/<scale>/,
 # which ends by writing runs.csv and frames.csv there, then makes the table or figure.
-# SCALE=smoke|default|paper; SWEEP_ARGS adds overrides (e.g. hydra/launcher=slurm). The Cano
+# SCALE=smoke|default|paper; SWEEP_ARGS adds overrides (e.g. hydra/launcher=slurm, or
+# +allow_dirty=true: they refuse a checkout with uncommitted changes otherwise). The Cano
 # targets time their runs, so they run one job at a time.
 # The targets with a page in docs/results/ write their tables there too, at any SCALE but smoke.
 SCALE      ?= smoke
@@ -162,7 +163,7 @@ lossy: $(STAMP) ## Each sequence as a crf 23 and a lossless recording, tracked f
 
 fig5: $(STAMP) ## Cano Fig. 5: the tracked model over S1 walking, first and last of 20 frames (one run, any SCALE)
 	rm -rf outputs/fig5
-	$(MMOCAP) +experiment=fig5 progress=false
+	$(MMOCAP) +experiment=fig5 progress=false $(SWEEP_ARGS)
 	@mkdir -p outputs/figures
 	for f in outputs/fig5/overlays/*.png; do cp $$f outputs/figures/fig5_$$(basename $$f); done
 

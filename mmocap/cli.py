@@ -31,7 +31,7 @@ from hydra.utils import instantiate  # noqa: E402
 from omegaconf import DictConfig  # noqa: E402
 
 from mmocap.config import CONFIG_NAME, CONFIG_PATH, HYDRA_VERSION_BASE  # noqa: E402
-from mmocap.errors import DataError, MmocapError  # noqa: E402
+from mmocap.errors import ConfigError, DataError, MmocapError  # noqa: E402
 from mmocap.io import check_writable_folder, describe_os_error  # noqa: E402
 from mmocap.sweep import SweepProgress, job_overrides, unfinished_jobs  # noqa: E402
 
@@ -52,11 +52,22 @@ def _show_warning(message, category, filename, lineno, file=None, line=None) -> 
     print(f"mmocap: warning: {message}", file=sys.stderr)
 
 
+class JobRefused(BaseException):
+    """A sweep job that refused to start (its message is the one line to print). A
+    BaseException, so that it passes the launcher (from a joblib worker too) and Hydra's
+    error report, which would print a traceback, to :func:`guarded` in the launching
+    process: the line is printed once, however many jobs refuse at the same time."""
+
+
 def guarded(job):
-    """``job()``; a user error (also one Hydra wraps) becomes one line on stderr and exit 2."""
+    """``job()``; a user error (also one Hydra wraps, or a refused sweep job) becomes one line
+    on stderr and exit 2."""
     warnings.showwarning = _show_warning
     try:
         return job()
+    except JobRefused as refused:
+        print(f"mmocap: error: {refused}", file=sys.stderr)
+        raise SystemExit(2) from None
     except (MmocapError, InstantiationException, OSError) as exc:
         err = _user_error(exc)
         if err is None:
@@ -112,9 +123,19 @@ class SweepCallback(SweepProgress):
         guarded(lambda: SweepProgress.on_multirun_end(self, config, **kwargs))
 
     def on_run_start(self, config: DictConfig, **kwargs) -> None:
-        """A run folder (``hydra.run.dir``) that cannot be written ends the command with one
-        line, before Hydra writes its own files there."""
+        """A run folder (``hydra.run.dir``) that cannot be written, or a paper experiment from a
+        checkout with uncommitted changes, ends the command with one line, before Hydra writes
+        its own files there."""
         guarded(lambda: check_writable_folder(config.hydra.run.dir))
+        guarded(lambda: SweepProgress.on_run_start(self, config, **kwargs))
+
+    def on_job_start(self, config: DictConfig, **kwargs) -> None:
+        """A job whose code, configs or plugins changed since the sweep started refuses to run
+        (:class:`JobRefused`): the sweep ends with one line naming what changed and exit 2."""
+        try:
+            SweepProgress.on_job_start(self, config, **kwargs)
+        except ConfigError as exc:
+            raise JobRefused(str(exc)) from None
 
 
 def export_humaneva(args: list[str], prog: str) -> None:

@@ -26,6 +26,12 @@ def _version(package: str) -> str | None:
         return None
 
 
+@lru_cache(maxsize=1)
+def versions() -> dict[str, str | None]:
+    """The installed version of each of :data:`PACKAGES` (None where it is not installed)."""
+    return {p: _version(p) for p in PACKAGES}
+
+
 def _git(source: Path, *args) -> str | None:
     try:
         out = subprocess.run(["git", *args], cwd=source, capture_output=True, text=True, timeout=10)
@@ -48,16 +54,33 @@ def facts() -> dict:
     return {**_fixed_facts(), "opencl_checks": dict(_DEVICE_CHECKS)}
 
 
+def _checkout() -> Path | None:
+    """The source checkout mmocap runs from (the folder holding ``pyproject.toml`` and
+    ``mmocap/``), None for an installed wheel."""
+    source = Path(__file__).resolve().parent.parent
+    return source if (source / "pyproject.toml").is_file() and (source / "mmocap").is_dir() else None
+
+
+def changed_files(paths: tuple[str, ...]) -> list[str] | None:
+    """The files under ``paths`` (relative to the source checkout, e.g. ``("mmocap", "conf")``)
+    that differ from the checkout's commit, untracked ones included (``git status``), sorted;
+    None where mmocap does not run from a git checkout (an installed wheel)."""
+    source = _checkout()
+    status = None if source is None else _git(source, "status", "--porcelain", "--untracked-files=all", "--", *paths)
+    if status is None:
+        return None
+    return sorted(line.split(maxsplit=1)[1].split(" -> ")[-1].strip('"') for line in status.splitlines())
+
+
 @lru_cache(maxsize=1)
 def _fixed_facts() -> dict:
-    source = Path(__file__).resolve().parent.parent
-    in_checkout = (source / "pyproject.toml").is_file() and (source / "mmocap").is_dir()
-    commit = _git(source, "rev-parse", "HEAD") if in_checkout else None
-    dirty = _git(source, "status", "--porcelain", "--untracked-files=no") if commit else None
+    source = _checkout()
+    commit = _git(source, "rev-parse", "HEAD") if source is not None else None
+    dirty = _git(source, "status", "--porcelain", "--untracked-files=no") if source is not None and commit else None
     return {
         "git_commit": commit,
         "git_dirty": None if dirty is None else bool(dirty),
-        "versions": {p: _version(p) for p in PACKAGES},
+        "versions": versions(),
         "python": platform.python_version(),
         "host": socket.gethostname(),
         "platform": platform.platform(),

@@ -5,8 +5,16 @@ Configured in ``conf/config.yaml`` under ``hydra.callbacks``. For a multirun it
 - checks, before any job starts, that every optimiser and evaluator the sweep names
   (``optimizer.name=...``, ``evaluator.name=...``) is installed, and that the launcher can
   run its evaluators;
+- refuses to start from a source checkout with uncommitted changes when the config asks for
+  a clean one (``pin.require_clean``: the paper experiments), unless ``+allow_dirty=true``;
+  a single run of such an experiment too;
 - writes ``sweep.json`` into the sweep folder: the number of jobs, the command-line
-  overrides, the sweeper's parameters, the launcher, git commit, package versions, host;
+  overrides, the sweeper's parameters, the launcher, git commit, package versions, host,
+  the checkout's changed files, and the sweep's pin (:mod:`mmocap.pin`: digests of mmocap's
+  code and of every config file on Hydra's search path, plugin and package versions), taken
+  when the sweep first starts in that folder and kept when it is resumed;
+- refuses, before any job, to resume a sweep whose pin no longer holds, and each job (in the
+  launcher's worker process) refuses to run when it does not, naming what changed;
 - logs after each job how many runs of the sweep are done and about how long is left
   (jobs append a line to ``progress.jsonl``, so this works across processes and machines;
   a line torn by a crash or a full disk is skipped);
@@ -31,12 +39,13 @@ from hydra.experimental.callback import Callback
 from hydra.types import RunMode
 from omegaconf import DictConfig
 
-from mmocap import provenance, registry
+from mmocap import pin, provenance, registry
 from mmocap.analysis.results import ResultsStore, run_key, store_folder
 from mmocap.errors import ConfigError, DataError
 from mmocap.io import WriteError, append_line, read_json_lines, read_json_object, write_json_atomic
 from mmocap.preflight import check_config
 from mmocap.report.collect import collect
+from mmocap.validate import check_flag
 
 log = logging.getLogger(__name__)
 
@@ -97,14 +106,70 @@ def check_jobs(config: DictConfig) -> None:
             raise ConfigError(f"sweep job {number} ({' '.join(overrides)}): {exc}; no job was started") from None
 
 
+def config_sources(config: DictConfig) -> list[tuple[str, str]]:
+    """Hydra's config search path (``hydra.runtime.config_sources``) as ``(schema, path)``
+    pairs: ``("pkg", "mmocap.conf")``, ``("file", "/home/me/conf")`` ..."""
+    return [(str(source.schema), str(source.path)) for source in config.hydra.runtime.config_sources]
+
+
+def check_clean(config: DictConfig) -> list[str] | None:
+    """The source checkout's changed files (:func:`mmocap.pin.dirty_files`; None for an
+    installed wheel). ConfigError when there are some and the config asks for a clean
+    checkout (``pin.require_clean``: the paper experiments) without ``+allow_dirty=true``."""
+    required = check_flag("pin.require_clean", config.pin.require_clean)
+    allowed = check_flag("allow_dirty", config.get("allow_dirty", False))
+    dirty = pin.dirty_files()
+    if dirty and required and not allowed:
+        raise ConfigError(
+            f"pin.require_clean is set (a paper experiment), but the checkout has uncommitted changes "
+            f"({pin.named(dirty)}): commit them, or add +allow_dirty=true to run anyway (sweep.json "
+            "and the records then say so)"
+        )
+    return dirty
+
+
+def pin_refused(found: list[str], sweep_dir: Path | str) -> str:
+    """The one line that refuses a job or a resumed sweep whose pin no longer holds."""
+    change = "the change" if len(found) == 1 else "the changes"
+    return (
+        f"{pin.named(found)} changed since the sweep in {sweep_dir} started: undo {change} and run the same "
+        f"command to finish the sweep, or start it again (delete {sweep_dir}, or sweep into another folder: "
+        "hydra.sweep.dir=...)"
+    )
+
+
+def pinned(sweep_dir: Path) -> dict | None:
+    """The pin recorded in ``sweep_dir/sweep.json`` (None without one: a new sweep, or one
+    started before sweeps were pinned)."""
+    info_path = sweep_dir / "sweep.json"
+    return read_json_object(info_path).get("pin") if info_path.is_file() else None
+
+
+def check_pin(config: DictConfig, sweep_dir: Path) -> dict:
+    """The pin of the sweep in ``sweep_dir``: the one recorded there, if this process's
+    (:func:`mmocap.pin.take`) is the same, else a ConfigError naming what changed; this
+    process's where none is recorded."""
+    now = pin.take(config_sources(config))
+    recorded = pinned(sweep_dir)
+    if recorded is not None and (found := pin.changes(recorded, now)):
+        raise ConfigError(pin_refused(found, sweep_dir))
+    return recorded or now
+
+
 class SweepProgress(Callback):
-    """Provenance, progress and export of a multirun sweep (see module doc)."""
+    """Provenance, pin, progress and export of a multirun sweep (see module doc)."""
+
+    def on_run_start(self, config: DictConfig, **kwargs) -> None:
+        if config.pin.require_clean:
+            check_clean(config)
 
     def on_multirun_start(self, config: DictConfig, **kwargs) -> None:
         sweep_dir = Path(config.hydra.sweep.dir)
         values = sweep_overrides(config)
         check_sweep(config, values)
         check_jobs(config)
+        dirty = check_clean(config)
+        kept = check_pin(config, sweep_dir)
         total = math.prod(len(v) for v in values.values())
         sweep_dir.mkdir(parents=True, exist_ok=True)
         store = ResultsStore(store_folder(config, sweep_dir))
@@ -118,6 +183,9 @@ class SweepProgress(Callback):
             "sweeper_params": {k: str(v) for k, v in (config.hydra.sweeper.get("params") or {}).items()},
             "launcher": config.hydra.launcher.get("_target_"),
             "provenance": provenance.facts(),
+            "dirty_files": dirty,
+            "allow_dirty": bool(config.get("allow_dirty", False)),
+            "pin": kept,
         }
         write_json_atomic(sweep_dir / "sweep.json", info)
         log.info("sweep of %d runs into %s (%d records already in the store)", total, sweep_dir, already)
@@ -125,6 +193,7 @@ class SweepProgress(Callback):
     def on_job_start(self, config: DictConfig, **kwargs) -> None:
         if HydraConfig.get().mode != RunMode.MULTIRUN:
             return
+        check_pin(config, Path(HydraConfig.get().sweep.dir))
         run_id = run_key(config)
         stores = [store_folder(config, HydraConfig.get().sweep.dir), *config.results.reuse]  # type: ignore[arg-type]  # a str folder
         self.found = any(ResultsStore(folder).path(run_id).is_file() for folder in stores)

@@ -27,6 +27,7 @@ from pathlib import Path
 
 import cv2
 import numpy as np
+from hydra.experimental.callback import Callback
 from hypothesis import strategies as st
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.collections import PathCollection
@@ -246,6 +247,29 @@ def end_session(session: int, grace: float = 3.0) -> None:
         deadline = time.monotonic() + wait
         while session_processes(session) and time.monotonic() < deadline:
             time.sleep(0.1)
+
+
+#: the repository's root: ``PYTHONPATH`` of a subprocess that imports ``tests`` (a Hydra callback of this module)
+REPOSITORY = Path(__file__).resolve().parents[1]
+
+
+class EditAfterSweepStart(Callback):
+    """A Hydra callback that appends a comment to the file ``path`` once a sweep has started,
+    after mmocap's own callback has pinned the sweep: a config file edited while the sweep
+    runs. Added by the overrides :func:`edit_after_sweep_start` gives."""
+
+    def __init__(self, path: str) -> None:
+        self.path = Path(path)
+
+    def on_multirun_start(self, config, **kwargs) -> None:
+        with self.path.open("a") as file:
+            file.write("# edited after the sweep started\n")
+
+
+def edit_after_sweep_start(path: Path) -> list[str]:
+    """Overrides that add :class:`EditAfterSweepStart` of ``path`` to a sweep (a subprocess
+    needs ``PYTHONPATH`` = :data:`REPOSITORY`)."""
+    return [f"+hydra.callbacks.edit._target_={__name__}.EditAfterSweepStart", f"+hydra.callbacks.edit.path={path}"]
 
 
 def assert_clean_error(outcome: Outcome, *culprits: str) -> str:

@@ -39,6 +39,7 @@ LAYERS = [
             "mmocap.bitmask",
             "mmocap.config",
             "mmocap.provenance",
+            "mmocap.pin",
             "mmocap.video",
             "mmocap.run_folder",
             "mmocap",

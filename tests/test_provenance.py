@@ -44,3 +44,27 @@ def test_line_names_mmocap_the_commit_and_the_source():
     assert line.startswith("mmocap ")
     assert line.endswith("source runs.csv")
     assert f"commit {provenance.facts()['git_commit'][:10]}" in line
+
+
+def test_changed_files_are_the_uncommitted_and_untracked_files_under_the_paths(tmp_path, monkeypatch):
+    def git(*args):
+        subprocess.run(["git", *args], cwd=tmp_path, check=True, capture_output=True)
+
+    git("init", "-q")
+    for name in ("mmocap/a.py", "mmocap/b.py", "conf/x.yaml", "docs/page.md"):
+        (tmp_path / name).parent.mkdir(exist_ok=True)
+        (tmp_path / name).write_text("1\n")
+    git("add", ".")
+    git("-c", "user.name=t", "-c", "user.email=t@t", "commit", "-qm", "first")
+    monkeypatch.setattr(provenance, "_checkout", lambda: tmp_path)
+    assert provenance.changed_files(("mmocap", "conf")) == []
+    (tmp_path / "mmocap/a.py").write_text("2\n")
+    (tmp_path / "conf/new yaml.yaml").write_text("new\n")
+    (tmp_path / "docs/page.md").write_text("2\n")
+    git("mv", "mmocap/b.py", "mmocap/c.py")
+    assert provenance.changed_files(("mmocap", "conf")) == ["conf/new yaml.yaml", "mmocap/a.py", "mmocap/c.py"]
+
+
+def test_an_installed_wheel_has_no_changed_files(monkeypatch):
+    monkeypatch.setattr(provenance, "_checkout", lambda: None)
+    assert provenance.changed_files(("mmocap",)) is None

@@ -1,11 +1,16 @@
-"""Multirun sweeps end to end: launchers, resuming a killed sweep, progress, bad sweeps."""
+"""Multirun sweeps end to end: launchers, resuming a killed sweep, progress, bad sweeps, and
+the pin: code, config files and plugins that change under a sweep, and paper experiments
+from a checkout with uncommitted changes."""
 
 import fcntl
+import hashlib
 import importlib.metadata
+import importlib.resources
 import importlib.util
 import json
 import os
 import re
+import shutil
 import signal
 import subprocess
 import sys
@@ -17,9 +22,10 @@ import pandas as pd
 import pytest
 
 from mmocap import config as mmocap_config
+from mmocap import pin, pipeline
 from mmocap.analysis.results import SCHEMA
 from mmocap.sweep import unfinished_jobs
-from tests.helpers import mmocap, overrides
+from tests.helpers import assert_clean_error, mmocap, mmocap_in_process, overrides
 
 
 def sweep_args(data_root, sweep_dir, **extra):
@@ -54,6 +60,17 @@ def test_joblib_sweep_records_every_run_once_with_provenance(tiny_sequence, tmp_
     ).stdout.strip()
     assert info["provenance"]["git_commit"] == head  # run from this checkout: its commit
     assert info["provenance"]["versions"]["numpy"] == importlib.metadata.version("numpy")
+    shipped = Path(str(importlib.resources.files("mmocap.conf")))
+    config_digest = hashlib.sha256((shipped / "config.yaml").read_bytes()).hexdigest()
+    assert info["pin"]["configs"]["pkg://mmocap.conf"]["config.yaml"] == config_digest
+    assert (
+        info["pin"]["code"]["mmocap/sweep.py"]
+        == hashlib.sha256(Path(pin.__file__).with_name("sweep.py").read_bytes()).hexdigest()
+    )
+    assert info["pin"]["plugins"]["mmocap"] == importlib.metadata.version("mmocap")
+    assert info["pin"]["packages"] == info["provenance"]["versions"]
+    assert info["dirty_files"] == pin.dirty_files()
+    assert info["allow_dirty"] is False
     record = json.loads(records(sweep)[0].read_text())
     assert record["config"]["tracking"]["evaluations"] == 100
     assert record["provenance"]["host"]
@@ -66,6 +83,9 @@ def test_joblib_sweep_records_every_run_once_with_provenance(tiny_sequence, tmp_
     assert (again.stdout + again.stderr).count("already finished") == 2
     assert "sweep: 3/3 runs done (2 found in the store)" in again.stdout + again.stderr
     assert len(pd.read_csv(sweep / "runs.csv")) == 3
+    resumed = json.loads((sweep / "sweep.json").read_text())
+    assert resumed["session"] != info["session"]
+    assert resumed["pin"] == info["pin"]  # taken when the sweep first started, kept
 
 
 @pytest.mark.slow
@@ -132,6 +152,7 @@ def test_an_experiment_runs_on_the_tiny_sequence(tiny_sequence, tmp_path):
         "-m",
         "+experiment=fig10",
         "scale=smoke",
+        "+allow_dirty=true",  # a paper experiment, run from a working tree that may have changes
         *overrides(tiny_sequence.parent),
         "overlays=0",
         f"hydra.sweep.dir={sweep}",
@@ -251,3 +272,154 @@ def test_a_sweep_that_stops_on_a_failed_job_names_the_jobs_left(tiny_sequence, t
     assert line in out.stderr
     assert "Traceback" not in out.stderr
     assert len(records(sweep)) == 1
+
+
+# --- the pin: what changes under a sweep after its first job -----------------------------------
+
+
+def in_process_sweep(data_root: Path, sweep: Path, *extra: str, config_dir: Path | None = None) -> list[str]:
+    """A quick multirun of the tiny sequence whose jobs run in this process, one after another,
+    with the user's config folder ``config_dir`` (``--config-dir``) if given."""
+    settings = {"evaluator": "numpy", "body.vertices": 1000, "tracking.evaluations": 60}
+    options = ["--config-dir", str(config_dir)] if config_dir else []
+    return [*options, *sweep_args(data_root, sweep, **settings), "hydra/launcher=basic", *extra]
+
+
+# each: (tmp_path, monkeypatch) -> (the user's config folder or None, overrides, the change, its undoing,
+# the words naming it)
+
+
+def changed_config(tmp_path, monkeypatch):
+    """The user's experiment (``--config-dir``) gets another budget."""
+    mine = tmp_path / "myconf" / "experiment" / "mine.yaml"
+    mine.parent.mkdir(parents=True)
+    mine.write_text("# @package _global_\ntracking:\n  evaluations: 60\n")
+    before = mine.read_text()
+    return (
+        tmp_path / "myconf",
+        ["+experiment=mine"],
+        lambda: mine.write_text(before.replace("60", "70")),
+        lambda: mine.write_text(before),
+        "myconf/experiment/mine.yaml changed since",
+    )
+
+
+def changed_code(tmp_path, monkeypatch):
+    """A module of the package the jobs run is edited."""
+    package = tmp_path / "installed" / "mmocap"
+    shutil.copytree(pin.PACKAGE, package, ignore=shutil.ignore_patterns("__pycache__"))
+    monkeypatch.setattr(pin, "PACKAGE", package)
+    module = package / "pipeline.py"
+    before = module.read_text()
+    return (
+        None,
+        [],
+        lambda: module.write_text(before + "# edited\n"),
+        lambda: module.write_text(before),
+        "mmocap/pipeline.py changed",
+    )
+
+
+def upgraded_plugin(tmp_path, monkeypatch):
+    """A plugin registering an optimiser is upgraded from 1.0 to 2.0."""
+    site = tmp_path / "site"
+    site.mkdir()
+    monkeypatch.syspath_prepend(str(site))
+
+    def install(version: str) -> None:
+        for old in site.glob("*.dist-info"):
+            shutil.rmtree(old)
+        info = site / f"mmocap_fake-{version}.dist-info"
+        info.mkdir()
+        (info / "METADATA").write_text(f"Metadata-Version: 2.1\nName: mmocap-fake\nVersion: {version}\n")
+        (info / "entry_points.txt").write_text("[mmocap.optimizers]\nfake = mmocap.optimizers.cmaes:CMAES\n")
+
+    install("1.0")
+    return None, [], lambda: install("2.0"), lambda: install("1.0"), "plugin mmocap-fake (1.0, now 2.0) changed"
+
+
+CHANGES = [changed_config, changed_code, upgraded_plugin]
+
+
+@pytest.mark.parametrize("change", CHANGES, ids=[c.__name__ for c in CHANGES])
+def test_a_change_after_the_first_job_stops_the_sweep_and_the_same_command_resumes_once_undone(
+    tiny_sequence, tmp_path, monkeypatch, change
+):
+    config_dir, experiment, make_change, undo, named = change(tmp_path, monkeypatch)
+    sweep = tmp_path / "sweep"
+    args = in_process_sweep(tiny_sequence.parent, sweep, "seed=0,1,2", *experiment, config_dir=config_dir)
+    run = pipeline.run
+
+    def run_then_change(cfg, output_dir):
+        summary = run(cfg, output_dir)
+        make_change()
+        return summary
+
+    monkeypatch.setattr(pipeline, "run", run_then_change)
+    stopped = mmocap_in_process(*args, cwd=tmp_path)
+    line = assert_clean_error(stopped, named, f"the sweep in {sweep} started", "hydra.sweep.dir=")
+    assert "undo the change and run the same command" in line
+    assert len(records(sweep)) == 1, "the refused job wrote a record"
+    assert not (sweep / "2").exists(), "the sweep went on after a job refused"
+
+    monkeypatch.setattr(pipeline, "run", run)
+    undo()
+    resumed = mmocap_in_process(*args, cwd=tmp_path)
+    assert resumed.code == 0, resumed
+    assert "sweep: 3/3 runs done (1 found in the store)" in resumed.stdout + resumed.stderr
+    assert len(records(sweep)) == 3
+
+
+# --- paper experiments and the checkout's uncommitted changes --------------------------------
+
+
+def test_every_paper_experiment_requires_a_clean_checkout_and_the_demo_does_not():
+    for name in mmocap_config.options("experiment"):
+        required = mmocap_config.compose([f"+experiment={name}"]).pin.require_clean
+        assert required is (name != "demo"), name
+    assert mmocap_config.compose([]).pin.require_clean is False
+
+
+def test_a_sweep_requiring_a_clean_checkout_refuses_a_dirty_one_unless_allowed(tiny_sequence, tmp_path, monkeypatch):
+    monkeypatch.setattr(pin, "dirty_files", lambda: ["mmocap/pipeline.py"])
+    sweep = tmp_path / "sweep"
+    args = in_process_sweep(tiny_sequence.parent, sweep, "seed=0", "pin.require_clean=true")
+    refused = mmocap_in_process(*args, cwd=tmp_path)
+    assert_clean_error(refused, "uncommitted changes (mmocap/pipeline.py)", "+allow_dirty=true")
+    assert not (sweep / "sweep.json").exists()
+    assert not (sweep / "0").exists()
+
+    allowed = mmocap_in_process(*args, "+allow_dirty=true", cwd=tmp_path)
+    assert allowed.code == 0, allowed
+    info = json.loads((sweep / "sweep.json").read_text())
+    assert (info["allow_dirty"], info["dirty_files"]) == (True, ["mmocap/pipeline.py"])
+    (record,) = records(sweep)
+    assert json.loads(record.read_text())["config"]["allow_dirty"] is True
+
+
+@pytest.mark.parametrize("dirty", [[], None], ids=["clean checkout", "installed wheel"])
+def test_a_sweep_requiring_a_clean_checkout_runs_from_a_clean_one_or_a_wheel(
+    tiny_sequence, tmp_path, monkeypatch, dirty
+):
+    monkeypatch.setattr(pin, "dirty_files", lambda: dirty)
+    sweep = tmp_path / "sweep"
+    outcome = mmocap_in_process(*in_process_sweep(tiny_sequence.parent, sweep, "seed=0", "pin.require_clean=true"))
+    assert outcome.code == 0, outcome
+    info = json.loads((sweep / "sweep.json").read_text())
+    assert (info["allow_dirty"], info["dirty_files"]) == (False, dirty)
+
+
+def test_a_single_run_requiring_a_clean_checkout_refuses_a_dirty_one(tiny_sequence, tmp_path, monkeypatch):
+    monkeypatch.setattr(pin, "dirty_files", lambda: ["conf/config.yaml"])
+    run = [*overrides(tiny_sequence.parent), f"hydra.run.dir={tmp_path / 'run'}", "pin.require_clean=true"]
+    assert_clean_error(mmocap_in_process(*run), "uncommitted changes (conf/config.yaml)", "+allow_dirty=true")
+    assert not (tmp_path / "run" / "summary.json").exists()
+
+
+@pytest.mark.parametrize("value", ["maybe", "2"])
+def test_allow_dirty_is_true_or_false(tiny_sequence, tmp_path, value):
+    sweep = tmp_path / "sweep"
+    outcome = mmocap_in_process(
+        *in_process_sweep(tiny_sequence.parent, sweep, "pin.require_clean=true", f"+allow_dirty={value}")
+    )
+    assert_clean_error(outcome, "allow_dirty")

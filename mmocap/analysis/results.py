@@ -91,6 +91,8 @@ NOT_IN_KEY = (
     "export_options",
     "video",
     "plausibility",
+    "pin",
+    "allow_dirty",
 )
 
 RUN_COLUMNS = [

@@ -73,6 +73,7 @@ def test_run_key_ignores_outputs_and_presentation_only():
         ["results.reuse=[/y]"],
         ["hydra.run.dir=/elsewhere"],
         ["export=[trc]", "export_options.units=m", "export_options.frame=calibration"],
+        ["pin.require_clean=true", "+allow_dirty=true"],
     ):
         assert run_key(compose_config(*same)) == base, same
     changed = {

@@ -63,7 +63,8 @@ def test_the_sweep_tracks_every_recording_from_nothing_and_the_table_compares_th
     assert mmocap("lossy", "prepare", *setup, cwd=tmp_path).code == 0
     sweep = tmp_path / "sweep"
     cache = f"foreground_cache={tmp_path / 'cache'}"
-    run = mmocap("-m", "+experiment=lossy", *setup, *TINY_RUN, cache, f"hydra.sweep.dir={sweep}", cwd=tmp_path)
+    dirty = "+allow_dirty=true"  # a paper experiment, run from a working tree that may have changes
+    run = mmocap("-m", "+experiment=lossy", *setup, *TINY_RUN, cache, dirty, f"hydra.sweep.dir={sweep}", cwd=tmp_path)
     assert run.code == 0, run
     runs = pd.read_csv(sweep / "runs.csv")
     assert len(runs) == 2
