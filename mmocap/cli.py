@@ -67,7 +67,7 @@ def guarded(job):
         return job()
     except JobRefused as refused:
         print(f"mmocap: error: {refused}", file=sys.stderr)
-        raise SystemExit(2) from None
+        raise SystemExit(2) from refused  # its line says how to go on: main names no unfinished jobs
     except (MmocapError, InstantiationException, OSError) as exc:
         err = _user_error(exc)
         if err is None:
@@ -409,7 +409,7 @@ def main(argv: list[str] | None = None) -> None:
         try:
             guarded(lambda: command(args, f"mmocap {name}"))
         except SystemExit as end:
-            if end.code:
+            if end.code and not isinstance(end.__cause__, JobRefused):
                 _report_unfinished_jobs()
             raise
 
