@@ -220,6 +220,29 @@ def run_cli(*args) -> int:
     return 0
 
 
+def fault_sweep_command(sequence: Path, folder: Path, jobs: int, *launcher: str) -> list[str]:
+    """The command line of a sweep of ``jobs`` runs (seeds 0..jobs-1) of two frames each (about
+    a second a frame) on the synthetic ``sequence`` into ``folder``, with ``launcher``'s
+    overrides: what the fault tests interrupt."""
+    return [
+        sys.executable,
+        "-m",
+        "mmocap",
+        "-m",
+        f"seed={','.join(map(str, range(jobs)))}",
+        "dataset=folder",
+        f"dataset.root={sequence}",
+        "evaluator=numpy",
+        "body.vertices=1000",
+        "tracking.evaluations=3000",
+        "overlays=0",
+        "progress=false",
+        "foreground_cache=null",
+        f"hydra.sweep.dir={folder}",
+        *launcher,
+    ]
+
+
 def session_processes(session: int) -> list[int]:
     """Live (not zombie) processes of the session ``session`` (Linux ``/proc``): what is left of
     a command started with ``start_new_session=True``, whose pid is its session's id."""

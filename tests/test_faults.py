@@ -4,7 +4,6 @@ nothing is half-written, and the same command then runs exactly the missing jobs
 import json
 import signal
 import subprocess
-import sys
 import time
 from pathlib import Path
 
@@ -13,7 +12,7 @@ import pytest
 
 from mmocap.data.synthetic import generate
 from tests.helpers import TINY_BAD_INPUT as TINY
-from tests.helpers import session_processes
+from tests.helpers import fault_sweep_command, session_processes
 
 JOBS = 6
 
@@ -24,23 +23,7 @@ def sequence(tmp_path_factory) -> Path:
 
 
 def sweep_command(sequence: Path, folder: Path) -> list[str]:
-    return [
-        sys.executable,
-        "-m",
-        "mmocap",
-        "-m",
-        f"seed={','.join(map(str, range(JOBS)))}",
-        "dataset=folder",
-        f"dataset.root={sequence}",
-        "evaluator=numpy",
-        "body.vertices=1000",
-        "tracking.evaluations=3000",
-        "overlays=0",
-        "progress=false",
-        "foreground_cache=null",
-        f"hydra.sweep.dir={folder}",
-        "hydra.launcher.n_jobs=2",
-    ]
+    return fault_sweep_command(sequence, folder, JOBS, "hydra.launcher.n_jobs=2")
 
 
 def records(folder: Path) -> dict[str, float]:

@@ -25,7 +25,7 @@ from mmocap.data.synthetic import generate
 from mmocap.io import read_json_lines
 from mmocap.run_folder import FRAMES_PARTIAL, RUN_LOCK, SUMMARY
 from tests.helpers import TINY_BAD_INPUT as TINY
-from tests.helpers import end_session, session_processes
+from tests.helpers import end_session, fault_sweep_command, session_processes
 
 JOBS = 3
 #: the job whose worker is killed: it runs beside job 0, so that job 0 finishes either way
@@ -41,23 +41,7 @@ def sequence(tmp_path_factory) -> Path:
 
 def sweep_command(sequence: Path, folder: Path, *launcher: str) -> list[str]:
     """A sweep of JOBS runs of two frames each (about a second a frame) with ``launcher``."""
-    return [
-        sys.executable,
-        "-m",
-        "mmocap",
-        "-m",
-        f"seed={','.join(map(str, range(JOBS)))}",
-        "dataset=folder",
-        f"dataset.root={sequence}",
-        "evaluator=numpy",
-        "body.vertices=1000",
-        "tracking.evaluations=3000",
-        "overlays=0",
-        "progress=false",
-        "foreground_cache=null",
-        f"hydra.sweep.dir={folder}",
-        *launcher,
-    ]
+    return fault_sweep_command(sequence, folder, JOBS, *launcher)
 
 
 def kill_mid_job(sweep: subprocess.Popen, job_dir: Path) -> int:
