@@ -97,9 +97,28 @@ TOLERANCE = 0.01
 #: times each device
 SPEED_CANDIDATES = 16
 SPEED_REPEATS = 3
+#: the mask size (width, height px) whose rendering path ``mmocap list`` shows per device
+FULL_HD = (1920, 1080)
 # (evaluator class, devices, patch_scale, (local_size, lanes) per device) -> the test
 # scene's counts on the devices and with NumPy, (2, 3, 1) int64 each
 _CHECKED: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
+
+
+def band_rows(width: int, local_bytes: int) -> int:
+    """Rows of a ``width`` px wide mask that one band holds in ``local_bytes`` of local
+    memory: rows of :func:`~mmocap.evaluators.opencl_layout.pitch` words and the spare word,
+    rounded up to 8 words (the kernel reads the mask 8 words at a time); 0 if no row fits."""
+    return max(0, (local_bytes // 4 - 8) // pitch(width))
+
+
+def mask_path(width: int, height: int, local_bytes: int) -> str:
+    """How the kernel renders a ``width`` x ``height`` px mask with ``local_bytes`` of local
+    memory: ``"whole"`` (one work-group per view), ``"in b bands of r rows"`` or
+    ``"refused"`` (not even one row fits)."""
+    if pitch(width) * height + 1 <= local_bytes // 4:
+        return "whole"
+    rows = band_rows(width, local_bytes)
+    return f"in {-(-height // rows)} bands of {rows} rows" if rows else "refused"
 
 
 def default_lanes(device) -> int:
@@ -211,6 +230,9 @@ class OpenCLEvaluator(SilhouetteEvaluator):
             depend on it.
         accept_inexact: also run on a device whose self-check counts are within
             :data:`TOLERANCE` of NumPy's instead of equal (see the module's doc).
+        max_local_bytes: use at most this many bytes of local memory for the masks (None:
+            all the device has); less makes masks that would fit be rendered in bands
+            (:func:`mask_path`), with the same counts.
 
     Attributes:
         check: the self-check's outcome, ``"exact"`` or ``"within tolerance (largest
@@ -233,8 +255,12 @@ class OpenCLEvaluator(SilhouetteEvaluator):
         local_size: int | None = None,
         lanes: int | None = None,
         accept_inexact: bool = False,
+        max_local_bytes: int | None = None,
     ):
         super().__init__(patch_scale)
+        if max_local_bytes is not None and int(max_local_bytes) < 1:
+            raise ConfigError(f"max_local_bytes must be a positive number of bytes or null, got {max_local_bytes!r}")
+        self.max_local_bytes = None if max_local_bytes is None else int(max_local_bytes)
         self._device_queues = self._make_device_queues(platform, device, local_size, lanes)
         self._body_uploaded = None
         self._points_uploaded: tuple[np.ndarray, np.ndarray] | None = None
@@ -256,7 +282,7 @@ class OpenCLEvaluator(SilhouetteEvaluator):
     def _self_check(self, accept_inexact: bool) -> str:
         """Count :func:`check_scene` here and with NumPy (once per process and
         configuration); the outcome, also recorded in the provenance, or a ConfigError."""
-        key = (type(self), self.where, self.patch_scale)
+        key = (type(self), self.where, self.patch_scale, self.max_local_bytes)
         if key not in _CHECKED:
             body, camera, foreground, X = check_scene()
             with NumpyEvaluator(self.patch_scale) as reference:
@@ -345,17 +371,24 @@ class OpenCLEvaluator(SilhouetteEvaluator):
         self._mask_words = (mask + 7) // 8 * 8
         # words of local memory for the masks
         small = min(self._device_queues, key=lambda device_queue: device_queue.local_bytes)
-        room = small.local_bytes // 4
-        if mask > room:
-            big = max(self.cameras, key=lambda cam: pitch(cam.width) * cam.height)
-            raise ConfigError(
-                f"a {big.width}x{big.height} px mask needs {4 * mask} bytes of "
-                f"OpenCL local memory; {small.device.name.strip()!r} has "
-                f"{4 * room}: use smaller masks, a device with more local memory "
-                "(platform, device) or evaluator=numpy"
-            )
-        self._max_layers = min(MAX_LAYERS, (room - SINK_WORDS) // layer)
-        self._local_words = (max(mask, self._max_layers * layer + SINK_WORDS) + 7) // 8 * 8
+        room = min(small.local_bytes, self.max_local_bytes or small.local_bytes) // 4
+        if mask <= room:
+            self._bands, self._band_rows = 1, 0
+            self._max_layers = min(MAX_LAYERS, (room - SINK_WORDS) // layer)
+            self._local_words = (max(mask, self._max_layers * layer + SINK_WORDS) + 7) // 8 * 8
+        else:  # bands of rows of the widest mask, stamped directly
+            wide = max(self.cameras, key=lambda cam: cam.width)
+            self._band_rows = band_rows(wide.width, 4 * room)
+            if self._band_rows < 1:
+                raise ConfigError(
+                    f"a row of a {wide.width} px wide mask does not fit the {4 * room} bytes of "
+                    f"OpenCL local memory of {small.device.name.strip()!r}: use narrower masks, a "
+                    "device with more local memory (platform, device) or evaluator=numpy"
+                )
+            self._bands = -(-max(cam.height for cam in self.cameras) // self._band_rows)
+            self._max_layers = 0
+            self._local_words = pitch(wide.width) * self._band_rows + 8
+            log.info("OpenCL masks in %d bands of %d rows", self._bands, self._band_rows)
         shapes = np.array(
             [(cam.width, cam.height, c * self._mask_words) for c, cam in enumerate(self.cameras)], np.int32
         )
@@ -405,7 +438,7 @@ class OpenCLEvaluator(SilhouetteEvaluator):
         else:  # [R t] rows per joint
             rows_in = np.ascontiguousarray(body_transforms(self.body, X)[:, :, :3])
             rows_in = rows_in.reshape(n, J * 12)
-        counts = np.empty((n * C, 2), np.int32)
+        counts = np.empty((n * C, self._bands, 2), np.int32)
         masks = np.empty((n * C if write_masks else 1, self._mask_words), np.uint32)
         pixels = np.empty((n * C, points, 2), np.float32)
         if len(self._device_queues) == 1:
@@ -463,10 +496,13 @@ class OpenCLEvaluator(SilhouetteEvaluator):
                 point_joint,
                 point_rest,
                 pix,
+                np.int32(self._bands),
+                np.int32(self._band_rows),
             )
             device_queue.kernel.set_arg(_TRANSFORMS_ARG, rows)
+            groups = nV * self._bands
             cl.enqueue_nd_range_kernel(
-                device_queue.queue, device_queue.kernel, (nV * device_queue.local_size,), (device_queue.local_size,)
+                device_queue.queue, device_queue.kernel, (groups * device_queue.local_size,), (device_queue.local_size,)
             )
             copies = [cl.enqueue_copy(device_queue.queue, counts[views], out, is_blocking=False)]
             if write_masks:
@@ -476,7 +512,7 @@ class OpenCLEvaluator(SilhouetteEvaluator):
             events.append(copies)
         for copies in events:  # one wait per device: a wait may not mix contexts (platforms)
             cl.wait_for_events(copies)
-        return counts.reshape(n, C, 2), masks, pixels.reshape(n, C, points, 2)
+        return counts.sum(axis=1, dtype=np.int32).reshape(n, C, 2), masks, pixels.reshape(n, C, points, 2)
 
     def close(self) -> None:
         for device_queue in self._device_queues:
@@ -497,7 +533,7 @@ class MultiDeviceEvaluator(OpenCLEvaluator):
         devices: device indices on that (one) platform, or None for all of them.
         sub_devices: when the selection is a single CPU device, split it into this many
             PoCL sub-devices (None: one per compute unit), each with its own queue.
-        local_size, lanes, accept_inexact: as for :class:`OpenCLEvaluator`.
+        local_size, lanes, accept_inexact, max_local_bytes: as for :class:`OpenCLEvaluator`.
 
     Candidates go to the devices in proportion to their speed, measured on each frame's
     body, cameras and masks the first time a body is set up (:meth:`measure`): the best of
@@ -515,10 +551,11 @@ class MultiDeviceEvaluator(OpenCLEvaluator):
         local_size: int | None = None,
         lanes: int | None = None,
         accept_inexact: bool = False,
+        max_local_bytes: int | None = None,
     ):
         self._sub_devices = sub_devices
         self._measured_body = None
-        super().__init__(patch_scale, platform, devices, local_size, lanes, accept_inexact)
+        super().__init__(patch_scale, platform, devices, local_size, lanes, accept_inexact, max_local_bytes)
 
     def _make_device_queues(self, platform, devices, local_size, lanes) -> list[_DeviceQueue]:
         several = not isinstance(platform, (str, int, np.integer, type(None)))
@@ -604,7 +641,11 @@ def device_checks() -> list[str]:
             except ConfigError as err:
                 outcome = f"refused: {err}"
             else:
-                outcome = f"self-check {ev.check}"
+                local_bytes = ev._device_queues[0].local_bytes
+                outcome = (
+                    f"self-check {ev.check}; {local_bytes} bytes of local memory for masks: "
+                    f"{FULL_HD[0]}x{FULL_HD[1]} {mask_path(*FULL_HD, local_bytes)}"
+                )
             lines.append(f"[{i}] {p.name.strip()}: [{k}] {d.name.strip()}: {outcome}")
     return lines
 

@@ -5,7 +5,10 @@
 // One work-group of LOCAL_SIZE work-items per model-view g = candidate * C + camera: the
 // work-items share the view's vertices, stamp their patches into a bit mask in local
 // memory (1 bit per pixel, rows padded to 32-bit words) and count |M| and |M & F| with
-// popcounts against the camera's foreground bit mask, 8 words at a time.
+// popcounts against the camera's foreground bit mask, 8 words at a time. Where the largest
+// mask does not fit the local memory, each view's rows are split into bands of band_rows
+// rows, one work-group per band (stamped directly: a patch clipped to the band's rows sets
+// exactly their bits of the whole mask), and the host adds up each view's band counts.
 //
 // Compile-time constants, every one passed with -D by the host (build_options in
 // mmocap/evaluators/opencl_layout.py, their one owner; none is defined here): LOCAL_SIZE,
@@ -363,7 +366,7 @@ __attribute__((always_inline)) inline int setup_view(
     const int layer_words, const int lid, __local uint8 *mask, __local ViewTotals *totals,
     int *side_of, int *layers)
 {
-    int layered = 1;
+    int layered = max_layers > 0;
     *layers = 0;
     for (int j = 0; j < J; ++j) {
         const int s = patch_side(camera, T0 + 12 * j, joints + 4 * j);
@@ -461,18 +464,20 @@ __attribute__((always_inline)) inline void scatter_centres(
 }
 
 // Direct stamp of culling block blk: each kept vertex sets the bits of its s x s patch in
-// the mask (rows of pitch words); reach gets the rows they touched.
+// the mask (rows of pitch words) that holds image rows band_lo .. band_lo + height - 1,
+// clipped to them; reach gets the rows (of the band) they touched.
 __attribute__((always_inline)) inline void stamp_patches(
     __global const float *vertices, const int blk, const int all_facing, const float *a,
     const float *b, const int width, const int height, const int pitch, const int s,
-    __local uint *words, Reach *reach)
+    const int band_lo, __local uint *words, Reach *reach)
 {
     const int before = (s - 1) / 2, after = s / 2;
     for (int v = BLOCK * blk; v < BLOCK * (blk + 1); v += LANES) {
         intV keep;
         floatV tu, tw;
         if (!project_lanes(vertices, v, all_facing, a, b, &keep, &tu, &tw)) continue;
-        const intV cx = floor_int(tu), cy = floor_int(tw);
+        // rows relative to the band's first (|floor| <= CLAMP_PX: no overflow)
+        const intV cx = floor_int(tu), cy = floor_int(tw) - band_lo;
         if (s > 32) {  // large patches (a body part close to the camera): one by one
             for (int i = 0; i < LANES; ++i)
                 if (LANE(int, keep, i))
@@ -628,31 +633,45 @@ void silhouette_counts(
                                        // its row (pitch words), each camera's followed by
                                        // zeros to mask_words
     const int C, const int J,          // cameras, joints
-    __local uint8 *mask,               // the largest camera's mask + 1 spare word, or
-                                       // max_layers of its padded layers (see PAD)
+    __local uint8 *mask,               // the largest camera's mask (with bands > 1: a band
+                                       // of band_rows rows) + 1 spare word, or max_layers
+                                       // of its padded layers (see PAD)
     const int max_layers,              // 0 .. MAX_LAYERS
-    __global int *counts,              // (nV, 2) |M|, |M & F|
+    __global int *counts,              // (nV, bands, 2) |M|, |M & F| of each band
     const int write_masks, const int mask_words, // mask_words: a multiple of 8
     __global uint *masks_out,          // (nV, mask_words) when write_masks != 0
     const int K,                       // model points whose pixels to write, 0: none
     __global const int *point_joint,   // (K,) the joint each point rides on
     __global const float *point_rest,  // (K, 3) its rest position (mm)
-    __global float *pixels)            // (nV, K, 2) u, v (px) of each point, NaN behind
+    __global float *pixels,            // (nV, K, 2) u, v (px) of each point, NaN behind
+    const int bands,                   // work-groups per view: 1, or the bands (max_layers 0)
+    const int band_rows)               // rows of each band (with bands > 1)
 {
     __local ViewTotals totals;
-    const int g = get_group_id(0), lid = get_local_id(0), c = g % C;
+    // work-group gb: band gb % bands of model-view g = candidate * C + camera; a band holds
+    // image rows band_lo .. band_lo + height - 1 of the mask, stamped directly (patches clipped
+    // to them: no halo), and counts them against the same rows of the foreground
+    const int gb = get_group_id(0), lid = get_local_id(0), g = gb / bands, c = g % C;
     __global const double *camera = cameras + 16 * c, *T0 = transforms + (g / C) * J * 12;
-    __global const uint *f = fg + shapes[3 * c + 2];
-    const int width = shapes[3 * c], height = shapes[3 * c + 1];
+    const int width = shapes[3 * c], full_height = shapes[3 * c + 1];
+    const int band_lo = (gb % bands) * band_rows;
+    const int height = bands == 1 ? full_height : MIN(band_rows, full_height - band_lo);
     const int stride = (width + 31) / 32;                               // words of a row
     const int pitch = (stride + PITCH_WORDS - 1) / PITCH_WORDS * PITCH_WORDS;  // words per row
     // padded layer: (height + 2 PAD) rows of pstride words
     const int pstride = (stride + COUNT_WORDS) / COUNT_WORDS * COUNT_WORDS;
     const int layer_words = pstride * (height + 2 * PAD);
+    __global const uint *f = fg + shapes[3 * c + 2] + band_lo * pitch;
     __local uint *words = (__local uint *)mask;
 
-    // the model points (none unless asked: K = 0), from the transforms at hand
-    project_points(camera, T0, K, point_joint, point_rest, lid, pixels + 2 * K * g);
+    // the model points (none unless asked: K = 0), from the transforms at hand, by the
+    // view's first band
+    if (band_lo == 0)
+        project_points(camera, T0, K, point_joint, point_rest, lid, pixels + 2 * K * g);
+    if (height <= 0) {  // a band below a smaller camera's last row: nothing to count
+        if (lid == 0) counts[2 * gb] = counts[2 * gb + 1] = 0;
+        return;
+    }
 
     // setup
     int side_of[MAX_LAYERS], layers;  // the distinct patch sides, one per layer
@@ -684,8 +703,8 @@ void silhouette_counts(
                 scatter_centres(vertices, blk, all_facing, a, b, width, height, pstride,
                                 32 * l * layer_words, sink, words, &pending, &reach);
             else
-                stamp_patches(vertices, blk, all_facing, a, b, width, height, pitch, s, words,
-                              &reach);
+                stamp_patches(vertices, blk, all_facing, a, b, width, height, pitch, s, band_lo,
+                              words, &reach);
         }
     }
     if (layered) set_bits(words, &pending);
@@ -709,9 +728,9 @@ void silhouette_counts(
     barrier(CLK_LOCAL_MEM_FENCE);
     if (write_masks && !layered)
         for (int k = lid; k < pitch * height; k += LOCAL_SIZE)
-            masks_out[g * mask_words + k] = words[k];
-    if (lid == 0) {
-        counts[2 * g] = totals.model_px;
-        counts[2 * g + 1] = totals.overlap_px;
+            masks_out[g * mask_words + band_lo * pitch + k] = words[k];
+    if (lid == 0) {  // per band: the host adds a view's bands up
+        counts[2 * gb] = totals.model_px;
+        counts[2 * gb + 1] = totals.overlap_px;
     }
 }
