@@ -332,6 +332,12 @@ class OpenCLEvaluator(SilhouetteEvaluator):
         return any(device_queue.device.type & cpu for device_queue in self._device_queues)
 
     @property
+    def bands(self) -> tuple[int, int]:
+        """(bands per view, rows per band) of the masks set up now: (1, the tallest mask's
+        rows) when every mask fits the local memory whole (see :func:`mask_path`)."""
+        return self._bands, self._band_rows
+
+    @property
     def devices(self) -> list:
         """The OpenCL devices the population is split over."""
         return [device_queue.device for device_queue in self._device_queues]
@@ -373,7 +379,7 @@ class OpenCLEvaluator(SilhouetteEvaluator):
         small = min(self._device_queues, key=lambda device_queue: device_queue.local_bytes)
         room = min(small.local_bytes, self.max_local_bytes or small.local_bytes) // 4
         if mask <= room:
-            self._bands, self._band_rows = 1, 0
+            self._bands, self._band_rows = 1, max(cam.height for cam in self.cameras)
             self._max_layers = min(MAX_LAYERS, (room - SINK_WORDS) // layer)
             self._local_words = (max(mask, self._max_layers * layer + SINK_WORDS) + 7) // 8 * 8
         else:  # bands of rows of the widest mask, stamped directly

@@ -43,6 +43,7 @@ def test_no_platform_is_a_config_error_that_says_what_to_install():
         ({"platform": "no-such-vendor"}, r"no OpenCL platform matches platform='no-such-vendor'"),
         ({"local_size": 0}, r"local_size must be in \[1, \d+\]"),
         ({"lanes": 2}, r"lanes must be 4, 8 or 16 .*got 2"),
+        ({"max_local_bytes": 0}, r"max_local_bytes must be a positive number of bytes or null, got 0"),
     ],
 )
 def test_bad_device_selection_names_the_value(kwargs, message):
@@ -337,19 +338,83 @@ def test_an_inexact_device_runs_only_within_the_tolerance_and_when_asked():
         FarOff(accept_inexact=True)
 
 
-def test_a_mask_larger_than_local_memory_says_what_to_change(monkeypatch):
+def test_a_mask_row_larger_than_local_memory_says_what_to_change(monkeypatch):
     from mmocap.camera import Camera
 
     ev = opencl.OpenCLEvaluator()
-    monkeypatch.setattr(ev._device_queues[0], "local_bytes", 32768)  # a GPU's 32 KB
+    monkeypatch.setattr(ev._device_queues[0], "local_bytes", 200)  # less than a 1920 px row
     hd = Camera.look_at("hd", (0, 500, 3000), (0, 400, 0), 1500.0, 1920, 1080)
     with pytest.raises(
         ConfigError,
-        match=r"a 1920x1080 px mask needs 276484 bytes of OpenCL local memory; "
-        r".* has 32768: use smaller masks, a device with more local "
-        r"memory \(platform, device\) or evaluator=numpy",
+        match=r"a row of a 1920 px wide mask does not fit the 200 bytes of OpenCL local memory of "
+        r".*: use narrower masks, a device with more local memory \(platform, device\) or evaluator=numpy",
     ):
         ev.setup(BlobBody(), [hd], [np.zeros((1080, 1920), bool)])
+
+
+@pytest.mark.parametrize(
+    ("width", "height", "local_bytes", "path"),
+    [
+        (640, 480, 46084, "whole"),  # 24 words a row, and the spare word
+        (640, 480, 46080, "in 2 bands of 479 rows"),
+        (1920, 1080, 32768, "in 9 bands of 127 rows"),  # 64 words a row, 8 spare words
+        (1920, 1080, 287, "refused"),
+    ],
+)
+def test_the_mask_path_follows_the_local_memory(width, height, local_bytes, path):
+    assert opencl.mask_path(width, height, local_bytes) == path
+
+
+def hd_scene():
+    """Cameras of three sizes (320x240, 200x150, 1920x1080 close up) and a foreground with
+    holes; the blob's test poses."""
+    from mmocap.camera import Camera
+    from mmocap.testing.evaluators import FRONT, SMALL
+
+    hd = Camera.look_at("hd", (0, 500, 1500), (0, 400, 0), 1500.0, 1920, 1080)
+    cameras = (FRONT, SMALL, hd)
+    rng = np.random.default_rng(3)
+    with opencl.NumpyEvaluator() as ev:
+        ev.setup(BlobBody(), cameras, [np.zeros((cam.height, cam.width), bool) for cam in cameras])
+        foreground = [
+            ev.render(test_poses()[4], c) & (rng.random((cam.height, cam.width)) < 0.8) for c, cam in enumerate(cameras)
+        ]
+    return cameras, foreground
+
+
+@pytest.mark.parametrize("local_size", [1, 32])
+@pytest.mark.parametrize("max_local_bytes", [300, 4000, 40000])
+def test_masks_in_bands_count_render_and_project_as_the_whole_mask_bit_for_bit(local_size, max_local_bytes):
+    from mmocap.testing.evaluators import blob_keypoints
+
+    cameras, foreground = hd_scene()
+    setup = (BlobBody(), cameras, foreground, blob_keypoints("front-side-near"))  # 3 cameras' keypoints
+    X = np.concatenate([test_poses(), test_poses()[:4] + np.r_[0, 0, 300.0, np.zeros(5)]])
+    with opencl.NumpyEvaluator() as reference:
+        reference.setup(*setup)
+        expected = reference.counts_and_pixels(X)
+    with opencl.OpenCLEvaluator(local_size=local_size) as whole:
+        whole.setup(*setup)
+        assert whole.bands == (1, 1080)
+        unbanded = whole.counts_and_pixels(X)
+        rendered = [whole.render(X[4], c) for c in range(len(cameras))]
+    with opencl.OpenCLEvaluator(local_size=local_size, max_local_bytes=max_local_bytes) as banded:
+        banded.setup(*setup)
+        bands, rows = banded.bands
+        got = banded.counts_and_pixels(X)
+        for c, mask in enumerate(rendered):
+            np.testing.assert_array_equal(banded.render(X[4], c), mask)
+    assert bands == -(-1080 // rows) > 1
+    for mask in rendered if rows < 100 else rendered[2:]:  # the body crosses band boundaries
+        spanned = np.flatnonzero(mask.any(axis=1))
+        assert spanned[0] // rows < spanned[-1] // rows
+    for counts, whole_counts, numpy_counts in zip(got[:2], unbanded[:2], expected[:2]):
+        np.testing.assert_array_equal(counts, whole_counts)
+        np.testing.assert_array_equal(counts, numpy_counts)
+    assert expected[1].max() > 0
+    # the model points' pixels: float32 bits, NaN behind a camera
+    np.testing.assert_array_equal(got[2].view(np.uint32), expected[2].view(np.uint32))
+    np.testing.assert_array_equal(got[2].view(np.uint32), unbanded[2].view(np.uint32))
 
 
 def test_a_work_group_larger_than_the_kernel_allows_is_a_config_error(monkeypatch):
