@@ -2,23 +2,28 @@
 
 The host computes, once per body, the vertex arrays and culling cones
 (:mod:`mmocap.evaluators.opencl_layout`), and per call the body's joint transforms
-(``body.transforms``), unless the body has a
-:class:`~mmocap.body.kinematics.KinematicChain` (``body.chain``, as ``BodyModel`` has): then
-the kernel ``joint_transforms`` computes them from the joint angles' cosines and sines in
-the chain's float64 order: the same bits, for a fraction of the host time the transforms
-take on the host. The kernel ``silhouette_counts``
+(``body.transforms``), unless the body has a :class:`~mmocap.body.kinematics.KinematicChain`
+(``body.chain``, as ``BodyModel`` has): then the kernel ``joint_transforms`` computes them
+from the joint angles' cosines and sines in the chain's float64 order: the same bits, for a
+fraction of the host time the transforms take on the host. The kernel ``silhouette_counts``
 (``kernels/silhouette.cl``) does the rest: steps 1-2 and the coefficients in the float64
 order of ``view_geometry``, steps 3-6 in the rule's float32 arithmetic, one work-group per
 (candidate, camera) pair, each with its own bit mask in local memory (1 bit per pixel:
-46 080 bytes for 640x480, rows padded to 8 words), so no two work-groups ever write the
-same memory. The work-group size and the local memory are the device's and the built
-kernel's limits; masks larger than that local memory are a ConfigError that says so. The
-foreground masks are uploaded once per frame as bit masks and counted against with
-popcounts. With the keypoint term (:meth:`~SilhouetteEvaluator.counts_and_pixels`), the same
-launch also writes the pixels of the frame's model points (joint and rest position,
-uploaded when they change), from the joint transforms it has at hand; the host reads them
-back with the counts. The per-block culling bounds need double precision
-(``cl_khr_fp64``): PoCL on CPUs and current GPUs have it.
+46 080 bytes for 640x480, rows padded to 8 words), so no two work-groups ever write the same
+memory. The work-group size and the local memory are the device's and the built kernel's
+limits. Masks larger than that local memory (a 1920x1080 mask needs 270 KB, a GPU has 32 to
+64 KB) are rendered in horizontal bands of as many rows as fit (:func:`mask_path`; ``mmocap
+list`` shows each device's path for a full-HD mask), one work-group per (candidate, camera,
+band): each band stamps every patch clipped to its rows (no halo: a patch's rows in the band
+are exactly those of the whole mask) and counts them, and the host adds the bands' counts
+up, equal to those of the whole mask. Only a mask whose single row does not fit is a
+ConfigError that says so. The foreground masks are uploaded once per frame as bit masks and
+counted against with popcounts. With the keypoint term
+(:meth:`~SilhouetteEvaluator.counts_and_pixels`), the same launch also writes the pixels of
+the frame's model points (joint and rest position, uploaded when they change), from the
+joint transforms it has at hand; the host reads them back with the counts. The per-block
+culling bounds need double precision (``cl_khr_fp64``): PoCL on CPUs and current GPUs have
+it.
 
 Self-check: every evaluator counts a fixed test scene (:func:`check_scene`: a ball in a
 64x48 camera, in the middle, near a corner and half out of the image) on its devices and

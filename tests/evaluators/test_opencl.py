@@ -2,6 +2,7 @@
 
 import functools
 import os
+import re
 import subprocess
 import sys
 
@@ -436,6 +437,10 @@ def test_mmocap_list_shows_each_devices_self_check():
     assert done.returncode == 0, done.stderr
     assert "OpenCL devices, self-checked against numpy" in done.stdout
     assert ": self-check exact" in done.stdout
+    # each device's rendering path for a full-HD mask
+    assert re.search(
+        r"self-check exact; \d+ bytes of local memory for masks: 1920x1080 (whole|in \d+ bands)", done.stdout
+    )
 
 
 @pytest.mark.parametrize(
