@@ -429,6 +429,36 @@ __attribute__((always_inline)) inline int block_may_face(__global const double *
     return 1;
 }
 
+// Whether the culling block with this cone may stamp a patch (side s) into image rows
+// row_lo .. row_hi (a band), for A = a of joint_coefficients: the image row of a point of
+// its sphere (centre c, radius r) is N / D for N = A[1] . (x, 1) and D = A[2] . (x, 1),
+// within N(c) +- r |A[1]'s first 3| and D(c) +- r |A[2]'s first 3|, so between the smallest
+// and the largest of the four quotients of those bounds where D's lower bound is past the
+// near plane (else 1: no bound). The margin holds the float32 rounding of the kernel's u, v:
+// a few units in the last place of the terms' magnitudes over the depth, here far more.
+__attribute__((always_inline)) inline int block_meets_rows(__global const double *cone,
+                                                           const float *a, const int s,
+                                                           const int row_lo, const int row_hi)
+{
+    const double r = cone[8], x = cone[5], y = cone[6], z = cone[7];
+    if (!(r < INFINITY)) return 1;  // a block with normals over a half space: r = inf
+    const double a4 = a[4], a5 = a[5], a6 = a[6], a8 = a[8], a9 = a[9], a10 = a[10];
+    const double num = ((a4 * x + a5 * y) + a6 * z) + a[7];
+    const double den = ((a8 * x + a9 * y) + a10 * z) + a[11];
+    const double num_r = r * sqrt(a4 * a4 + a5 * a5 + a6 * a6);
+    const double den_r = r * sqrt(a8 * a8 + a9 * a9 + a10 * a10);
+    const double near = den - den_r, far = den + den_r;
+    if (!(near > NEAR_MM)) return 1;
+    const double low = num - num_r, high = num + num_r;
+    const double v_lo = MIN(low / near, low / far), v_hi = MAX(high / near, high / far);
+    const double ax = fabs(x) + r, ay = fabs(y) + r, az = fabs(z) + r;
+    const double num_size = fabs(a4) * ax + fabs(a5) * ay + fabs(a6) * az + fabs((double)a[7]);
+    const double den_size = fabs(a8) * ax + fabs(a9) * ay + fabs(a10) * az + fabs((double)a[11]);
+    const double margin = 2.0 + 1e-5 * (num_size + MAX(fabs(v_lo), fabs(v_hi)) * den_size) / near;
+    // centre rows floor(v + 0.5), patch rows from centre - (s - 1) / 2 to centre + s / 2
+    return v_hi + 0.5 + margin + s / 2 >= row_lo && v_lo + 0.5 - margin - (s - 1) / 2 <= row_hi + 1;
+}
+
 // Layered scatter of culling block blk: each kept vertex whose centre lies in the padded
 // layer sets one bit, at its centre, in the layer at bit address layer_bit; reach gets the
 // centres' padded rows and columns. The bit addresses of the last vector of centres wait in
@@ -699,6 +729,8 @@ void silhouette_counts(
              blk += LOCAL_SIZE) {
             int all_facing;
             if (!block_may_face(cones + 10 * blk, b, &all_facing)) continue;
+            if (bands > 1 && !block_meets_rows(cones + 10 * blk, a, s, band_lo, band_lo + height - 1))
+                continue;
             if (layered)
                 scatter_centres(vertices, blk, all_facing, a, b, width, height, pstride,
                                 32 * l * layer_words, sink, words, &pending, &reach);
