@@ -9,10 +9,11 @@ is pointed at the platform (``OCL_ICD_VENDORS``, read at first use):
 
 Both are in the dev extra (``make install``); a platform that is not installed is skipped
 with the reason. Each case counts a scene with NumPy and on the platform and asks for equal
-counts; the cases cover work-group sizes 1 to 256, lanes 4, 8 and 16, and the full
-27 393-vertex mesh. The keypoint cases also ask for the model points' pixels of NumPy, bit
-for bit (NaN behind a camera), and its hybrid fitness: the blob's points with work-groups
-of 1 and 64, and the mesh's 17 model points, whose transforms the device computes.
+counts; the cases cover work-group sizes 1 to 256, lanes 4, 8 and 16, the full
+27 393-vertex mesh, and masks in bands of 15 rows. The keypoint cases also ask for the
+model points' pixels of NumPy, bit for bit (NaN behind a camera), and its hybrid fitness:
+the blob's points with work-groups of 1 and 64 (and 64 in bands), and the mesh's 17 model
+points, whose transforms the device computes.
 Oclgrind runs the kernel thousands of times slower than a device: the scenes are small.
 """
 
@@ -45,8 +46,12 @@ CASES = (
     + [("mesh-27393", {"scene": "mesh", "local_size": 64, "lanes": None})]
     + [(f"keypoints-work-group-{k}", {"scene": "blob", "local_size": k, "lanes": None}) for k in (1, 64)]
     + [("keypoints-mesh-27393", {"scene": "mesh", "local_size": 64, "lanes": None})]
+    + [(f"bands-work-group-{k}", {"scene": "blob", "local_size": k, "lanes": None, "bands": True}) for k in (1, 64)]
+    + [("keypoints-bands-work-group-64", {"scene": "blob", "local_size": 64, "lanes": None, "bands": True})]
 )
-CASES = [(name, {**case, "keypoints": name.startswith("keypoints")}) for name, case in CASES]
+# the masks of the bands cases in bands of 15 rows (max_local_bytes), as a GPU's full-HD masks
+BANDS_LOCAL_BYTES = 1000
+CASES = [(name, {"bands": False, **case, "keypoints": name.startswith("keypoints")}) for name, case in CASES]
 KEYPOINT_CASES = [name for name, case in CASES if case["keypoints"]]
 
 # Runs the cases on the platform named by argv[1] (JSON list of CASES' settings in argv[2]);
@@ -99,7 +104,8 @@ for case in json.loads(sys.argv[2]):
     with registry.make_evaluator("numpy") as reference:
         expected = evaluate(reference, setup, X)
     before = os.path.getsize(log) if log and os.path.exists(log) else 0
-    ev = OpenCLEvaluator(platform=sys.argv[1], local_size=case["local_size"], lanes=case["lanes"])
+    ev = OpenCLEvaluator(platform=sys.argv[1], local_size=case["local_size"], lanes=case["lanes"],
+                         max_local_bytes=int(sys.argv[3]) if case["bands"] else None)
     got = evaluate(ev, setup, X)
     ev.close()
     reports = ""
@@ -108,7 +114,7 @@ for case in json.loads(sys.argv[2]):
             f.seek(before)
             reports = f.read()
     print(json.dumps({"got": got[0], "expected": expected[0], "pixels": got[1], "expected_pixels": expected[1],
-                      "fitness": got[2], "expected_fitness": expected[2], "check": ev.check,
+                      "fitness": got[2], "expected_fitness": expected[2], "check": ev.check, "bands": ev.bands,
                       "reports": reports}), flush=True)
 """
 
@@ -145,7 +151,7 @@ def child(platform: str, folder: Path) -> subprocess.CompletedProcess:
     """The child process that runs every case on the platform."""
     settings = [case for _, case in CASES]
     return subprocess.run(
-        [sys.executable, "-c", CHILD, PLATFORMS[platform][2], json.dumps(settings)],
+        [sys.executable, "-c", CHILD, PLATFORMS[platform][2], json.dumps(settings), str(BANDS_LOCAL_BYTES)],
         capture_output=True,
         text=True,
         env=child_env(platform, folder),
@@ -173,6 +179,7 @@ def test_the_kernel_counts_exactly_as_numpy(platform, case, folder):
     result = run_case(platform, case, folder)
     assert result["check"] == "exact"
     assert result["got"] == result["expected"]
+    assert (result["bands"] == [16, 15]) == dict(CASES)[case]["bands"]  # 240 rows
 
 
 @pytest.mark.parametrize("platform", [pytest.param(p, id=p) for p in sorted(PLATFORMS)])
