@@ -120,7 +120,7 @@ def mask_path(width: int, height: int, local_bytes: int) -> str:
     """How the kernel renders a ``width`` x ``height`` px mask with ``local_bytes`` of local
     memory: ``"whole"`` (one work-group per view), ``"in b bands of r rows"`` or
     ``"refused"`` (not even one row fits)."""
-    if pitch(width) * height + 1 <= local_bytes // 4:
+    if pitch(width) * height + 8 <= local_bytes // 4:  # with the spare word, in whole uint8
         return "whole"
     rows = band_rows(width, local_bytes)
     return f"in {-(-height // rows)} bands of {rows} rows" if rows else "refused"
@@ -383,7 +383,7 @@ class OpenCLEvaluator(SilhouetteEvaluator):
         # words of local memory for the masks
         small = min(self._device_queues, key=lambda device_queue: device_queue.local_bytes)
         room = min(small.local_bytes, self.max_local_bytes or small.local_bytes) // 4
-        if mask <= room:
+        if self._mask_words <= room:
             self._bands, self._band_rows = 1, max(cam.height for cam in self.cameras)
             self._max_layers = min(MAX_LAYERS, (room - SINK_WORDS) // layer)
             self._local_words = (max(mask, self._max_layers * layer + SINK_WORDS) + 7) // 8 * 8

@@ -356,8 +356,8 @@ def test_a_mask_row_larger_than_local_memory_says_what_to_change(monkeypatch):
 @pytest.mark.parametrize(
     ("width", "height", "local_bytes", "path"),
     [
-        (640, 480, 46084, "whole"),  # 24 words a row, and the spare word
-        (640, 480, 46080, "in 2 bands of 479 rows"),
+        (640, 480, 46112, "whole"),  # 24 words a row, the spare word rounded up to 8
+        (640, 480, 46108, "in 2 bands of 479 rows"),
         (1920, 1080, 32768, "in 9 bands of 127 rows"),  # 64 words a row, 8 spare words
         (1920, 1080, 287, "refused"),
     ],
