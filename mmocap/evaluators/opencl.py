@@ -385,7 +385,8 @@ class OpenCLEvaluator(SilhouetteEvaluator):
         room = min(small.local_bytes, self.max_local_bytes or small.local_bytes) // 4
         if self._mask_words <= room:
             self._bands, self._band_rows = 1, max(cam.height for cam in self.cameras)
-            self._max_layers = min(MAX_LAYERS, (room - SINK_WORDS) // layer)
+            # layers and sink within the room rounded down to 8 words: rounded up, they still fit
+            self._max_layers = min(MAX_LAYERS, (room // 8 * 8 - SINK_WORDS) // layer)
             self._local_words = (max(mask, self._max_layers * layer + SINK_WORDS) + 7) // 8 * 8
         else:  # bands of rows of the widest mask, stamped directly
             wide = max(self.cameras, key=lambda cam: cam.width)
