@@ -86,6 +86,10 @@ class BoxTransform:
         self._end = upper + self.margin_upper
         self._period = 2 * (self._end - self._start)
         self._period_end = self._start + self._period
+        # the map's constants, computed once: each call is a dozen small array operations
+        self._twice_end = 2 * self._end
+        self._four_margin_lower = 4 * self.margin_lower
+        self._four_margin_upper = 4 * self.margin_upper
         # where the map is the identity (every candidate of a tracked frame, measured)
         self._identity = (lower + self.margin_lower, upper - self.margin_upper)
 
@@ -100,12 +104,12 @@ class BoxTransform:
     def __call__(self, Y: np.ndarray) -> np.ndarray:
         """Images (..., D) in the box of the genotypes Y (..., D)."""
         inner_low, inner_high = self._identity
-        if np.all((Y >= inner_low) & (Y <= inner_high)):  # the same values, without the work
+        if ((Y >= inner_low) & (Y <= inner_high)).all():  # the same values, without the work
             return Y
         Y = self.base_period(Y)
-        Y = np.where(Y > self._end, 2 * self._end - Y, Y)
-        low = self.lower + (Y - self._start) ** 2 / (4 * self.margin_lower)
-        high = self.upper - (Y - self._end) ** 2 / (4 * self.margin_upper)
+        Y = np.where(Y > self._end, self._twice_end - Y, Y)
+        low = self.lower + (Y - self._start) ** 2 / self._four_margin_lower
+        high = self.upper - (Y - self._end) ** 2 / self._four_margin_upper
         X = np.where(Y < inner_low, low, Y)
         return np.where(Y > inner_high, high, X)
 
@@ -220,6 +224,7 @@ class CMAES(PopulationOptimizer):
         self._C = np.eye(dim)
         self._B = np.eye(dim)
         self._D = np.ones(dim)
+        self._condition = 1.0  # cond(C) from D, (max D / min D)^2, kept with D
         self._p_sigma = np.zeros(dim)
         self._p_c = np.zeros(dim)
         self._updates = 0
@@ -241,7 +246,7 @@ class CMAES(PopulationOptimizer):
     def _learn(self, X: np.ndarray, f: np.ndarray) -> None:
         # bounds="clip": clipped coordinates re-normalised, the others keep their exact sampled value
         z = self._z if self.bounds == "transform" else np.where(X != self._x, self.to_unit(X), self._z)
-        order = np.argsort(f, kind="stable")
+        order = f.argsort(kind="stable")
         self._last_f = f
         self._best_history.append(float(f[order[0]]))
         del self._best_history[: -self._history_len]
@@ -287,6 +292,8 @@ class CMAES(PopulationOptimizer):
         if self._updates - self._eigen_updates >= self._eigen_gap:
             eigenvalues, self._B = np.linalg.eigh(self._C)
             self._D = np.sqrt(np.maximum(eigenvalues, 0.0))
+            d_min = float(self._D.min())
+            self._condition = math.inf if d_min == 0 else float((self._D.max() / d_min) ** 2)
             self._eigen_updates = self._updates
 
     def _reasons(self) -> dict[str, float]:
@@ -304,8 +311,6 @@ class CMAES(PopulationOptimizer):
             )
             if f_range < self.tolfun:
                 reasons["tolfun"] = f_range
-        d_min = float(self._D.min())
-        condition = math.inf if d_min == 0 else float((self._D.max() / d_min) ** 2)
-        if condition > _MAX_CONDITION:
-            reasons["conditioncov"] = condition
+        if self._condition > _MAX_CONDITION:
+            reasons["conditioncov"] = self._condition
         return reasons
