@@ -108,10 +108,13 @@ class BoxTransform:
             return Y
         Y = self.base_period(Y)
         Y = np.where(Y > self._end, self._twice_end - Y, Y)
-        low = self.lower + (Y - self._start) ** 2 / self._four_margin_lower
-        high = self.upper - (Y - self._end) ** 2 / self._four_margin_upper
-        X = np.where(Y < inner_low, low, Y)
-        return np.where(Y > inner_high, high, X)
+        below, above = Y < inner_low, Y > inner_high
+        X = Y
+        if below.any():  # a search at a bound seldom reaches the other one: its side is skipped
+            X = np.where(below, self.lower + (Y - self._start) ** 2 / self._four_margin_lower, X)
+        if above.any():
+            X = np.where(above, self.upper - (Y - self._end) ** 2 / self._four_margin_upper, X)
+        return X
 
     def inverse(self, X: np.ndarray) -> np.ndarray:
         """A genotype (..., D) in ``[lower - a_l, upper + a_u]`` of each point X (..., D) of
