@@ -233,6 +233,12 @@ class CMAES(PopulationOptimizer):
         self._updates = 0
         self._eigen_updates = 0  # self._updates when B and D were last computed from C
         self._eigen_gap = LAZY_EIGEN / (p.c_cov * dim)
+        # the update's scalar factors (Fig. 4), the same every generation
+        self._sigma_path_gain = math.sqrt(p.c_sigma * (2 - p.c_sigma) * p.mu_eff)
+        self._cov_path_gain = math.sqrt(p.c_c * (2 - p.c_c) * p.mu_eff)
+        self._h_sigma_limit = (1.4 + 2 / (p.dim + 1)) * p.chi_n
+        self._c_one = p.c_cov / p.mu_cov
+        self._c_mu = p.c_cov - self._c_one
         self._best_history: list[float] = []
         self._history_len = 10 + math.ceil(30 * dim / p.lam)
         self._last_f = np.empty(0)
@@ -272,22 +278,18 @@ class CMAES(PopulationOptimizer):
         y_w = p.weights @ y
         self._mean = self._mean + self._sigma * y_w
         inv_sqrt_C_y_w = self._B @ ((self._B.T @ y_w) / self._D)
-        self._p_sigma = (1 - p.c_sigma) * self._p_sigma + math.sqrt(
-            p.c_sigma * (2 - p.c_sigma) * p.mu_eff
-        ) * inv_sqrt_C_y_w
+        self._p_sigma = (1 - p.c_sigma) * self._p_sigma + self._sigma_path_gain * inv_sqrt_C_y_w
         self._updates += 1
         norm_p_sigma = math.sqrt(self._p_sigma @ self._p_sigma)
         bias = math.sqrt(1 - (1 - p.c_sigma) ** (2 * self._updates))
-        h_sigma = norm_p_sigma / bias < (1.4 + 2 / (p.dim + 1)) * p.chi_n
-        self._p_c = (1 - p.c_c) * self._p_c + h_sigma * math.sqrt(p.c_c * (2 - p.c_c) * p.mu_eff) * y_w
-        c_one = p.c_cov / p.mu_cov
-        c_mu = p.c_cov - c_one
+        h_sigma = norm_p_sigma / bias < self._h_sigma_limit
+        self._p_c = (1 - p.c_c) * self._p_c + h_sigma * self._cov_path_gain * y_w
         rank_one = np.multiply.outer(self._p_c, self._p_c)
         if not h_sigma:  # Hansen's compensation for the p_c update stalled by h_sigma
             rank_one += p.c_c * (2 - p.c_c) * self._C
         C = (1 - p.c_cov) * self._C
-        C += c_one * rank_one
-        C += c_mu * (y.T * p.weights) @ y
+        C += self._c_one * rank_one
+        C += self._c_mu * (y.T * p.weights) @ y
         C += C.T  # symmetric despite rounding
         C /= 2
         self._C = C
