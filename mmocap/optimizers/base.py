@@ -122,7 +122,7 @@ class PopulationOptimizer(ABC):
         asked = self._pending
         X = np.asarray(X)
         f = np.asarray(f, dtype=float)
-        if X.shape != asked.shape or not np.array_equal(X, asked):
+        if X.shape != asked.shape or not (X == asked).all():
             raise ValueError(f"tell() needs exactly the {asked.shape} array that ask() returned, got shape {X.shape}")
         if f.shape != (X.shape[0],):
             raise ValueError(f"tell() needs fitness of shape ({X.shape[0]},), got {f.shape}")
@@ -131,7 +131,7 @@ class PopulationOptimizer(ABC):
         self._pending = None
         self.evaluations += X.shape[0]
         self.iterations += 1
-        best = int(np.argmin(f))
+        best = int(f.argmin())
         if f[best] < self._fbest:
             self._fbest = float(f[best])
             self._xbest = asked[best].copy()

@@ -86,6 +86,10 @@ class BoxTransform:
         self._end = upper + self.margin_upper
         self._period = 2 * (self._end - self._start)
         self._period_end = self._start + self._period
+        # the map's constants, computed once: each call is a dozen small array operations
+        self._twice_end = 2 * self._end
+        self._four_margin_lower = 4 * self.margin_lower
+        self._four_margin_upper = 4 * self.margin_upper
         # where the map is the identity (every candidate of a tracked frame, measured)
         self._identity = (lower + self.margin_lower, upper - self.margin_upper)
 
@@ -100,14 +104,17 @@ class BoxTransform:
     def __call__(self, Y: np.ndarray) -> np.ndarray:
         """Images (..., D) in the box of the genotypes Y (..., D)."""
         inner_low, inner_high = self._identity
-        if np.all((Y >= inner_low) & (Y <= inner_high)):  # the same values, without the work
+        if ((Y >= inner_low) & (Y <= inner_high)).all():  # the same values, without the work
             return Y
         Y = self.base_period(Y)
-        Y = np.where(Y > self._end, 2 * self._end - Y, Y)
-        low = self.lower + (Y - self._start) ** 2 / (4 * self.margin_lower)
-        high = self.upper - (Y - self._end) ** 2 / (4 * self.margin_upper)
-        X = np.where(Y < inner_low, low, Y)
-        return np.where(Y > inner_high, high, X)
+        Y = np.where(Y > self._end, self._twice_end - Y, Y)
+        below, above = Y < inner_low, Y > inner_high
+        X = Y
+        if below.any():  # a search at a bound seldom reaches the other one: its side is skipped
+            X = np.where(below, self.lower + (Y - self._start) ** 2 / self._four_margin_lower, X)
+        if above.any():
+            X = np.where(above, self.upper - (Y - self._end) ** 2 / self._four_margin_upper, X)
+        return X
 
     def inverse(self, X: np.ndarray) -> np.ndarray:
         """A genotype (..., D) in ``[lower - a_l, upper + a_u]`` of each point X (..., D) of
@@ -220,11 +227,18 @@ class CMAES(PopulationOptimizer):
         self._C = np.eye(dim)
         self._B = np.eye(dim)
         self._D = np.ones(dim)
+        self._condition = 1.0  # cond(C) from D, (max D / min D)^2, kept with D
         self._p_sigma = np.zeros(dim)
         self._p_c = np.zeros(dim)
         self._updates = 0
         self._eigen_updates = 0  # self._updates when B and D were last computed from C
         self._eigen_gap = LAZY_EIGEN / (p.c_cov * dim)
+        # the update's scalar factors (Fig. 4), the same every generation
+        self._sigma_path_gain = math.sqrt(p.c_sigma * (2 - p.c_sigma) * p.mu_eff)
+        self._cov_path_gain = math.sqrt(p.c_c * (2 - p.c_c) * p.mu_eff)
+        self._h_sigma_limit = (1.4 + 2 / (p.dim + 1)) * p.chi_n
+        self._c_one = p.c_cov / p.mu_cov
+        self._c_mu = p.c_cov - self._c_one
         self._best_history: list[float] = []
         self._history_len = 10 + math.ceil(30 * dim / p.lam)
         self._last_f = np.empty(0)
@@ -241,7 +255,7 @@ class CMAES(PopulationOptimizer):
     def _learn(self, X: np.ndarray, f: np.ndarray) -> None:
         # bounds="clip": clipped coordinates re-normalised, the others keep their exact sampled value
         z = self._z if self.bounds == "transform" else np.where(X != self._x, self.to_unit(X), self._z)
-        order = np.argsort(f, kind="stable")
+        order = f.argsort(kind="stable")
         self._last_f = f
         self._best_history.append(float(f[order[0]]))
         del self._best_history[: -self._history_len]
@@ -264,22 +278,18 @@ class CMAES(PopulationOptimizer):
         y_w = p.weights @ y
         self._mean = self._mean + self._sigma * y_w
         inv_sqrt_C_y_w = self._B @ ((self._B.T @ y_w) / self._D)
-        self._p_sigma = (1 - p.c_sigma) * self._p_sigma + math.sqrt(
-            p.c_sigma * (2 - p.c_sigma) * p.mu_eff
-        ) * inv_sqrt_C_y_w
+        self._p_sigma = (1 - p.c_sigma) * self._p_sigma + self._sigma_path_gain * inv_sqrt_C_y_w
         self._updates += 1
         norm_p_sigma = math.sqrt(self._p_sigma @ self._p_sigma)
         bias = math.sqrt(1 - (1 - p.c_sigma) ** (2 * self._updates))
-        h_sigma = norm_p_sigma / bias < (1.4 + 2 / (p.dim + 1)) * p.chi_n
-        self._p_c = (1 - p.c_c) * self._p_c + h_sigma * math.sqrt(p.c_c * (2 - p.c_c) * p.mu_eff) * y_w
-        c_one = p.c_cov / p.mu_cov
-        c_mu = p.c_cov - c_one
+        h_sigma = norm_p_sigma / bias < self._h_sigma_limit
+        self._p_c = (1 - p.c_c) * self._p_c + h_sigma * self._cov_path_gain * y_w
         rank_one = np.multiply.outer(self._p_c, self._p_c)
         if not h_sigma:  # Hansen's compensation for the p_c update stalled by h_sigma
             rank_one += p.c_c * (2 - p.c_c) * self._C
         C = (1 - p.c_cov) * self._C
-        C += c_one * rank_one
-        C += c_mu * (y.T * p.weights) @ y
+        C += self._c_one * rank_one
+        C += self._c_mu * (y.T * p.weights) @ y
         C += C.T  # symmetric despite rounding
         C /= 2
         self._C = C
@@ -287,6 +297,8 @@ class CMAES(PopulationOptimizer):
         if self._updates - self._eigen_updates >= self._eigen_gap:
             eigenvalues, self._B = np.linalg.eigh(self._C)
             self._D = np.sqrt(np.maximum(eigenvalues, 0.0))
+            d_min = float(self._D.min())
+            self._condition = math.inf if d_min == 0 else float((self._D.max() / d_min) ** 2)
             self._eigen_updates = self._updates
 
     def _reasons(self) -> dict[str, float]:
@@ -304,8 +316,6 @@ class CMAES(PopulationOptimizer):
             )
             if f_range < self.tolfun:
                 reasons["tolfun"] = f_range
-        d_min = float(self._D.min())
-        condition = math.inf if d_min == 0 else float((self._D.max() / d_min) ** 2)
-        if condition > _MAX_CONDITION:
-            reasons["conditioncov"] = condition
+        if self._condition > _MAX_CONDITION:
+            reasons["conditioncov"] = self._condition
         return reasons
