@@ -90,7 +90,7 @@ class BoxTransform:
         self._twice_end = 2 * self._end
         self._four_margin_lower = 4 * self.margin_lower
         self._four_margin_upper = 4 * self.margin_upper
-        # where the map is the identity (every candidate of a tracked frame, measured)
+        # where the map is the identity (most coordinates of a tracked frame; joints at a limit are not)
         self._identity = (lower + self.margin_lower, upper - self.margin_upper)
 
     def base_period(self, Y: np.ndarray) -> np.ndarray:
