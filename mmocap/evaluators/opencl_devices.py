@@ -7,9 +7,9 @@ be used here, with what to install.
 
 Devices: ``platform`` is an index into ``pyopencl.get_platforms()`` or a case-insensitive
 part of a platform's name (``"portable"`` for PoCL, ``"nvidia"``, ``"intel"``), None for the
-first platform that has a device and is not a simulator (:data:`SIMULATORS`: Oclgrind, which
-checks the kernel's memory accesses hundreds of times slower than a device runs it, is
-chosen by name only); ``device`` is an index into that platform's devices. PoCL, the
+first platform that has a GPU, else the first that has a device, never a simulator
+(:data:`SIMULATORS`: Oclgrind, which checks the kernel's memory accesses hundreds of times
+slower than a device runs it, is chosen by name only); ``device`` is an index into that platform's devices. PoCL, the
 CPU platform, comes from PyPI (``pocl-binary-distribution``), so a machine without any
 system OpenCL driver still has one. No platform, or an index that does not exist, is a
 :class:`~mmocap.errors.ConfigError` that lists what there is: there is no silent fallback
@@ -115,13 +115,16 @@ def describe(found) -> str:
 
 
 def select_platform(platform):
-    """A platform by index, by part of its name, or (None) the first with a device that is
-    not one of the :data:`SIMULATORS`."""
+    """A platform by index, by part of its name, or (None) the first that has a GPU, else the
+    first with any device (PoCL's CPU), never one of the :data:`SIMULATORS`: on a machine with a
+    GPU driver beside PoCL the GPU runs whatever order the ICD loader lists them in."""
     found = platforms()
     if platform is None:
-        for p in found:
-            if p.get_devices() and not any(name in p.name.lower() for name in SIMULATORS):
-                return p
+        real = [p for p in found if p.get_devices() and not any(name in p.name.lower() for name in SIMULATORS)]
+        gpu = pyopencl().device_type.GPU
+        with_gpu = [p for p in real if any(d.type & gpu for d in p.get_devices())]
+        if with_gpu or real:
+            return (with_gpu or real)[0]
         raise ConfigError(
             f"no OpenCL platform has a device ({describe(found)}); install with: "
             "pip install pocl-binary-distribution (a CPU platform), or a GPU's "

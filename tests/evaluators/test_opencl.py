@@ -518,3 +518,22 @@ def counted(function, calls, name, *args, **kwargs):
     """``function`` that counts its calls in ``calls[name]``."""
     calls[name] += 1
     return function(*args, **kwargs)
+
+
+def test_platform_null_takes_a_gpu_whatever_order_the_loader_lists_the_platforms_in(monkeypatch):
+    from types import SimpleNamespace
+
+    cl = opencl_devices.pyopencl()
+
+    def platform(name, *types):
+        devices = [SimpleNamespace(type=t, name=f"{name} device") for t in types]
+        return SimpleNamespace(name=name, get_devices=lambda: devices)
+
+    simulator, pocl = (
+        platform("Oclgrind", cl.device_type.GPU),
+        platform("Portable Computing Language", cl.device_type.CPU),
+    )
+    nvidia = platform("NVIDIA CUDA", cl.device_type.GPU)
+    for listed, chosen in (([simulator, pocl, nvidia], nvidia), ([nvidia, pocl], nvidia), ([simulator, pocl], pocl)):
+        monkeypatch.setattr(opencl_devices, "platforms", lambda listed=listed: listed)
+        assert opencl_devices.select_platform(None) is chosen
