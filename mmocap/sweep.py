@@ -206,7 +206,7 @@ class SweepProgress(Callback):
         if not info_path.is_file():
             return
         info = read_json_object(info_path)
-        ran = not self.found and job_return.status == JobStatus.COMPLETED
+        ran = not self.found and job_return.status == JobStatus.COMPLETED and self.recorded_here(config)
         line = {
             "session": info["session"],
             "job": HydraConfig.get().job.num,
@@ -219,6 +219,13 @@ class SweepProgress(Callback):
             log.warning("sweep progress not shown: %s", exc)
             return
         log.info(progress_line(sweep_dir / "progress.jsonl", info))
+
+    @staticmethod
+    def recorded_here(config: DictConfig) -> bool:
+        """Whether this job's run folder made the run's record: not so for a job that waited for
+        the record of another sweep running the same run into a shared store."""
+        record = ResultsStore(store_folder(config, HydraConfig.get().sweep.dir)).get(run_key(config))
+        return record is not None and Path(record["output_dir"]) == Path(HydraConfig.get().runtime.output_dir)
 
     def on_multirun_end(self, config: DictConfig, **kwargs) -> None:
         folder = store_folder(config, config.hydra.sweep.dir)

@@ -223,6 +223,8 @@ def test_two_sweeps_into_one_store_at_once_run_each_job_once(tiny_sequence, tmp_
     assert sorted(ran) == sorted(set(ran)), f"a run was run twice: {ran}"
     assert len(ran) == 4
     assert len(found) == 3
+    counted = [line["ran"] for name in "ab" for line in map(json.loads, (tmp_path / name / "progress.jsonl").open())]
+    assert sum(counted) == 4, f"the progress lines count {sum(counted)} runs as run, not the 4 that were"
     by_seed = {}
     for path in records(store):
         record = json.loads(path.read_text())
