@@ -175,6 +175,8 @@ ADDED_KEYS = (
             "start.keypoint_*",
         ),
     ),
+    # the OpenCL evaluators' cap on local memory (masks in bands): without a cap, the device's
+    AddedKey("evaluator.max_local_bytes", (ABSENT, None)),
 )
 
 
