@@ -21,7 +21,11 @@ ConfigError that says so. The foreground masks are uploaded once per frame as bi
 counted against with popcounts. With the keypoint term
 (:meth:`~SilhouetteEvaluator.counts_and_pixels`), the same launch also writes the pixels of
 the frame's model points (joint and rest position, uploaded when they change), from the
-joint transforms it has at hand; the host reads them back with the counts. The per-block
+joint transforms it has at hand; the host reads them back with the counts. A call is, per
+device, one launch of each kernel and the read-backs of what was asked for, with one wait;
+the poses go in a buffer made and filled with the call (far quicker than a write into a
+kept one, which PoCL runs as a command of its own), and the kernels' arguments are set
+again only when the frame's buffers or the kept output buffers change. The per-block
 culling bounds need double precision (``cl_khr_fp64``): PoCL on CPUs and current GPUs have
 it.
 
