@@ -168,7 +168,7 @@ class _DeviceQueue:
         self.queue = cl.CommandQueue(ctx, device)
         self.frame: dict = {}  # name -> pyopencl.Buffer
         self.batch: dict = {}  # name -> (bytes, pyopencl.Buffer)
-        self.bound: dict = {}  # each kernel's key of its arguments, see bind
+        self.bound: dict = {}  # each kernel's key of its arguments, see stale
         self.uploads = 0  # calls of upload so far: the frame's buffers change with it
         # the kernel's point and pixel arguments when it writes no pixels (K = 0)
         self.no_points = cl.Buffer(ctx, cl.mem_flags.READ_WRITE, 64)
@@ -193,6 +193,7 @@ class _DeviceQueue:
             self.kernel = self.cl.Kernel(built, "silhouette_counts")
             self.kinematics = self.cl.Kernel(built, "joint_transforms")
             self.block = block
+            self.bound = {}  # new kernels have no arguments set (and may reuse old ones' handles)
 
     def upload(self, **arrays: np.ndarray) -> None:
         """Read-only buffers kept until replaced (per frame, or per body)."""
