@@ -504,8 +504,8 @@ class OpenCLEvaluator(SilhouetteEvaluator):
             )
             if self._chain is not None:
                 rows = device_queue.buffer("transforms", (b - a) * J * 12 * 8)
-                chain = device_queue.frame["chain"]
                 if device_queue.stale(device_queue.kinematics, (device_queue.uploads, rows, b - a)):
+                    chain = device_queue.frame["chain"]
                     device_queue.kinematics.set_args(None, chain, np.int32(b - a), np.int32(J), rows)
                 device_queue.kinematics.set_arg(_POSES_ARG, given)
                 cl.enqueue_nd_range_kernel(device_queue.queue, device_queue.kinematics, (b - a,), (1,))
