@@ -21,7 +21,11 @@ ConfigError that says so. The foreground masks are uploaded once per frame as bi
 counted against with popcounts. With the keypoint term
 (:meth:`~SilhouetteEvaluator.counts_and_pixels`), the same launch also writes the pixels of
 the frame's model points (joint and rest position, uploaded when they change), from the
-joint transforms it has at hand; the host reads them back with the counts. The per-block
+joint transforms it has at hand; the host reads them back with the counts. A call is, per
+device, one launch of each kernel and the read-backs of what was asked for, with one wait;
+the poses go in a buffer made and filled with the call (far quicker than a write into a
+kept one, which PoCL runs as a command of its own), and the kernels' arguments are set
+again only when the frame's buffers or the kept output buffers change. The per-block
 culling bounds need double precision (``cl_khr_fp64``): PoCL on CPUs and current GPUs have
 it.
 
@@ -164,7 +168,8 @@ class _DeviceQueue:
         self.queue = cl.CommandQueue(ctx, device)
         self.frame: dict = {}  # name -> pyopencl.Buffer
         self.batch: dict = {}  # name -> (bytes, pyopencl.Buffer)
-        self.bound: dict = {}  # each kernel's arguments, see bind
+        self.bound: dict = {}  # each kernel's key of its arguments, see stale
+        self.uploads = 0  # calls of upload so far: the frame's buffers change with it
         # the kernel's point and pixel arguments when it writes no pixels (K = 0)
         self.no_points = cl.Buffer(ctx, cl.mem_flags.READ_WRITE, 64)
         self.block = 0
@@ -188,22 +193,25 @@ class _DeviceQueue:
             self.kernel = self.cl.Kernel(built, "silhouette_counts")
             self.kinematics = self.cl.Kernel(built, "joint_transforms")
             self.block = block
+            self.bound = {}  # new kernels have no arguments set (and may reuse old ones' handles)
 
     def upload(self, **arrays: np.ndarray) -> None:
         """Read-only buffers kept until replaced (per frame, or per body)."""
         cl = self.cl
         flags = cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR
         self.frame.update({k: cl.Buffer(self.ctx, flags, hostbuf=np.ascontiguousarray(a)) for k, a in arrays.items()})
+        self.uploads += 1
 
-    def bind(self, kernel, *args) -> None:
-        """Set a kernel's arguments unless they are its last call's (the same buffer objects,
-        equal values): setting them costs about as much as a small copy. The buffer that is
-        new with every call (None here) is set by the caller."""
-        key = [a.size if isinstance(a, self.cl.LocalMemory) else a for a in args]
-        bound = self.bound.get(kernel.int_ptr, [])
-        if len(key) != len(bound) or not all(map(self.same, key, bound)):
-            kernel.set_args(*args)
-            self.bound[kernel.int_ptr] = key
+    def stale(self, kernel, key: tuple) -> bool:
+        """Whether ``kernel``'s arguments must be set: ``key`` (the frame's :attr:`uploads`,
+        the per-call buffers and the values the arguments name) differs from its last call's,
+        which it becomes. Setting them costs about as much as a small copy, and building and
+        comparing them one by one a good part of a call. The buffer that is new with every
+        call is set by the caller either way."""
+        if self.bound.get(kernel.int_ptr) == key:
+            return False
+        self.bound[kernel.int_ptr] = key
+        return True
 
     def buffer(self, name: str, nbytes: int):
         """A per-call buffer of at least ``nbytes``, grown as needed."""
@@ -213,14 +221,6 @@ class _DeviceQueue:
             buf = self.cl.Buffer(self.ctx, self.cl.mem_flags.READ_WRITE, size)
             self.batch[name] = (size, buf)
         return buf
-
-    def same(self, a, b) -> bool:
-        """Identity for OpenCL buffers, equality for other kernel arguments."""
-        if a is b:  # most arguments of a call: the frame's buffers
-            return True
-        if isinstance(a, self.cl.MemoryObject) or isinstance(b, self.cl.MemoryObject):
-            return a is b
-        return a == b
 
 
 class OpenCLEvaluator(SilhouetteEvaluator):
@@ -441,6 +441,37 @@ class OpenCLEvaluator(SilhouetteEvaluator):
         bits = np.unpackbits(words.view(np.uint8), axis=1, bitorder="little")
         return bits[:, : cam.width].astype(bool)
 
+    def _counting_arguments(self, device_queue: _DeviceQueue, out, img, pix, write_masks: bool, points: int) -> tuple:
+        """``silhouette_counts``' arguments on ``device_queue`` for the frame set up now,
+        writing counts to ``out``, masks to ``img`` (with ``write_masks``) and the first
+        ``points`` model points' pixels to ``pix``; the transforms (None here) are per call."""
+        f = device_queue.frame
+        point_joint, point_rest = (f["point_joint"], f["point_rest"]) if points else (pix, pix)
+        return (
+            f["vertices"],
+            f["start"],
+            f["cones"],
+            None,
+            f["cameras"],
+            f["joints"],
+            f["shapes"],
+            f["fg"],
+            np.int32(len(self.cameras)),
+            np.int32(len(self.body.joint_rest_positions)),
+            pyopencl().LocalMemory(4 * self._local_words),
+            np.int32(self._max_layers),
+            out,
+            np.int32(write_masks),
+            np.int32(self._mask_words),
+            img,
+            np.int32(points),
+            point_joint,
+            point_rest,
+            pix,
+            np.int32(self._bands),
+            np.int32(self._band_rows),
+        )
+
     def _run(self, X: np.ndarray, write_masks: bool, points: int = 0):
         """Counts (n, C, 2) int32; with ``write_masks``, masks (n * C, mask_words) uint32; and
         the pixels (n, C, points, 2) float32 of the frame's first ``points`` model points
@@ -473,46 +504,20 @@ class OpenCLEvaluator(SilhouetteEvaluator):
             )
             if self._chain is not None:
                 rows = device_queue.buffer("transforms", (b - a) * J * 12 * 8)
-                device_queue.bind(
-                    device_queue.kinematics, None, device_queue.frame["chain"], np.int32(b - a), np.int32(J), rows
-                )
+                if device_queue.stale(device_queue.kinematics, (device_queue.uploads, rows, b - a)):
+                    chain = device_queue.frame["chain"]
+                    device_queue.kinematics.set_args(None, chain, np.int32(b - a), np.int32(J), rows)
                 device_queue.kinematics.set_arg(_POSES_ARG, given)
                 cl.enqueue_nd_range_kernel(device_queue.queue, device_queue.kinematics, (b - a,), (1,))
             else:
                 rows = given
             out = device_queue.buffer("counts", counts[views].nbytes)
             img = device_queue.buffer("masks", masks[views].nbytes if write_masks else 4)
-            f = device_queue.frame
-            if points:
-                pix = device_queue.buffer("pixels", pixels[views].nbytes)
-                point_joint, point_rest = f["point_joint"], f["point_rest"]
-            else:
-                pix = point_joint = point_rest = device_queue.no_points
-            device_queue.bind(
-                device_queue.kernel,
-                f["vertices"],
-                f["start"],
-                f["cones"],
-                None,
-                f["cameras"],
-                f["joints"],
-                f["shapes"],
-                f["fg"],
-                np.int32(C),
-                np.int32(J),
-                cl.LocalMemory(4 * self._local_words),
-                np.int32(self._max_layers),
-                out,
-                np.int32(write_masks),
-                np.int32(self._mask_words),
-                img,
-                np.int32(points),
-                point_joint,
-                point_rest,
-                pix,
-                np.int32(self._bands),
-                np.int32(self._band_rows),
-            )
+            pix = device_queue.buffer("pixels", pixels[views].nbytes) if points else device_queue.no_points
+            if device_queue.stale(device_queue.kernel, (device_queue.uploads, out, img, pix, write_masks, points)):
+                device_queue.kernel.set_args(
+                    *self._counting_arguments(device_queue, out, img, pix, write_masks, points)
+                )
             device_queue.kernel.set_arg(_TRANSFORMS_ARG, rows)
             groups = nV * self._bands
             cl.enqueue_nd_range_kernel(
@@ -526,7 +531,8 @@ class OpenCLEvaluator(SilhouetteEvaluator):
             events.append(copies)
         for copies in events:  # one wait per device: a wait may not mix contexts (platforms)
             cl.wait_for_events(copies)
-        return counts.sum(axis=1, dtype=np.int32).reshape(n, C, 2), masks, pixels.reshape(n, C, points, 2)
+        counts = counts[:, 0] if self._bands == 1 else counts.sum(axis=1, dtype=np.int32)
+        return counts.reshape(n, C, 2), masks, pixels.reshape(n, C, points, 2)
 
     def close(self) -> None:
         for device_queue in self._device_queues:

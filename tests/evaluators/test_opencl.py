@@ -102,10 +102,10 @@ def test_each_process_gets_its_own_pocl_cache_dir():
     assert not os.path.exists(child)  # removed when the child exits
 
 
-def counting_bind(bind, device_queue, served, kernel, *args):
-    """``device_queue.bind`` that counts the calls in which ``device_queue`` is given work."""
+def counting_stale(stale, device_queue, served, kernel, key):
+    """``device_queue.stale`` that counts the calls in which ``device_queue`` is given work."""
     served[id(device_queue)] += 1
-    return bind(kernel, *args)
+    return stale(kernel, key)
 
 
 @pytest.mark.parametrize("local_size", [1, 3, 32])
@@ -119,7 +119,7 @@ def test_multidevice_split_and_work_group_sizes_give_one_devices_counts(local_si
     X = test_poses()
     served = {id(device_queue): 0 for device_queue in multi._device_queues}
     for device_queue in multi._device_queues:  # count the candidates each device is given
-        device_queue.bind = functools.partial(counting_bind, device_queue.bind, device_queue, served)
+        device_queue.stale = functools.partial(counting_stale, device_queue.stale, device_queue, served)
     for n in (1, 2, 3, len(X)):
         for got, expected in zip(multi.counts(X[:n]), single.counts(X[:n])):
             np.testing.assert_array_equal(got, expected)
@@ -476,6 +476,33 @@ def test_the_model_points_of_a_body_with_a_kinematic_chain_project_as_numpy_bit_
     ev.close()
 
 
+@pytest.mark.parametrize("local_size", [1, 32])
+def test_buffers_kept_across_calls_of_other_population_sizes_give_fresh_results(local_size):
+    from mmocap import registry
+    from mmocap.bench.keypoints import scene_keypoints
+    from mmocap.testing.scene import Scene
+
+    scene = Scene(13695, cameras=3)
+    keypoints = scene_keypoints(scene)
+    ev = opencl.OpenCLEvaluator(local_size=local_size)
+    ev.setup(scene.body, scene.cameras, scene.foreground, keypoints)
+    assert ev._chain is scene.body.chain  # the kinematics kernel's buffers are kept too
+    with registry.make_evaluator("numpy") as reference:
+        reference.setup(scene.body, scene.cameras, scene.foreground, keypoints)
+        # the kept buffers grow with n (3, then 14) and keep their arguments: each call must
+        # still see only its own poses, counts and pixels, with or without pixels asked for
+        for seed, n, pixels in ((1, 3, False), (2, 14, False), (3, 3, True), (4, 14, True), (5, 3, False)):
+            X = scene.candidates(n, seed=seed)
+            expected = reference.counts_and_pixels(X)
+            got = ev.counts_and_pixels(X) if pixels else (*ev.counts(X), expected[2])
+            np.testing.assert_array_equal(got[0], expected[0])
+            np.testing.assert_array_equal(got[1], expected[1])
+            np.testing.assert_array_equal(got[2].view(np.uint32), expected[2].view(np.uint32))
+        np.testing.assert_array_equal(ev.render(X[-1], 1), reference.render(X[-1], 1))
+        np.testing.assert_array_equal(ev.counts(X)[0], reference.counts(X)[0])  # after the masks' launch
+    ev.close()
+
+
 def test_the_model_points_go_up_when_they_change_and_their_pixels_come_with_the_counts(monkeypatch):
     import pyopencl as cl
 
@@ -507,10 +534,10 @@ def test_the_model_points_go_up_when_they_change_and_their_pixels_come_with_the_
     X = test_poses()
     ev.counts(X)
     assert calls == {"enqueue_copy": 1, "enqueue_nd_range_kernel": 1}
-    assert device_queue.bound[device_queue.kernel.int_ptr][16] == 0  # K
+    assert device_queue.bound[device_queue.kernel.int_ptr][-1] == 0  # K, the last of the arguments' key
     ev.counts_and_pixels(X)
     assert calls == {"enqueue_copy": 3, "enqueue_nd_range_kernel": 2}
-    assert device_queue.bound[device_queue.kernel.int_ptr][16] == len(kp.points)
+    assert device_queue.bound[device_queue.kernel.int_ptr][-1] == len(kp.points)
     ev.close()
 
 
