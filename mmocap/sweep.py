@@ -224,7 +224,7 @@ class SweepProgress(Callback):
     def recorded_here(config: DictConfig) -> bool:
         """Whether this job's run folder made the run's record: not so for a job that waited for
         the record of another sweep running the same run into a shared store."""
-        record = ResultsStore(store_folder(config, HydraConfig.get().sweep.dir)).get(run_key(config))
+        record = ResultsStore(store_folder(config, Path(str(HydraConfig.get().sweep.dir)))).get(run_key(config))
         return record is not None and Path(record["output_dir"]) == Path(HydraConfig.get().runtime.output_dir)
 
     def on_multirun_end(self, config: DictConfig, **kwargs) -> None:
