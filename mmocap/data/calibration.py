@@ -647,7 +647,7 @@ def _xml_root(path: Path, tag: str, format_name: str) -> ET.Element:
     source = f"calibration file {path}"
     try:
         root = ET.parse(path).getroot()
-    except ET.ParseError as exc:
+    except (ET.ParseError, LookupError, ValueError) as exc:  # a damaged declaration names an unknown encoding
         raise DataError(f"{source} is not valid XML ({format_name}): {exc}") from None
     except OSError as exc:
         raise DataError(f"{source} cannot be read: {exc.strerror}") from None

@@ -13,7 +13,7 @@ from mmocap.camera import Camera
 from mmocap.data.calibration import read_calibration, write_opencv_yaml
 from mmocap.data.synthetic import camera_rig
 from mmocap.errors import ConfigError, DataError
-from tests.helpers import damages, qtm_calibration_xml, read_or_refused, vicon_calibration_xml
+from tests.helpers import damages, qtm_calibration_xml, read_damaged, vicon_calibration_xml
 
 
 @pytest.fixture
@@ -524,6 +524,16 @@ BAD_INPUTS = {
         ("calibration file", "BW9.yml holds no camera", "must hold one"),
     ),
     "qtm_unparsable": (qtm_with(lambda text: text[:400]), None, ("is not valid XML", "QTM", "line")),
+    "qtm_unknown_encoding": (
+        qtm_with(lambda text: text.replace('encoding="UTF-8"', 'encoding="xUTF-8"', 1)),
+        None,
+        ("is not valid XML", "QTM", "unknown encoding"),
+    ),
+    "qtm_multi_byte_encoding": (
+        qtm_with(lambda text: text.replace('encoding="UTF-8"', 'encoding="UTF-16"', 1)),
+        None,
+        ("is not valid XML", "QTM"),
+    ),
     "qtm_other_root": (
         lambda folder, rig: write(folder / "lab.qca.txt", VICON_FILE),
         None,
@@ -714,9 +724,7 @@ def test_a_damaged_calibration_is_refused_or_read_whole(calibration_files, name,
     if name.startswith("C1."):
         cameras = cameras[:1]
     damage = data.draw(damages(whole))
-    damaged = path.with_name("damaged-" + path.name)
-    damaged.write_bytes(damage.apply(whole))
-    outcome = read_or_refused(read_rig, str(damaged), damaged)
+    outcome = read_damaged(read_rig, path, damage, whole)
     if damage.kind == "cut" and outcome is not None:
         read = outcome[0]
         assert read, f"{damage}: no camera read"
