@@ -373,6 +373,15 @@ def read_or_refused(read, name: str, *args, **kwargs):
     return result, [str(w.message) for w in caught if issubclass(w.category, MmocapWarning)]
 
 
+def read_damaged(read, path: Path, damage: Damage, whole: bytes):
+    """:func:`read_or_refused` of ``read(damaged)``: ``damaged`` is the copy, written beside
+    ``path`` as ``damaged-<name>``, of the file whose valid bytes are ``whole``, damaged by
+    ``damage``."""
+    damaged = path.with_name("damaged-" + path.name)
+    damaged.write_bytes(damage.apply(whole))
+    return read_or_refused(read, str(damaged), damaged)
+
+
 # -- figures: what a user sees of a saved plot ---------------------------------------------------
 
 #: tolerance (pixels) of the containment checks, for anti-aliased edges

@@ -28,7 +28,7 @@ from mmocap.data.sequence import (
     write_markers,
 )
 from mmocap.errors import ConfigError, DataError, MmocapWarning
-from tests.helpers import damages, read_or_refused
+from tests.helpers import damages, read_damaged, read_or_refused
 
 
 @pytest.fixture
@@ -218,7 +218,7 @@ SMALL_MARKERS = np.round(np.random.default_rng(3).uniform(-900, 1800, (2, len(MA
 @pytest.fixture(scope="module")
 def marker_file(tmp_path_factory):
     """``markers_mm.csv`` of :data:`SMALL_MARKERS` (write_markers) and its bytes; each example
-    writes its damaged copy to ``damaged.csv`` beside it."""
+    writes its damaged copy beside it."""
     path = tmp_path_factory.mktemp("markers") / "markers_mm.csv"
     write_markers(path, SMALL_MARKERS, MARKER_NAMES)
     return path, path.read_bytes()
@@ -235,9 +235,7 @@ def test_a_cut_marker_file_is_refused_or_read_as_its_whole_rows(marker_file, dat
     end gives exactly the rows kept, every other marker NaN."""
     path, whole = marker_file
     damage = data.draw(damages(whole, ("cut",)))
-    damaged = path.with_name("damaged.csv")
-    damaged.write_bytes(damage.apply(whole))
-    outcome = read_or_refused(read_small_markers, str(damaged), damaged)
+    outcome = read_damaged(read_small_markers, path, damage, whole)
     rows = damage.whole_lines(whole) - 1  # the header is the first line
     if damage.offset == 0 or not whole[: damage.offset].endswith(b"\n") or rows < 1:
         assert outcome is None, f"{damage}: read, not refused"
@@ -255,9 +253,7 @@ def test_a_damaged_byte_of_a_marker_file_changes_one_marker_at_most(marker_file,
     differs from the whole file's (a digit for a digit cannot be told without a checksum)."""
     path, whole = marker_file
     damage = data.draw(damages(whole, ("byte",)))
-    damaged = path.with_name("damaged.csv")
-    damaged.write_bytes(damage.apply(whole))
-    outcome = read_or_refused(read_small_markers, str(damaged), damaged)
+    outcome = read_damaged(read_small_markers, path, damage, whole)
     if outcome is not None:
         differs = ~((outcome[0] == SMALL_MARKERS) | (np.isnan(outcome[0]) & np.isnan(SMALL_MARKERS))).all(axis=2)
         assert differs.sum() <= 1, f"{damage}: {differs.sum()} markers differ"

@@ -50,7 +50,7 @@ from mmocap.writers.export import (
     write_c3d,
     write_trc,
 )
-from tests.helpers import Outcome, assert_clean_error, damages, mmocap, read_or_refused, run_cli
+from tests.helpers import Outcome, assert_clean_error, damages, mmocap, read_damaged, run_cli
 
 FPS = 50.0
 #: a complete summary.json, of a run of the demo config on a tiny sequence
@@ -641,9 +641,7 @@ def test_a_cut_frames_file_is_refused_or_read_as_its_whole_rows(frames_file, dat
     """A cut inside a row is refused; a cut at a row's end gives the poses of the frames kept."""
     path, whole = frames_file
     damage = data.draw(damages(whole))
-    damaged = path.with_name("damaged.csv")
-    damaged.write_bytes(damage.apply(whole))
-    outcome = read_or_refused(read_poses, str(damaged), damaged)
+    outcome = read_damaged(read_poses, path, damage, whole)
     if damage.kind == "cut" and outcome is not None:
         assert whole[: damage.offset].endswith(b"\n"), f"{damage}: a row cut inside was read"
         np.testing.assert_array_equal(outcome[0], SMALL_POSES[: damage.whole_lines(whole) - 1])

@@ -9,7 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from mmocap.writers.traces import read_traces, write_traces
-from tests.helpers import damages, read_or_refused
+from tests.helpers import damages, read_damaged
 
 #: two frames' traces: (evaluations, best fitness so far), the fitness never rising
 TRACES = {
@@ -38,9 +38,7 @@ def test_a_cut_traces_file_is_refused_or_read_as_its_whole_rows(traces_file, dat
     """A cut inside a row is refused; a cut at a row's end gives exactly the rows kept."""
     path, whole = traces_file
     damage = data.draw(damages(whole))
-    damaged = path.with_name("damaged.csv")
-    damaged.write_bytes(damage.apply(whole))
-    outcome = read_or_refused(read_traces, str(damaged), damaged)
+    outcome = read_damaged(read_traces, path, damage, whole)
     if damage.kind == "byte" or outcome is None:
         return
     assert whole[: damage.offset].endswith(b"\n"), f"{damage}: a row cut inside was read"

@@ -23,7 +23,7 @@ from mmocap.data.humaneva.synchronisation import SyncOffsets
 from mmocap.data.sequence import Sequence
 from mmocap.errors import ConfigError, DataError
 from mmocap.stages.accuracy import marker_error
-from tests.helpers import HE_CAMERAS, HE_FIRST, HE_FRAMES, HE_LEAD, damages, open_he, read_or_refused
+from tests.helpers import HE_CAMERAS, HE_FIRST, HE_FRAMES, HE_LEAD, damages, open_he, read_damaged
 
 
 def test_calibration_round_trip(synthetic, exported):
@@ -305,8 +305,6 @@ def x0_files(tmp_path_factory):
 def test_a_damaged_x0_file_is_refused_or_read_whole(x0_files, name, data):
     path, whole = x0_files[name]
     damage = data.draw(damages(whole))
-    damaged = path.with_name("damaged-" + name)
-    damaged.write_bytes(damage.apply(whole))
-    outcome = read_or_refused(read_pose_file, str(damaged), damaged)
+    outcome = read_damaged(read_pose_file, path, damage, whole)
     if damage.kind == "cut":
         assert outcome is None, f"{damage}: read, not refused"

@@ -10,7 +10,7 @@ from mmocap.body.model import MARKER_NAMES
 from mmocap.data.humaneva.mocap import read_mocap, sample_mocap, write_mocap
 from mmocap.data.sequence import Sequence
 from mmocap.errors import DataError
-from tests.helpers import HE_FIRST, HE_FRAMES, HE_LEAD, HE_LEAD_IN, Damage, damages, open_he, read_or_refused
+from tests.helpers import HE_FIRST, HE_FRAMES, HE_LEAD, HE_LEAD_IN, Damage, damages, open_he, read_damaged
 
 
 def test_markers_at_fractional_mocap_indices_are_interpolated():
@@ -75,9 +75,7 @@ def test_a_damaged_mocap_file_is_refused_or_read_as_it_says(mocap_file, data):
     whole; a byte changed is refused or read (a number for a number cannot be told)."""
     path, whole = mocap_file
     damage = data.draw(damages(whole))
-    damaged = path.with_name("damaged.mat")
-    damaged.write_bytes(damage.apply(whole))
-    outcome = read_or_refused(read_mocap, str(damaged), damaged)
+    outcome = read_damaged(read_mocap, path, damage, whole)
     if outcome is not None:
         labels, markers = outcome[0]
         assert markers.shape[1:] == (len(labels), 3)

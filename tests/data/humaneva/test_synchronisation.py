@@ -6,7 +6,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from mmocap.data.humaneva.synchronisation import SyncOffsets, toolbox_frame_offsets
-from tests.helpers import damages, read_or_refused
+from tests.helpers import damages, read_damaged
 
 
 def test_sync_offsets_arithmetic(tmp_path):
@@ -40,8 +40,6 @@ def test_a_damaged_sync_file_is_refused_or_read_whole(sync_file, data):
     warning that its last number may be cut; a byte changed is refused or read."""
     path, whole = sync_file
     damage = data.draw(damages(whole))
-    damaged = path.with_name("damaged.ofs")
-    damaged.write_bytes(damage.apply(whole))
-    outcome = read_or_refused(SyncOffsets.load, str(damaged), damaged)
+    outcome = read_damaged(SyncOffsets.load, path, damage, whole)
     if damage.kind == "cut" and outcome is not None:
         assert any("has no line end: read as it is" in message for message in outcome[1]), f"{damage}: not warned"
