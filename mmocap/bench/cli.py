@@ -12,7 +12,8 @@
   (:mod:`mmocap.bench.keypoints`), by default on the opencl backend;
 - ``all``: ``table2`` then ``table1``, and ``keypoints`` when the opencl backend is timed;
 - ``fidelity``: multi-fidelity against exact search on the demo sequence
-  (:mod:`mmocap.bench.fidelity`);
+  (:mod:`mmocap.bench.fidelity`); ``fidelity-cano``: the same at Cano's workload (7 cameras,
+  27393 vertices);
 - ``fullhd``: a full-HD recording tracked from nothing at full resolution and at reduced
   working scales, with where the foreground's time goes (:mod:`mmocap.bench.fullhd`).
 
@@ -30,6 +31,7 @@ Usage::
     mmocap bench keypoints --workloads 4:13695,7:27393
     mmocap bench all --vertices 27393 --budgets 500,1500 --prefix bench_
     mmocap bench fidelity --exact 500,1000,1500 --schedule 0.25:3000:1200+300
+    mmocap bench fidelity-cano --exact 1500 --seeds 0,1,2 --track-frames 30
     mmocap bench fullhd --scales 1,0.5,0.333 --track-frames 20
 """
 
@@ -67,6 +69,7 @@ TABLES = {
     "keypoints": ("keypoints",),
     "all": ("table2", "roofline", "table1", "keypoints"),
     "fidelity": ("fidelity",),
+    "fidelity-cano": ("fidelity_cano",),
     "fullhd": ("fullhd", "fullhd_foreground"),
 }
 
@@ -162,7 +165,7 @@ def main(argv: list[str], prog: str) -> None:
     parser = build_parser(prog)
     args = parser.parse_args(argv)
     tables = TableWriter(args.out, args.prefix)
-    if args.table == "fidelity":
+    if args.table in fidelity.WORKLOADS:
         fidelity_command(args, tables)
     elif args.table == "fullhd":
         fullhd_command(args, tables)
@@ -175,7 +178,9 @@ def main(argv: list[str], prog: str) -> None:
 
 
 def fidelity_command(args: argparse.Namespace, tables: TableWriter) -> None:
-    """``fidelity``: the searches of ``--exact`` and ``--schedule``, table and figure."""
+    """``fidelity`` or ``fidelity-cano``: the searches of ``--exact`` and ``--schedule`` at
+    the subcommand's workload, table and figure."""
+    workload = fidelity.WORKLOADS[args.table]
     searches = fidelity.parse_exact(args.exact) + [
         fidelity.parse_schedule(text) for text in args.schedule or fidelity.DEFAULT_SCHEDULES
     ]
@@ -184,20 +189,20 @@ def fidelity_command(args: argparse.Namespace, tables: TableWriter) -> None:
     )
     seeds = integer_list("--seeds", args.seeds, 0, 2**32 - 1)
     args.out.mkdir(parents=True, exist_ok=True)
-    table = fidelity.fidelity_table(searches, frames, seeds, args.out)
+    table = fidelity.fidelity_table(searches, frames, seeds, args.out, workload)
     title = (
         f"Multi-fidelity search against exact CMA-ES (holistic, 39 DOF), S1 walking, realistic, "
-        f"{frames} frames, 4 cameras, 640x480, search seeds {args.seeds} averaged; ratios to exact "
+        f"{frames} frames, {workload.description}, search seeds {args.seeds} averaged; ratios to exact "
         f"at {fidelity.FIDELITY_REFERENCE} evaluations"
     )
-    tables.write(table, "fidelity", title)
-    figure = tables.path("fidelity", ".png")
+    tables.write(table, workload.table, title)
+    figure = tables.path(workload.table, ".png")
     plot_pareto_front(
         table.assign(seconds_per_frame=table.ms_per_frame / 1e3),
         figure,
         colour="mode",
         note=machine(),
-        title=f"Multi-fidelity against exact search, {frames} frames\n{machine()}",
+        title=f"Multi-fidelity against exact search, {frames} frames, {workload.description}\n{machine()}",
     )
     print(f"figure: {figure}")
 

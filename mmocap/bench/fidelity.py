@@ -1,5 +1,6 @@
 """Multi-fidelity against exact search (``mmocap bench fidelity``): the demo sequence (S1
-walking, 4 cameras, 640x480) on ``realistic`` data, tracked by the real pipeline with
+walking, 640x480) on ``realistic`` data at one of :data:`WORKLOADS` (the demo's 4 cameras,
+or Cano's 7 cameras and 27393 vertices), tracked by the real pipeline with
 holistic CMA-ES, exactly at each of some evaluations per frame and with each schedule of
 cheaper fitness levels before a short exact search (:mod:`mmocap.stages.fidelity`; carried
 on, or restarted per level when a level names a popsize), one run at a time, each with
@@ -43,6 +44,28 @@ FIDELITY_RUN = [
     "progress=false",
     "foreground_cache=null",
 ]
+
+
+@dataclass(frozen=True)
+class Workload:
+    """Cameras and vertices a fidelity benchmark tracks with: the table's section name, its
+    description and the config overrides (after :data:`FIDELITY_RUN`) that set it."""
+
+    table: str
+    description: str
+    overrides: tuple[str, ...]
+
+
+#: the workloads of ``mmocap bench fidelity`` (the demo's) and ``fidelity-cano`` (Cano's Table
+#: 1: 7 cameras, 27393 vertices), by subcommand
+WORKLOADS = {
+    "fidelity": Workload("fidelity", "4 cameras, 640x480", ()),
+    "fidelity-cano": Workload(
+        "fidelity_cano",
+        "Cano's workload: 7 cameras, 640x480, 27393 vertices",
+        ("dataset.cameras=[C1,C2,C3,BW1,BW2,BW3,BW4]", "body.vertices=27393"),
+    ),
+}
 
 
 @dataclass(frozen=True)
@@ -137,8 +160,10 @@ def parse_schedule(text: str) -> Search:
     return search
 
 
-def fidelity_table(searches: list[Search], frames: int, seeds: list[int], out: Path) -> pd.DataFrame:
-    """Track the demo sequence (:data:`FIDELITY_RUN`, ``frames`` frames) with each search
+def fidelity_table(
+    searches: list[Search], frames: int, seeds: list[int], out: Path, workload: Workload = WORKLOADS["fidelity"]
+) -> pd.DataFrame:
+    """Track the demo sequence (:data:`FIDELITY_RUN`, ``frames`` frames, at ``workload``) with each search
     (exact or multi-fidelity), once per search seed of ``seeds`` (the data stay the same),
     one run after the other in a fresh folder; one row per search: mode, label, evaluations
     (cheap, exact), population size, the mean marker error (mm) and search time per frame
@@ -150,7 +175,7 @@ def fidelity_table(searches: list[Search], frames: int, seeds: list[int], out: P
     for search in searches:
         errors, times = [], []
         for seed in seeds:
-            cfg = compose([*FIDELITY_RUN, *search.overrides(frames, seed)])
+            cfg = compose([*FIDELITY_RUN, *workload.overrides, *search.overrides(frames, seed)])
             with tempfile.TemporaryDirectory(dir=out) as folder:
                 summary = run(cfg, Path(folder))
             errors.append(summary["mean_marker_error_mm"])

@@ -3,8 +3,11 @@ searches' syntax."""
 
 import pandas as pd
 import pytest
+from omegaconf import OmegaConf
 
 from mmocap.bench import fidelity
+from mmocap.bench.output import PAGE_ORDER
+from mmocap.config import compose
 from tests.helpers import run_cli
 
 
@@ -96,3 +99,15 @@ def test_a_bad_exact_search_is_one_line_naming_it(exact, capsys):
     err = capsys.readouterr().err
     assert err.count("\n") == 1
     assert "--exact" in err
+
+
+def test_canos_workload_tracks_seven_cameras_and_27393_vertices_on_the_same_run():
+    demo = compose(fidelity.FIDELITY_RUN)
+    cano = compose([*fidelity.FIDELITY_RUN, *fidelity.WORKLOADS["fidelity-cano"].overrides])
+    assert list(demo.dataset.cameras) == ["C1", "C2", "C3", "BW1"]
+    assert list(cano.dataset.cameras) == ["C1", "C2", "C3", "BW1", "BW2", "BW3", "BW4"]
+    assert (demo.body.vertices, cano.body.vertices) == (13695, 27393)
+    assert OmegaConf.masked_copy(cano, ["realism", "tracking", "evaluator"]) == OmegaConf.masked_copy(
+        demo, ["realism", "tracking", "evaluator"]
+    )
+    assert fidelity.WORKLOADS["fidelity-cano"].table in PAGE_ORDER
