@@ -59,6 +59,7 @@ import numpy as np
 
 from mmocap import provenance
 from mmocap.body.kinematics import KinematicChain
+from mmocap.body.skeleton import JOINTS
 from mmocap.camera import Camera
 from mmocap.errors import ConfigError
 from mmocap.evaluators import opencl_devices
@@ -76,6 +77,7 @@ from mmocap.evaluators.opencl_layout import (
     LARGEST_BLOCK,
     MAX_LAYERS,
     SINK_WORDS,
+    TRANSFORM_BYTES,
     block_size,
     build_options,
     culling_cones,
@@ -86,6 +88,7 @@ from mmocap.evaluators.opencl_layout import (
     pitch,
     point_arrays,
     vertex_arrays,
+    views_per_group,
 )
 from mmocap.evaluators.silhouette import (
     PATCH_SCALE,
@@ -96,9 +99,8 @@ from mmocap.evaluators.silhouette import (
 )
 
 log = logging.getLogger(__name__)
-# the kernels' arguments that change with every call: silhouette_counts' transforms and
-# joint_transforms' poses
-_TRANSFORMS_ARG, _POSES_ARG = 3, 0
+# the kernel's argument that changes with every call: the poses (or the transforms)
+_POSES_ARG = 3
 #: with accept_inexact, the self-check accepts a device whose every count of the test scene
 #: differs from NumPy's by at most this fraction of it, or 1 px
 TOLERANCE = 0.01
@@ -168,10 +170,10 @@ class _DeviceQueue:
         self.queue = cl.CommandQueue(ctx, device)
         self.frame: dict = {}  # name -> pyopencl.Buffer
         self.batch: dict = {}  # name -> (bytes, pyopencl.Buffer)
-        self.bound: dict = {}  # each kernel's key of its arguments, see stale
+        self.bound: dict = {}  # the kernel's key of its arguments, see stale
         self.uploads = 0  # calls of upload so far: the frame's buffers change with it
-        # the kernel's point and pixel arguments when it writes no pixels (K = 0)
-        self.no_points = cl.Buffer(ctx, cl.mem_flags.READ_WRITE, 64)
+        # the kernel's chain argument for a body without one (then never read)
+        self.no_chain = cl.Buffer(ctx, cl.mem_flags.READ_ONLY, 64)
         self.block = 0
         self.build(LARGEST_BLOCK)
         # the block size changes loop bounds only, not what the kernel needs of the device
@@ -182,18 +184,18 @@ class _DeviceQueue:
                 f"local_size={self.local_size} is more than the kernel can run on "
                 f"{device.name.strip()!r}; set local_size to at most {fits}"
             )
-        #: bytes of local memory left for the masks: the device's less the kernel's own
+        #: bytes of local memory left for the masks and the joint transforms (:data:`TRANSFORM_BYTES`
+        #: per joint): the device's less the kernel's own
         self.local_bytes = device.local_mem_size - self.kernel.get_work_group_info(info.LOCAL_MEM_SIZE, device)
 
     def build(self, block: int) -> None:
-        """Take the kernels built for culling blocks of ``block`` vertices (once per process,
+        """Take the kernel built for culling blocks of ``block`` vertices (once per process,
         context and options; see :func:`~mmocap.evaluators.opencl_layout.block_size`)."""
         if block != self.block:
             built = program(self.ctx, build_options(self.local_size, self.simd_lanes, block))
             self.kernel = self.cl.Kernel(built, "silhouette_counts")
-            self.kinematics = self.cl.Kernel(built, "joint_transforms")
             self.block = block
-            self.bound = {}  # new kernels have no arguments set (and may reuse old ones' handles)
+            self.bound = {}  # a new kernel has no arguments set (and may reuse the old one's handle)
 
     def upload(self, **arrays: np.ndarray) -> None:
         """Read-only buffers kept until replaced (per frame, or per body)."""
@@ -382,9 +384,10 @@ class OpenCLEvaluator(SilhouetteEvaluator):
             layer_words(cam, device_queue.local_size) for cam in self.cameras for device_queue in self._device_queues
         )
         self._mask_words = (mask + 7) // 8 * 8
-        # words of local memory for the masks
+        # words of local memory for the masks, beside the candidate's joint transforms
         small = min(self._device_queues, key=lambda device_queue: device_queue.local_bytes)
-        room = min(small.local_bytes, self.max_local_bytes or small.local_bytes) // 4
+        free = small.local_bytes - TRANSFORM_BYTES * len(self.body.joint_rest_positions)
+        room = max(0, min(free, self.max_local_bytes or free)) // 4
         if self._mask_words <= room:
             self._bands, self._band_rows = 1, max(cam.height for cam in self.cameras)
             # layers and sink within the room rounded down to 8 words: rounded up, they still fit
@@ -441,23 +444,28 @@ class OpenCLEvaluator(SilhouetteEvaluator):
         bits = np.unpackbits(words.view(np.uint8), axis=1, bitorder="little")
         return bits[:, : cam.width].astype(bool)
 
-    def _counting_arguments(self, device_queue: _DeviceQueue, out, img, pix, write_masks: bool, points: int) -> tuple:
+    def _counting_arguments(self, device_queue: _DeviceQueue, out, img, write_masks: bool, points: int) -> tuple:
         """``silhouette_counts``' arguments on ``device_queue`` for the frame set up now,
-        writing counts to ``out``, masks to ``img`` (with ``write_masks``) and the first
-        ``points`` model points' pixels to ``pix``; the transforms (None here) are per call."""
+        writing counts and the first ``points`` model points' pixels to ``out`` and masks to
+        ``img`` (with ``write_masks``); the poses (None here) are per call."""
         f = device_queue.frame
-        point_joint, point_rest = (f["point_joint"], f["point_rest"]) if points else (pix, pix)
+        J = len(self.body.joint_rest_positions)
+        point_joint, point_rest = (f["point_joint"], f["point_rest"]) if points else (out, out)
         return (
             f["vertices"],
             f["start"],
             f["cones"],
             None,
+            f["chain"] if self._chain is not None else device_queue.no_chain,
+            np.int32(self._chain is not None),
+            pyopencl().LocalMemory(TRANSFORM_BYTES * J),
             f["cameras"],
             f["joints"],
             f["shapes"],
             f["fg"],
             np.int32(len(self.cameras)),
-            np.int32(len(self.body.joint_rest_positions)),
+            np.int32(J),
+            np.int32(views_per_group(device_queue.local_size, len(self.cameras))),
             pyopencl().LocalMemory(4 * self._local_words),
             np.int32(self._max_layers),
             out,
@@ -467,7 +475,6 @@ class OpenCLEvaluator(SilhouetteEvaluator):
             np.int32(points),
             point_joint,
             point_rest,
-            pix,
             np.int32(self._bands),
             np.int32(self._band_rows),
         )
@@ -475,64 +482,50 @@ class OpenCLEvaluator(SilhouetteEvaluator):
     def _run(self, X: np.ndarray, write_masks: bool, points: int = 0):
         """Counts (n, C, 2) int32; with ``write_masks``, masks (n * C, mask_words) uint32; and
         the pixels (n, C, points, 2) float32 of the frame's first ``points`` model points
-        (:func:`~mmocap.evaluators.silhouette.keypoint_pixels`), none with 0."""
+        (:func:`~mmocap.evaluators.silhouette.keypoint_pixels`), none with 0. One launch per
+        device, and one read-back of its counts and pixels (and one of the masks)."""
         cl = pyopencl()
         n, J, C = len(X), len(self.body.joint_rest_positions), len(self.cameras)
-        if self._chain is not None:  # the transforms come from the joint_transforms kernel
-            rows_in = self._chain.pose_rows(X)
+        if self._chain is not None:  # the kernel computes the transforms
+            poses = self._chain.pose_rows(X)
         else:  # [R t] rows per joint
-            rows_in = np.ascontiguousarray(body_transforms(self.body, X)[:, :, :3])
-            rows_in = rows_in.reshape(n, J * 12)
-        counts = np.empty((n * C, self._bands, 2), np.int32)
+            poses = np.ascontiguousarray(body_transforms(self.body, X)[:, :, :3]).reshape(n, J * 12)
         masks = np.empty((n * C if write_masks else 1, self._mask_words), np.uint32)
-        pixels = np.empty((n * C, points, 2), np.float32)
         if len(self._device_queues) == 1:
             edges = [0, n]
         else:
             shares = np.r_[0, np.cumsum(self._weights)] / self._weights.sum()
             edges = np.round(shares * n).astype(int)
-        events = []
+        events, outputs = [], []  # outputs: per device (counts, pixels) int32
         for device_queue, a, b in zip(self._device_queues, edges[:-1], edges[1:]):
             if a == b:
                 continue
-            views = slice(a * C, b * C)
             nV = (b - a) * C
+            # per view: its bands' counts, then its model points' pixels (float32 bits)
+            output = np.empty(nV * 2 * (self._bands + points), np.int32)
             # a new buffer, filled as it is made: far quicker than an enqueued write into a
             # kept one, which PoCL runs as a command of its own
-            given = cl.Buffer(
-                device_queue.ctx, cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR, hostbuf=rows_in[a:b]
-            )
-            if self._chain is not None:
-                rows = device_queue.buffer("transforms", (b - a) * J * 12 * 8)
-                if device_queue.stale(device_queue.kinematics, (device_queue.uploads, rows, b - a)):
-                    chain = device_queue.frame["chain"]
-                    device_queue.kinematics.set_args(None, chain, np.int32(b - a), np.int32(J), rows)
-                device_queue.kinematics.set_arg(_POSES_ARG, given)
-                cl.enqueue_nd_range_kernel(device_queue.queue, device_queue.kinematics, (b - a,), (1,))
-            else:
-                rows = given
-            out = device_queue.buffer("counts", counts[views].nbytes)
-            img = device_queue.buffer("masks", masks[views].nbytes if write_masks else 4)
-            pix = device_queue.buffer("pixels", pixels[views].nbytes) if points else device_queue.no_points
-            if device_queue.stale(device_queue.kernel, (device_queue.uploads, out, img, pix, write_masks, points)):
-                device_queue.kernel.set_args(
-                    *self._counting_arguments(device_queue, out, img, pix, write_masks, points)
-                )
-            device_queue.kernel.set_arg(_TRANSFORMS_ARG, rows)
-            groups = nV * self._bands
+            given = cl.Buffer(device_queue.ctx, cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR, hostbuf=poses[a:b])
+            out = device_queue.buffer("out", output.nbytes)
+            img = device_queue.buffer("masks", masks[a * C : b * C].nbytes if write_masks else 4)
+            if device_queue.stale(device_queue.kernel, (device_queue.uploads, out, img, write_masks, points)):
+                device_queue.kernel.set_args(*self._counting_arguments(device_queue, out, img, write_masks, points))
+            device_queue.kernel.set_arg(_POSES_ARG, given)
+            groups = (b - a) * -(-C // views_per_group(device_queue.local_size, C)) * self._bands
             cl.enqueue_nd_range_kernel(
                 device_queue.queue, device_queue.kernel, (groups * device_queue.local_size,), (device_queue.local_size,)
             )
-            copies = [cl.enqueue_copy(device_queue.queue, counts[views], out, is_blocking=False)]
+            copies = [cl.enqueue_copy(device_queue.queue, output, out, is_blocking=False)]
             if write_masks:
-                copies.append(cl.enqueue_copy(device_queue.queue, masks[views], img, is_blocking=False))
-            if points:
-                copies.append(cl.enqueue_copy(device_queue.queue, pixels[views], pix, is_blocking=False))
+                copies.append(cl.enqueue_copy(device_queue.queue, masks[a * C : b * C], img, is_blocking=False))
             events.append(copies)
+            outputs.append(np.split(output, [nV * 2 * self._bands]))
         for copies in events:  # one wait per device: a wait may not mix contexts (platforms)
             cl.wait_for_events(copies)
+        counts = np.concatenate([part for part, _ in outputs]).reshape(n * C, self._bands, 2)
+        pixels = np.concatenate([part for _, part in outputs])
         counts = counts[:, 0] if self._bands == 1 else counts.sum(axis=1, dtype=np.int32)
-        return counts.reshape(n, C, 2), masks, pixels.reshape(n, C, points, 2)
+        return counts.reshape(n, C, 2), masks, pixels.view(np.float32).reshape(n, C, points, 2)
 
     def close(self) -> None:
         for device_queue in self._device_queues:
@@ -661,7 +654,8 @@ def device_checks() -> list[str]:
             except ConfigError as err:
                 outcome = f"refused: {err}"
             else:
-                local_bytes = ev._device_queues[0].local_bytes
+                # beside the skeleton's joint transforms
+                local_bytes = ev._device_queues[0].local_bytes - TRANSFORM_BYTES * len(JOINTS)
                 outcome = (
                     f"self-check {ev.check}; {local_bytes} bytes of local memory for masks: "
                     f"{FULL_HD[0]}x{FULL_HD[1]} {mask_path(*FULL_HD, local_bytes)}"

@@ -31,8 +31,8 @@ from mmocap.evaluators.silhouette import MAX_SIDE, NEAR_MM, vertex_table
 PAD = 16
 #: most padded layers (distinct patch sides of a view) in local memory
 MAX_LAYERS = 4
-#: most joints whose transforms the kernel ``joint_transforms`` computes
-MAX_JOINTS = 32
+#: bytes of local memory per joint for a candidate's transforms (12 float64 each)
+TRANSFORM_BYTES = 96
 #: mask and foreground rows start at multiples of this many 32-bit words
 PITCH_WORDS = 8
 #: words after the padded layers where the kernel's lanes without a centre in the layer set
@@ -50,6 +50,16 @@ def count_words(local_size: int) -> int:
     """Output words a work-item counts at once (the kernel's COUNT_WORDS): 8 in vectors when
     one work-item does a whole view (CPUs), 1 when a work-group shares the rows."""
     return 8 if local_size == 1 else 1
+
+
+def views_per_group(local_size: int, cameras: int) -> int:
+    """Cameras per work-group (the kernel's ``views_per_group``), each work-group computing
+    its candidate's joint transforms once for them: all ``cameras`` when one work-item does
+    a work-group (``local_size`` 1, CPUs), so that the kinematics run once per candidate and
+    the candidates keep the cores busy; 1 otherwise (GPUs), for more work-groups to spread
+    over the compute units, and one work-item's serial kinematics shared by its group's
+    ``local_size`` work-items only once per view."""
+    return cameras if local_size == 1 else 1
 
 
 def block_size(vertices: int) -> int:
@@ -71,7 +81,6 @@ def build_options(local_size: int, lanes: int, block: int) -> list[str]:
         "BLOCK": block,
         "PAD": PAD,
         "MAX_LAYERS": MAX_LAYERS,
-        "MAX_JOINTS": MAX_JOINTS,
         "PITCH_WORDS": PITCH_WORDS,
         "NEAR_MM": repr(NEAR_MM),
         "ROUNDING": repr(ROUNDING),
@@ -112,10 +121,9 @@ def point_arrays(joint: np.ndarray, rest: np.ndarray) -> tuple[np.ndarray, np.nd
 
 def device_chain(body) -> KinematicChain | None:
     """The body's kinematic chain when the kernel can compute its transforms (``body.chain``
-    a :class:`KinematicChain` of at most MAX_JOINTS joints), else None."""
+    a :class:`KinematicChain` of the body's joints), else None."""
     chain = getattr(body, "chain", None)
-    joints = len(body.joint_rest_positions)
-    if isinstance(chain, KinematicChain) and len(chain.rest_positions) == joints and joints <= MAX_JOINTS:
+    if isinstance(chain, KinematicChain) and len(chain.rest_positions) == len(body.joint_rest_positions):
         return chain
     return None
 

@@ -28,7 +28,7 @@ def test_build_options_pass_exactly_the_constants_the_kernel_requires():
         assert (passed["LOCAL_SIZE"], passed["LANES"], passed["BLOCK"]) == (str(local_size), str(lanes), str(block))
     for name in required_constants(source):  # the kernel defines none of them itself
         assert not re.search(rf"^\s*#define\s+{name}\b", source, re.MULTILINE), name
-    assert {"PAD", "MAX_LAYERS", "MAX_JOINTS", "PITCH_WORDS", "BLOCK"} <= required_constants(source)
+    assert {"PAD", "MAX_LAYERS", "PITCH_WORDS", "BLOCK"} <= required_constants(source)
 
 
 def test_the_kernel_is_package_data():
@@ -37,7 +37,7 @@ def test_the_kernel_is_package_data():
 
 
 @needs_opencl
-@pytest.mark.parametrize("left_out", ["PAD", "MAX_LAYERS", "MAX_JOINTS", "PITCH_WORDS", "BLOCK", "NEAR_MM"])
+@pytest.mark.parametrize("left_out", ["PAD", "MAX_LAYERS", "PITCH_WORDS", "BLOCK", "NEAR_MM"])
 def test_a_missing_constant_fails_the_build(left_out):
     cl = opencl_devices.pyopencl()
     ctx = opencl_devices.context([opencl_devices.select_device(None, 0)])
