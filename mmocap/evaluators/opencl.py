@@ -1,33 +1,37 @@
 """OpenCL evaluators: the rule of :mod:`mmocap.evaluators.silhouette` as a PyOpenCL kernel.
 
 The host computes, once per body, the vertex arrays and culling cones
-(:mod:`mmocap.evaluators.opencl_layout`), and per call the body's joint transforms
-(``body.transforms``), unless the body has a :class:`~mmocap.body.kinematics.KinematicChain`
-(``body.chain``, as ``BodyModel`` has): then the kernel ``joint_transforms`` computes them
-from the joint angles' cosines and sines in the chain's float64 order: the same bits, for a
-fraction of the host time the transforms take on the host. The kernel ``silhouette_counts``
-(``kernels/silhouette.cl``) does the rest: steps 1-2 and the coefficients in the float64
-order of ``view_geometry``, steps 3-6 in the rule's float32 arithmetic, one work-group per
-(candidate, camera) pair, each with its own bit mask in local memory (1 bit per pixel:
-46 080 bytes for 640x480, rows padded to 8 words), so no two work-groups ever write the same
-memory. The work-group size and the local memory are the device's and the built kernel's
-limits. Masks larger than that local memory (a 1920x1080 mask needs 270 KB, a GPU has 32 to
-64 KB) are rendered in horizontal bands of as many rows as fit (:func:`mask_path`; ``mmocap
-list`` shows each device's path for a full-HD mask), one work-group per (candidate, camera,
-band): each band stamps every patch clipped to its rows (no halo: a patch's rows in the band
-are exactly those of the whole mask) and counts them, and the host adds the bands' counts
-up, equal to those of the whole mask. Only a mask whose single row does not fit is a
-ConfigError that says so. The foreground masks are uploaded once per frame as bit masks and
-counted against with popcounts. With the keypoint term
-(:meth:`~SilhouetteEvaluator.counts_and_pixels`), the same launch also writes the pixels of
-the frame's model points (joint and rest position, uploaded when they change), from the
-joint transforms it has at hand; the host reads them back with the counts. A call is, per
-device, one launch of each kernel and the read-backs of what was asked for, with one wait;
-the poses go in a buffer made and filled with the call (far quicker than a write into a
-kept one, which PoCL runs as a command of its own), and the kernels' arguments are set
-again only when the frame's buffers or the kept output buffers change. The per-block
-culling bounds need double precision (``cl_khr_fp64``): PoCL on CPUs and current GPUs have
-it.
+(:mod:`mmocap.evaluators.opencl_layout`). A call is, per device, one launch of the kernel
+``silhouette_counts`` (``kernels/silhouette.cl``) and one read-back, with one wait. Each
+work-group takes one candidate and a group of its cameras
+(:func:`~mmocap.evaluators.opencl_layout.views_per_group`: on a CPU all of them unless the
+candidates are too few to keep every core busy, on a GPU one) and first puts the
+candidate's joint transforms in local memory: computed there from the joint angles'
+cosines and sines in the chain's float64 order when the body has a
+:class:`~mmocap.body.kinematics.KinematicChain` (``body.chain``, as ``BodyModel`` has; the
+same bits, once per work-group, for a fraction of the time the transforms take on the
+host), else the host's (``body.transforms``). Then it does its views one after the other:
+steps 1-2 and the coefficients in the float64 order of ``view_geometry``, steps 3-6 in the
+rule's float32 arithmetic, with one bit mask in local memory (1 bit per pixel: 46 080
+bytes for 640x480, rows padded to 8 words), cleared and reused per view, so no two
+work-groups ever write the same memory. The work-group size and the local memory are the
+device's and the built kernel's limits. Masks larger than that local memory (a 1920x1080
+mask needs 270 KB, a GPU has 32 to 64 KB) are rendered in horizontal bands of as many rows
+as fit (:func:`mask_path`; ``mmocap list`` shows each device's path for a full-HD mask),
+one work-group per candidate, camera group and band: each band stamps every patch clipped
+to its rows (no halo: a patch's rows in the band are exactly those of the whole mask) and
+counts them, and the host adds the bands' counts up, equal to those of the whole mask.
+Only a mask whose single row does not fit is a ConfigError that says so. The foreground
+masks are uploaded once per frame as bit masks and counted against with popcounts. With
+the keypoint term (:meth:`~SilhouetteEvaluator.counts_and_pixels`), the same launch also
+writes the pixels of the frame's model points (joint and rest position, uploaded when they
+change), from the joint transforms it has at hand, after the counts in the same output
+buffer: one read-back brings both. Only rendering reads the masks back, in a second copy.
+The poses go in a buffer made and filled with the call (far quicker than a write into a
+kept one, which PoCL runs as a command of its own), and the kernel's arguments are set
+again only when the frame's buffers, the kept output buffers or the cameras per
+work-group change. The per-block culling bounds need double precision (``cl_khr_fp64``):
+PoCL on CPUs and current GPUs have it.
 
 Self-check: every evaluator counts a fixed test scene (:func:`check_scene`: a ball in a
 64x48 camera, in the middle, near a corner and half out of the image) on its devices and
@@ -46,8 +50,8 @@ an evaluator is made, not with this module, so that mmocap works without it:
 :class:`MultiDeviceEvaluator` (``evaluator=multidevice``) splits the population over
 several devices of one or more platforms (PoCL and Intel's CPU runtime side by side, a GPU
 and a CPU), or over PoCL sub-devices when the selection is one CPU device, in proportion to
-each device's measured speed; every (candidate, camera) pair is computed by the same kernel
-on one device, so the counts are those of a single device.
+each device's measured speed; every candidate is computed by the same kernel on one device,
+so the counts are those of a single device.
 """
 
 from __future__ import annotations
@@ -124,7 +128,7 @@ def band_rows(width: int, local_bytes: int) -> int:
 
 def mask_path(width: int, height: int, local_bytes: int) -> str:
     """How the kernel renders a ``width`` x ``height`` px mask with ``local_bytes`` of local
-    memory: ``"whole"`` (one work-group per view), ``"in b bands of r rows"`` or
+    memory: ``"whole"`` (a view's mask at once), ``"in b bands of r rows"`` or
     ``"refused"`` (not even one row fits)."""
     if pitch(width) * height + 8 <= local_bytes // 4:  # with the spare word, in whole uint8
         return "whole"
@@ -232,8 +236,9 @@ class OpenCLEvaluator(SilhouetteEvaluator):
         patch_scale: factor on the body's per-joint patch size (Cano Eq. 4), > 0.
         platform: platform index, part of its name, or None (the first with a device).
         device: device index on that platform.
-        local_size: work-items per (candidate, camera) work-group; None: 1 on a CPU, 64
-            on other devices.
+        local_size: work-items per work-group (a candidate and one or more of its cameras,
+            see :func:`~mmocap.evaluators.opencl_layout.views_per_group`); None: 1 on a
+            CPU, 64 on other devices.
         lanes: vertices per vector in the kernel, 4, 8 or 16; None: on a CPU its native float
             vector width (16 with AVX-512, else 8), 4 on other devices. The counts do not
             depend on it.
@@ -444,10 +449,13 @@ class OpenCLEvaluator(SilhouetteEvaluator):
         bits = np.unpackbits(words.view(np.uint8), axis=1, bitorder="little")
         return bits[:, : cam.width].astype(bool)
 
-    def _counting_arguments(self, device_queue: _DeviceQueue, out, img, write_masks: bool, points: int) -> tuple:
+    def _counting_arguments(
+        self, device_queue: _DeviceQueue, views: int, out, img, write_masks: bool, points: int
+    ) -> tuple:
         """``silhouette_counts``' arguments on ``device_queue`` for the frame set up now,
-        writing counts and the first ``points`` model points' pixels to ``out`` and masks to
-        ``img`` (with ``write_masks``); the poses (None here) are per call."""
+        ``views`` cameras per work-group, writing counts and the first ``points`` model
+        points' pixels to ``out`` and masks to ``img`` (with ``write_masks``); the poses
+        (None here) are per call."""
         f = device_queue.frame
         J = len(self.body.joint_rest_positions)
         point_joint, point_rest = (f["point_joint"], f["point_rest"]) if points else (out, out)
@@ -465,7 +473,7 @@ class OpenCLEvaluator(SilhouetteEvaluator):
             f["fg"],
             np.int32(len(self.cameras)),
             np.int32(J),
-            np.int32(views_per_group(device_queue.local_size, len(self.cameras))),
+            np.int32(views),
             pyopencl().LocalMemory(4 * self._local_words),
             np.int32(self._max_layers),
             out,
@@ -496,7 +504,7 @@ class OpenCLEvaluator(SilhouetteEvaluator):
         else:
             shares = np.r_[0, np.cumsum(self._weights)] / self._weights.sum()
             edges = np.round(shares * n).astype(int)
-        events, outputs = [], []  # outputs: per device (counts, pixels) int32
+        events, outputs = [], []  # outputs: per device its counts, then its pixels, and the counts' size
         for device_queue, a, b in zip(self._device_queues, edges[:-1], edges[1:]):
             if a == b:
                 continue
@@ -508,10 +516,13 @@ class OpenCLEvaluator(SilhouetteEvaluator):
             given = cl.Buffer(device_queue.ctx, cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR, hostbuf=poses[a:b])
             out = device_queue.buffer("out", output.nbytes)
             img = device_queue.buffer("masks", masks[a * C : b * C].nbytes if write_masks else 4)
-            if device_queue.stale(device_queue.kernel, (device_queue.uploads, out, img, write_masks, points)):
-                device_queue.kernel.set_args(*self._counting_arguments(device_queue, out, img, write_masks, points))
+            views = views_per_group(device_queue.local_size, C, b - a, device_queue.device.max_compute_units)
+            if device_queue.stale(device_queue.kernel, (device_queue.uploads, out, img, write_masks, views, points)):
+                device_queue.kernel.set_args(
+                    *self._counting_arguments(device_queue, views, out, img, write_masks, points)
+                )
             device_queue.kernel.set_arg(_POSES_ARG, given)
-            groups = (b - a) * -(-C // views_per_group(device_queue.local_size, C)) * self._bands
+            groups = (b - a) * -(-C // views) * self._bands
             cl.enqueue_nd_range_kernel(
                 device_queue.queue, device_queue.kernel, (groups * device_queue.local_size,), (device_queue.local_size,)
             )
@@ -519,11 +530,16 @@ class OpenCLEvaluator(SilhouetteEvaluator):
             if write_masks:
                 copies.append(cl.enqueue_copy(device_queue.queue, masks[a * C : b * C], img, is_blocking=False))
             events.append(copies)
-            outputs.append(np.split(output, [nV * 2 * self._bands]))
+            outputs.append((output, nV * 2 * self._bands))
         for copies in events:  # one wait per device: a wait may not mix contexts (platforms)
             cl.wait_for_events(copies)
-        counts = np.concatenate([part for part, _ in outputs]).reshape(n * C, self._bands, 2)
-        pixels = np.concatenate([part for _, part in outputs])
+        if len(outputs) == 1:
+            output, size = outputs[0]
+            counts, pixels = output[:size], output[size:]
+        else:
+            counts = np.concatenate([output[:size] for output, size in outputs])
+            pixels = np.concatenate([output[size:] for output, size in outputs])
+        counts = counts.reshape(n * C, self._bands, 2)
         counts = counts[:, 0] if self._bands == 1 else counts.sum(axis=1, dtype=np.int32)
         return counts.reshape(n, C, 2), masks, pixels.view(np.float32).reshape(n, C, points, 2)
 

@@ -11,6 +11,8 @@ Layout, for the kernel ``silhouette_counts``:
   joint's run padded to a multiple of the block size with zero-normal vertices (always culled),
   interleaved ``LANES`` vertices at a time (:func:`vertex_arrays`, :func:`interleaved`);
 - one culling cone and bounding sphere per block (:func:`culling_cones`);
+- per work-group its candidate's joint transforms in local memory, :data:`TRANSFORM_BYTES`
+  per joint, and its cameras (:func:`views_per_group`);
 - the model points of the keypoint term: (K,) int32 joint and (K, 3) float32 rest
   position (mm) each (:func:`point_arrays`), and per view their pixels, (K, 2) float32;
 - bit masks, 1 bit per pixel (bit ``x % 32`` of word ``x // 32`` of a row), rows
@@ -20,6 +22,8 @@ Layout, for the kernel ``silhouette_counts``:
 """
 
 from __future__ import annotations
+
+import functools
 
 import numpy as np
 
@@ -52,14 +56,30 @@ def count_words(local_size: int) -> int:
     return 8 if local_size == 1 else 1
 
 
-def views_per_group(local_size: int, cameras: int) -> int:
-    """Cameras per work-group (the kernel's ``views_per_group``), each work-group computing
-    its candidate's joint transforms once for them: all ``cameras`` when one work-item does
-    a work-group (``local_size`` 1, CPUs), so that the kinematics run once per candidate and
-    the candidates keep the cores busy; 1 otherwise (GPUs), for more work-groups to spread
-    over the compute units, and one work-item's serial kinematics shared by its group's
-    ``local_size`` work-items only once per view."""
-    return cameras if local_size == 1 else 1
+@functools.cache  # once per population size: it is asked on every call
+def views_per_group(local_size: int, cameras: int, candidates: int, compute_units: int) -> int:
+    """Cameras per work-group (the kernel's ``views_per_group``) for a call of ``candidates``
+    on a device of ``compute_units``; a work-group computes its candidate's joint transforms
+    once for all its cameras.
+
+    With ``local_size`` 1 (CPUs: a work-group is one work-item, a core runs one at a time):
+    the most cameras per group with which the cores finish soonest, counting a group's
+    time as its cameras' and the cores' rounds of groups as the work-groups over the compute
+    units, rounded up: all cameras for a generation of CMA-ES on few cores (14 candidates on
+    2: 7 rounds of 7 cameras, as 49 rounds of 1), so that the kinematics run once per
+    candidate; fewer where the candidates are too few to keep every core busy (1 candidate:
+    4 and 3 cameras on 2 cores), the kinematics then repeated per group (they take about
+    a thirtieth of a view's time). Otherwise (GPUs) 1: more work-groups to spread over the
+    compute units, and one work-item's serial kinematics makes the group's other work-items
+    wait once per view, not once per camera group."""
+    if local_size != 1:
+        return 1
+    options = {-(-cameras // groups) for groups in range(1, cameras + 1)}  # distinct group sizes
+
+    def finish(views: int) -> int:
+        return -(-candidates * -(-cameras // views) // compute_units) * views
+
+    return min(sorted(options, reverse=True), key=finish)
 
 
 def block_size(vertices: int) -> int:

@@ -75,3 +75,19 @@ def test_point_arrays_are_the_kernels_int32_joints_and_float32_rest_positions_ro
     assert rest.dtype == np.float32
     assert rest.flags.c_contiguous
     np.testing.assert_array_equal(rest, np.float32([[0.1, 2.0, -3.0]] * 3))
+
+
+def test_a_cpu_work_group_takes_all_cameras_unless_the_cores_would_wait():
+    views = opencl_layout.views_per_group
+    assert views(1, 7, 14, 2) == 7  # a CMA-ES generation on 2 cores: the kinematics once per candidate
+    assert views(1, 7, 28, 2) == 7
+    assert views(1, 7, 1, 2) == 4  # one candidate: 4 and 3 cameras, a core each
+    assert views(1, 7, 7, 2) == 1  # 7 groups of 7 on 2 cores would leave one waiting a round
+    assert views(1, 1, 256, 2) == 1
+    for candidates in range(1, 40):
+        for cores in (1, 2, 3, 16):
+            v = views(1, 7, candidates, cores)
+            assert 1 <= v <= 7
+            if candidates % cores == 0:
+                assert v == 7  # every core gets whole candidates
+    assert views(64, 7, 14, 2) == 1  # work-groups of many work-items (GPUs): one camera each
