@@ -610,3 +610,29 @@ def test_platform_null_takes_a_gpu_whatever_order_the_loader_lists_the_platforms
     for listed, chosen in (([simulator, pocl, nvidia], nvidia), ([nvidia, pocl], nvidia), ([simulator, pocl], pocl)):
         monkeypatch.setattr(opencl_devices, "platforms", lambda listed=listed: listed)
         assert opencl_devices.select_platform(None) is chosen
+
+
+@pytest.mark.parametrize("views", [1, 2, 3])
+@pytest.mark.parametrize("max_local_bytes", [None, 4000])
+def test_every_number_of_cameras_per_work_group_counts_and_projects_as_numpy(monkeypatch, views, max_local_bytes):
+    from mmocap import registry
+    from mmocap.bench.keypoints import scene_keypoints
+    from mmocap.testing.scene import Scene
+
+    scene = Scene(3000, cameras=3)
+    keypoints = scene_keypoints(scene)
+    X = scene.candidates(5)
+    # 2 cameras per group: the second group of each candidate holds only the third camera
+    monkeypatch.setattr(opencl, "views_per_group", lambda local_size, cameras, candidates, units: views)
+    with (
+        opencl.OpenCLEvaluator(max_local_bytes=max_local_bytes) as ev,
+        registry.make_evaluator("numpy") as reference,
+    ):
+        ev.setup(scene.body, scene.cameras, scene.foreground, keypoints)
+        reference.setup(scene.body, scene.cameras, scene.foreground, keypoints)
+        assert (ev.bands[0] > 1) == (max_local_bytes is not None)
+        got, expected = ev.counts_and_pixels(X), reference.counts_and_pixels(X)
+        np.testing.assert_array_equal(got[0], expected[0])
+        np.testing.assert_array_equal(got[1], expected[1])
+        np.testing.assert_array_equal(got[2].view(np.uint32), expected[2].view(np.uint32))
+        np.testing.assert_array_equal(ev.render(X[3], 2), reference.render(X[3], 2))
