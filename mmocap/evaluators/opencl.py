@@ -1,33 +1,37 @@
 """OpenCL evaluators: the rule of :mod:`mmocap.evaluators.silhouette` as a PyOpenCL kernel.
 
 The host computes, once per body, the vertex arrays and culling cones
-(:mod:`mmocap.evaluators.opencl_layout`), and per call the body's joint transforms
-(``body.transforms``), unless the body has a :class:`~mmocap.body.kinematics.KinematicChain`
-(``body.chain``, as ``BodyModel`` has): then the kernel ``joint_transforms`` computes them
-from the joint angles' cosines and sines in the chain's float64 order: the same bits, for a
-fraction of the host time the transforms take on the host. The kernel ``silhouette_counts``
-(``kernels/silhouette.cl``) does the rest: steps 1-2 and the coefficients in the float64
-order of ``view_geometry``, steps 3-6 in the rule's float32 arithmetic, one work-group per
-(candidate, camera) pair, each with its own bit mask in local memory (1 bit per pixel:
-46 080 bytes for 640x480, rows padded to 8 words), so no two work-groups ever write the same
-memory. The work-group size and the local memory are the device's and the built kernel's
-limits. Masks larger than that local memory (a 1920x1080 mask needs 270 KB, a GPU has 32 to
-64 KB) are rendered in horizontal bands of as many rows as fit (:func:`mask_path`; ``mmocap
-list`` shows each device's path for a full-HD mask), one work-group per (candidate, camera,
-band): each band stamps every patch clipped to its rows (no halo: a patch's rows in the band
-are exactly those of the whole mask) and counts them, and the host adds the bands' counts
-up, equal to those of the whole mask. Only a mask whose single row does not fit is a
-ConfigError that says so. The foreground masks are uploaded once per frame as bit masks and
-counted against with popcounts. With the keypoint term
-(:meth:`~SilhouetteEvaluator.counts_and_pixels`), the same launch also writes the pixels of
-the frame's model points (joint and rest position, uploaded when they change), from the
-joint transforms it has at hand; the host reads them back with the counts. A call is, per
-device, one launch of each kernel and the read-backs of what was asked for, with one wait;
-the poses go in a buffer made and filled with the call (far quicker than a write into a
-kept one, which PoCL runs as a command of its own), and the kernels' arguments are set
-again only when the frame's buffers or the kept output buffers change. The per-block
-culling bounds need double precision (``cl_khr_fp64``): PoCL on CPUs and current GPUs have
-it.
+(:mod:`mmocap.evaluators.opencl_layout`). A call is, per device, one launch of the kernel
+``silhouette_counts`` (``kernels/silhouette.cl``) and one read-back, with one wait. Each
+work-group takes one candidate and a group of its cameras
+(:func:`~mmocap.evaluators.opencl_layout.views_per_group`: on a CPU all of them unless the
+candidates are too few to keep every core busy, on a GPU one) and first puts the
+candidate's joint transforms in local memory: computed there from the joint angles'
+cosines and sines in the chain's float64 order when the body has a
+:class:`~mmocap.body.kinematics.KinematicChain` (``body.chain``, as ``BodyModel`` has; the
+same bits, once per work-group, for a fraction of the time the transforms take on the
+host), else the host's (``body.transforms``). Then it does its views one after the other:
+steps 1-2 and the coefficients in the float64 order of ``view_geometry``, steps 3-6 in the
+rule's float32 arithmetic, with one bit mask in local memory (1 bit per pixel: 46 080
+bytes for 640x480, rows padded to 8 words), cleared and reused per view, so no two
+work-groups ever write the same memory. The work-group size and the local memory are the
+device's and the built kernel's limits. Masks larger than that local memory (a 1920x1080
+mask needs 270 KB, a GPU has 32 to 64 KB) are rendered in horizontal bands of as many rows
+as fit (:func:`mask_path`; ``mmocap list`` shows each device's path for a full-HD mask),
+one work-group per candidate, camera group and band: each band stamps every patch clipped
+to its rows (no halo: a patch's rows in the band are exactly those of the whole mask) and
+counts them, and the host adds the bands' counts up, equal to those of the whole mask.
+Only a mask whose single row does not fit is a ConfigError that says so. The foreground
+masks are uploaded once per frame as bit masks and counted against with popcounts. With
+the keypoint term (:meth:`~SilhouetteEvaluator.counts_and_pixels`), the same launch also
+writes the pixels of the frame's model points (joint and rest position, uploaded when they
+change), from the joint transforms it has at hand, after the counts in the same output
+buffer: one read-back brings both. Only rendering reads the masks back, in a second copy.
+The poses go in a buffer made and filled with the call (far quicker than a write into a
+kept one, which PoCL runs as a command of its own), and the kernel's arguments are set
+again only when the frame's buffers, the kept output buffers or the cameras per
+work-group change. The per-block culling bounds need double precision (``cl_khr_fp64``):
+PoCL on CPUs and current GPUs have it.
 
 Self-check: every evaluator counts a fixed test scene (:func:`check_scene`: a ball in a
 64x48 camera, in the middle, near a corner and half out of the image) on its devices and
@@ -46,8 +50,8 @@ an evaluator is made, not with this module, so that mmocap works without it:
 :class:`MultiDeviceEvaluator` (``evaluator=multidevice``) splits the population over
 several devices of one or more platforms (PoCL and Intel's CPU runtime side by side, a GPU
 and a CPU), or over PoCL sub-devices when the selection is one CPU device, in proportion to
-each device's measured speed; every (candidate, camera) pair is computed by the same kernel
-on one device, so the counts are those of a single device.
+each device's measured speed; every candidate is computed by the same kernel on one device,
+so the counts are those of a single device.
 """
 
 from __future__ import annotations
@@ -59,6 +63,7 @@ import numpy as np
 
 from mmocap import provenance
 from mmocap.body.kinematics import KinematicChain
+from mmocap.body.skeleton import JOINTS
 from mmocap.camera import Camera
 from mmocap.errors import ConfigError
 from mmocap.evaluators import opencl_devices
@@ -76,6 +81,7 @@ from mmocap.evaluators.opencl_layout import (
     LARGEST_BLOCK,
     MAX_LAYERS,
     SINK_WORDS,
+    TRANSFORM_BYTES,
     block_size,
     build_options,
     culling_cones,
@@ -86,6 +92,7 @@ from mmocap.evaluators.opencl_layout import (
     pitch,
     point_arrays,
     vertex_arrays,
+    views_per_group,
 )
 from mmocap.evaluators.silhouette import (
     PATCH_SCALE,
@@ -96,9 +103,8 @@ from mmocap.evaluators.silhouette import (
 )
 
 log = logging.getLogger(__name__)
-# the kernels' arguments that change with every call: silhouette_counts' transforms and
-# joint_transforms' poses
-_TRANSFORMS_ARG, _POSES_ARG = 3, 0
+# the kernel's argument that changes with every call: the poses (or the transforms)
+_POSES_ARG = 3
 #: with accept_inexact, the self-check accepts a device whose every count of the test scene
 #: differs from NumPy's by at most this fraction of it, or 1 px
 TOLERANCE = 0.01
@@ -122,7 +128,7 @@ def band_rows(width: int, local_bytes: int) -> int:
 
 def mask_path(width: int, height: int, local_bytes: int) -> str:
     """How the kernel renders a ``width`` x ``height`` px mask with ``local_bytes`` of local
-    memory: ``"whole"`` (one work-group per view), ``"in b bands of r rows"`` or
+    memory: ``"whole"`` (a view's mask at once), ``"in b bands of r rows"`` or
     ``"refused"`` (not even one row fits)."""
     if pitch(width) * height + 8 <= local_bytes // 4:  # with the spare word, in whole uint8
         return "whole"
@@ -168,10 +174,10 @@ class _DeviceQueue:
         self.queue = cl.CommandQueue(ctx, device)
         self.frame: dict = {}  # name -> pyopencl.Buffer
         self.batch: dict = {}  # name -> (bytes, pyopencl.Buffer)
-        self.bound: dict = {}  # each kernel's key of its arguments, see stale
+        self.bound: dict = {}  # the kernel's key of its arguments, see stale
         self.uploads = 0  # calls of upload so far: the frame's buffers change with it
-        # the kernel's point and pixel arguments when it writes no pixels (K = 0)
-        self.no_points = cl.Buffer(ctx, cl.mem_flags.READ_WRITE, 64)
+        # the kernel's chain argument for a body without one (then never read)
+        self.no_chain = cl.Buffer(ctx, cl.mem_flags.READ_ONLY, 64)
         self.block = 0
         self.build(LARGEST_BLOCK)
         # the block size changes loop bounds only, not what the kernel needs of the device
@@ -182,18 +188,18 @@ class _DeviceQueue:
                 f"local_size={self.local_size} is more than the kernel can run on "
                 f"{device.name.strip()!r}; set local_size to at most {fits}"
             )
-        #: bytes of local memory left for the masks: the device's less the kernel's own
+        #: bytes of local memory left for the masks and the joint transforms (:data:`TRANSFORM_BYTES`
+        #: per joint): the device's less the kernel's own
         self.local_bytes = device.local_mem_size - self.kernel.get_work_group_info(info.LOCAL_MEM_SIZE, device)
 
     def build(self, block: int) -> None:
-        """Take the kernels built for culling blocks of ``block`` vertices (once per process,
+        """Take the kernel built for culling blocks of ``block`` vertices (once per process,
         context and options; see :func:`~mmocap.evaluators.opencl_layout.block_size`)."""
         if block != self.block:
             built = program(self.ctx, build_options(self.local_size, self.simd_lanes, block))
             self.kernel = self.cl.Kernel(built, "silhouette_counts")
-            self.kinematics = self.cl.Kernel(built, "joint_transforms")
             self.block = block
-            self.bound = {}  # new kernels have no arguments set (and may reuse old ones' handles)
+            self.bound = {}  # a new kernel has no arguments set (and may reuse the old one's handle)
 
     def upload(self, **arrays: np.ndarray) -> None:
         """Read-only buffers kept until replaced (per frame, or per body)."""
@@ -230,8 +236,9 @@ class OpenCLEvaluator(SilhouetteEvaluator):
         patch_scale: factor on the body's per-joint patch size (Cano Eq. 4), > 0.
         platform: platform index, part of its name, or None (the first with a device).
         device: device index on that platform.
-        local_size: work-items per (candidate, camera) work-group; None: 1 on a CPU, 64
-            on other devices.
+        local_size: work-items per work-group (a candidate and one or more of its cameras,
+            see :func:`~mmocap.evaluators.opencl_layout.views_per_group`); None: 1 on a
+            CPU, 64 on other devices.
         lanes: vertices per vector in the kernel, 4, 8 or 16; None: on a CPU its native float
             vector width (16 with AVX-512, else 8), 4 on other devices. The counts do not
             depend on it.
@@ -382,9 +389,10 @@ class OpenCLEvaluator(SilhouetteEvaluator):
             layer_words(cam, device_queue.local_size) for cam in self.cameras for device_queue in self._device_queues
         )
         self._mask_words = (mask + 7) // 8 * 8
-        # words of local memory for the masks
+        # words of local memory for the masks, beside the candidate's joint transforms
         small = min(self._device_queues, key=lambda device_queue: device_queue.local_bytes)
-        room = min(small.local_bytes, self.max_local_bytes or small.local_bytes) // 4
+        free = small.local_bytes - TRANSFORM_BYTES * len(self.body.joint_rest_positions)
+        room = max(0, min(free, self.max_local_bytes or free)) // 4
         if self._mask_words <= room:
             self._bands, self._band_rows = 1, max(cam.height for cam in self.cameras)
             # layers and sink within the room rounded down to 8 words: rounded up, they still fit
@@ -441,23 +449,31 @@ class OpenCLEvaluator(SilhouetteEvaluator):
         bits = np.unpackbits(words.view(np.uint8), axis=1, bitorder="little")
         return bits[:, : cam.width].astype(bool)
 
-    def _counting_arguments(self, device_queue: _DeviceQueue, out, img, pix, write_masks: bool, points: int) -> tuple:
+    def _counting_arguments(
+        self, device_queue: _DeviceQueue, views: int, out, img, write_masks: bool, points: int
+    ) -> tuple:
         """``silhouette_counts``' arguments on ``device_queue`` for the frame set up now,
-        writing counts to ``out``, masks to ``img`` (with ``write_masks``) and the first
-        ``points`` model points' pixels to ``pix``; the transforms (None here) are per call."""
+        ``views`` cameras per work-group, writing counts and the first ``points`` model
+        points' pixels to ``out`` and masks to ``img`` (with ``write_masks``); the poses
+        (None here) are per call."""
         f = device_queue.frame
-        point_joint, point_rest = (f["point_joint"], f["point_rest"]) if points else (pix, pix)
+        J = len(self.body.joint_rest_positions)
+        point_joint, point_rest = (f["point_joint"], f["point_rest"]) if points else (out, out)
         return (
             f["vertices"],
             f["start"],
             f["cones"],
             None,
+            f["chain"] if self._chain is not None else device_queue.no_chain,
+            np.int32(self._chain is not None),
+            pyopencl().LocalMemory(TRANSFORM_BYTES * J),
             f["cameras"],
             f["joints"],
             f["shapes"],
             f["fg"],
             np.int32(len(self.cameras)),
-            np.int32(len(self.body.joint_rest_positions)),
+            np.int32(J),
+            np.int32(views),
             pyopencl().LocalMemory(4 * self._local_words),
             np.int32(self._max_layers),
             out,
@@ -467,7 +483,6 @@ class OpenCLEvaluator(SilhouetteEvaluator):
             np.int32(points),
             point_joint,
             point_rest,
-            pix,
             np.int32(self._bands),
             np.int32(self._band_rows),
         )
@@ -475,64 +490,58 @@ class OpenCLEvaluator(SilhouetteEvaluator):
     def _run(self, X: np.ndarray, write_masks: bool, points: int = 0):
         """Counts (n, C, 2) int32; with ``write_masks``, masks (n * C, mask_words) uint32; and
         the pixels (n, C, points, 2) float32 of the frame's first ``points`` model points
-        (:func:`~mmocap.evaluators.silhouette.keypoint_pixels`), none with 0."""
+        (:func:`~mmocap.evaluators.silhouette.keypoint_pixels`), none with 0. One launch per
+        device, and one read-back of its counts and pixels (and one of the masks)."""
         cl = pyopencl()
         n, J, C = len(X), len(self.body.joint_rest_positions), len(self.cameras)
-        if self._chain is not None:  # the transforms come from the joint_transforms kernel
-            rows_in = self._chain.pose_rows(X)
+        if self._chain is not None:  # the kernel computes the transforms
+            poses = self._chain.pose_rows(X)
         else:  # [R t] rows per joint
-            rows_in = np.ascontiguousarray(body_transforms(self.body, X)[:, :, :3])
-            rows_in = rows_in.reshape(n, J * 12)
-        counts = np.empty((n * C, self._bands, 2), np.int32)
+            poses = np.ascontiguousarray(body_transforms(self.body, X)[:, :, :3]).reshape(n, J * 12)
         masks = np.empty((n * C if write_masks else 1, self._mask_words), np.uint32)
-        pixels = np.empty((n * C, points, 2), np.float32)
         if len(self._device_queues) == 1:
             edges = [0, n]
         else:
             shares = np.r_[0, np.cumsum(self._weights)] / self._weights.sum()
             edges = np.round(shares * n).astype(int)
-        events = []
+        events, outputs = [], []  # outputs: per device its counts, then its pixels, and the counts' size
         for device_queue, a, b in zip(self._device_queues, edges[:-1], edges[1:]):
             if a == b:
                 continue
-            views = slice(a * C, b * C)
             nV = (b - a) * C
+            # per view: its bands' counts, then its model points' pixels (float32 bits)
+            output = np.empty(nV * 2 * (self._bands + points), np.int32)
             # a new buffer, filled as it is made: far quicker than an enqueued write into a
             # kept one, which PoCL runs as a command of its own
-            given = cl.Buffer(
-                device_queue.ctx, cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR, hostbuf=rows_in[a:b]
-            )
-            if self._chain is not None:
-                rows = device_queue.buffer("transforms", (b - a) * J * 12 * 8)
-                if device_queue.stale(device_queue.kinematics, (device_queue.uploads, rows, b - a)):
-                    chain = device_queue.frame["chain"]
-                    device_queue.kinematics.set_args(None, chain, np.int32(b - a), np.int32(J), rows)
-                device_queue.kinematics.set_arg(_POSES_ARG, given)
-                cl.enqueue_nd_range_kernel(device_queue.queue, device_queue.kinematics, (b - a,), (1,))
-            else:
-                rows = given
-            out = device_queue.buffer("counts", counts[views].nbytes)
-            img = device_queue.buffer("masks", masks[views].nbytes if write_masks else 4)
-            pix = device_queue.buffer("pixels", pixels[views].nbytes) if points else device_queue.no_points
-            if device_queue.stale(device_queue.kernel, (device_queue.uploads, out, img, pix, write_masks, points)):
+            given = cl.Buffer(device_queue.ctx, cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR, hostbuf=poses[a:b])
+            out = device_queue.buffer("out", output.nbytes)
+            img = device_queue.buffer("masks", masks[a * C : b * C].nbytes if write_masks else 4)
+            views = views_per_group(device_queue.local_size, C, b - a, device_queue.device.max_compute_units)
+            if device_queue.stale(device_queue.kernel, (device_queue.uploads, out, img, write_masks, views, points)):
                 device_queue.kernel.set_args(
-                    *self._counting_arguments(device_queue, out, img, pix, write_masks, points)
+                    *self._counting_arguments(device_queue, views, out, img, write_masks, points)
                 )
-            device_queue.kernel.set_arg(_TRANSFORMS_ARG, rows)
-            groups = nV * self._bands
+            device_queue.kernel.set_arg(_POSES_ARG, given)
+            groups = (b - a) * -(-C // views) * self._bands
             cl.enqueue_nd_range_kernel(
                 device_queue.queue, device_queue.kernel, (groups * device_queue.local_size,), (device_queue.local_size,)
             )
-            copies = [cl.enqueue_copy(device_queue.queue, counts[views], out, is_blocking=False)]
+            copies = [cl.enqueue_copy(device_queue.queue, output, out, is_blocking=False)]
             if write_masks:
-                copies.append(cl.enqueue_copy(device_queue.queue, masks[views], img, is_blocking=False))
-            if points:
-                copies.append(cl.enqueue_copy(device_queue.queue, pixels[views], pix, is_blocking=False))
+                copies.append(cl.enqueue_copy(device_queue.queue, masks[a * C : b * C], img, is_blocking=False))
             events.append(copies)
+            outputs.append((output, nV * 2 * self._bands))
         for copies in events:  # one wait per device: a wait may not mix contexts (platforms)
             cl.wait_for_events(copies)
+        if len(outputs) == 1:
+            output, size = outputs[0]
+            counts, pixels = output[:size], output[size:]
+        else:
+            counts = np.concatenate([output[:size] for output, size in outputs])
+            pixels = np.concatenate([output[size:] for output, size in outputs])
+        counts = counts.reshape(n * C, self._bands, 2)
         counts = counts[:, 0] if self._bands == 1 else counts.sum(axis=1, dtype=np.int32)
-        return counts.reshape(n, C, 2), masks, pixels.reshape(n, C, points, 2)
+        return counts.reshape(n, C, 2), masks, pixels.view(np.float32).reshape(n, C, points, 2)
 
     def close(self) -> None:
         for device_queue in self._device_queues:
@@ -661,7 +670,8 @@ def device_checks() -> list[str]:
             except ConfigError as err:
                 outcome = f"refused: {err}"
             else:
-                local_bytes = ev._device_queues[0].local_bytes
+                # beside the skeleton's joint transforms
+                local_bytes = ev._device_queues[0].local_bytes - TRANSFORM_BYTES * len(JOINTS)
                 outcome = (
                     f"self-check {ev.check}; {local_bytes} bytes of local memory for masks: "
                     f"{FULL_HD[0]}x{FULL_HD[1]} {mask_path(*FULL_HD, local_bytes)}"

@@ -11,6 +11,8 @@ Layout, for the kernel ``silhouette_counts``:
   joint's run padded to a multiple of the block size with zero-normal vertices (always culled),
   interleaved ``LANES`` vertices at a time (:func:`vertex_arrays`, :func:`interleaved`);
 - one culling cone and bounding sphere per block (:func:`culling_cones`);
+- per work-group its candidate's joint transforms in local memory, :data:`TRANSFORM_BYTES`
+  per joint, and its cameras (:func:`views_per_group`);
 - the model points of the keypoint term: (K,) int32 joint and (K, 3) float32 rest
   position (mm) each (:func:`point_arrays`), and per view their pixels, (K, 2) float32;
 - bit masks, 1 bit per pixel (bit ``x % 32`` of word ``x // 32`` of a row), rows
@@ -20,6 +22,8 @@ Layout, for the kernel ``silhouette_counts``:
 """
 
 from __future__ import annotations
+
+import functools
 
 import numpy as np
 
@@ -31,8 +35,8 @@ from mmocap.evaluators.silhouette import MAX_SIDE, NEAR_MM, vertex_table
 PAD = 16
 #: most padded layers (distinct patch sides of a view) in local memory
 MAX_LAYERS = 4
-#: most joints whose transforms the kernel ``joint_transforms`` computes
-MAX_JOINTS = 32
+#: bytes of local memory per joint for a candidate's transforms (12 float64 each)
+TRANSFORM_BYTES = 96
 #: mask and foreground rows start at multiples of this many 32-bit words
 PITCH_WORDS = 8
 #: words after the padded layers where the kernel's lanes without a centre in the layer set
@@ -50,6 +54,32 @@ def count_words(local_size: int) -> int:
     """Output words a work-item counts at once (the kernel's COUNT_WORDS): 8 in vectors when
     one work-item does a whole view (CPUs), 1 when a work-group shares the rows."""
     return 8 if local_size == 1 else 1
+
+
+@functools.cache  # once per population size: it is asked on every call
+def views_per_group(local_size: int, cameras: int, candidates: int, compute_units: int) -> int:
+    """Cameras per work-group (the kernel's ``views_per_group``) for a call of ``candidates``
+    on a device of ``compute_units``; a work-group computes its candidate's joint transforms
+    once for all its cameras.
+
+    With ``local_size`` 1 (CPUs: a work-group is one work-item, a core runs one at a time):
+    the most cameras per group with which the cores finish soonest, counting a group's
+    time as its cameras' and the cores' rounds of groups as the work-groups over the compute
+    units, rounded up: all cameras for a generation of CMA-ES on few cores (14 candidates on
+    2: 7 rounds of 7 cameras, as 49 rounds of 1), so that the kinematics run once per
+    candidate; fewer where the candidates are too few to keep every core busy (1 candidate:
+    4 and 3 cameras on 2 cores), the kinematics then repeated per group (they take about
+    a thirtieth of a view's time). Otherwise (GPUs) 1: more work-groups to spread over the
+    compute units, and one work-item's serial kinematics makes the group's other work-items
+    wait once per view, not once per camera group."""
+    if local_size != 1:
+        return 1
+    options = {-(-cameras // groups) for groups in range(1, cameras + 1)}  # distinct group sizes
+
+    def finish(views: int) -> int:
+        return -(-candidates * -(-cameras // views) // compute_units) * views
+
+    return min(sorted(options, reverse=True), key=finish)
 
 
 def block_size(vertices: int) -> int:
@@ -71,7 +101,6 @@ def build_options(local_size: int, lanes: int, block: int) -> list[str]:
         "BLOCK": block,
         "PAD": PAD,
         "MAX_LAYERS": MAX_LAYERS,
-        "MAX_JOINTS": MAX_JOINTS,
         "PITCH_WORDS": PITCH_WORDS,
         "NEAR_MM": repr(NEAR_MM),
         "ROUNDING": repr(ROUNDING),
@@ -112,10 +141,9 @@ def point_arrays(joint: np.ndarray, rest: np.ndarray) -> tuple[np.ndarray, np.nd
 
 def device_chain(body) -> KinematicChain | None:
     """The body's kinematic chain when the kernel can compute its transforms (``body.chain``
-    a :class:`KinematicChain` of at most MAX_JOINTS joints), else None."""
+    a :class:`KinematicChain` of the body's joints), else None."""
     chain = getattr(body, "chain", None)
-    joints = len(body.joint_rest_positions)
-    if isinstance(chain, KinematicChain) and len(chain.rest_positions) == joints and joints <= MAX_JOINTS:
+    if isinstance(chain, KinematicChain) and len(chain.rest_positions) == len(body.joint_rest_positions):
         return chain
     return None
 

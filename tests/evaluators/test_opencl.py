@@ -291,13 +291,37 @@ def test_a_body_with_a_kinematic_chain_gets_its_transforms_on_the_device_bit_for
         reference.setup(scene.body, scene.cameras, scene.foreground)
         for got, expected in zip(ev.counts(X), reference.counts(X)):
             np.testing.assert_array_equal(got, expected)
-    if len(ev._device_queues) == 1:  # the transforms themselves, read back from the device
+    if len(ev._device_queues) == 1:  # the transforms themselves, as the kernel has them in local memory
         device_queue = ev._device_queues[0]
+        options = opencl_layout.build_options(device_queue.local_size, device_queue.simd_lanes, device_queue.block)
+        probe = cl.Program(device_queue.ctx, opencl_devices.kernel_source() + TRANSFORMS_PROBE).build(options=options)
+        flags = cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR
+        poses = cl.Buffer(device_queue.ctx, flags, hostbuf=ev._chain.pose_rows(X))
         device = np.empty((len(X), 16, 12))
-        cl.enqueue_copy(device_queue.queue, device, device_queue.batch["transforms"][1], is_blocking=True)
+        out = cl.Buffer(device_queue.ctx, cl.mem_flags.WRITE_ONLY, device.nbytes)
+        local = cl.LocalMemory(opencl_layout.TRANSFORM_BYTES * 16)
+        size = device_queue.local_size
+        probe.transforms_probe(
+            device_queue.queue, (len(X) * size,), (size,), poses, device_queue.frame["chain"], np.int32(16), local, out
+        )
+        cl.enqueue_copy(device_queue.queue, device, out, is_blocking=True)
         host = scene.body.transforms(X)[:, :, :3].reshape(len(X), 16, 12)
         np.testing.assert_array_equal(device, host)
     ev.close()
+
+
+# a kernel that writes out the transforms silhouette_counts computes for each candidate
+TRANSFORMS_PROBE = """
+__kernel __attribute__((reqd_work_group_size(LOCAL_SIZE, 1, 1)))
+void transforms_probe(__global const double *poses, __global const double *chain, const int J,
+                      __local double *transforms, __global double *out)
+{
+    const int i = get_group_id(0), lid = get_local_id(0);
+    candidate_transforms(poses + i * (3 + 6 * J), chain, 1, J, lid, transforms);
+    barrier(CLK_LOCAL_MEM_FENCE);
+    for (int k = lid; k < 12 * J; k += LOCAL_SIZE) out[12 * J * i + k] = transforms[k];
+}
+"""
 
 
 class OffBy(opencl.OpenCLEvaluator):
@@ -343,7 +367,9 @@ def test_a_mask_row_larger_than_local_memory_says_what_to_change(monkeypatch):
     from mmocap.camera import Camera
 
     ev = opencl.OpenCLEvaluator()
-    monkeypatch.setattr(ev._device_queues[0], "local_bytes", 200)  # less than a 1920 px row
+    # 200 bytes beside the body's joint transforms: less than a 1920 px row
+    joints = len(BlobBody().joint_rest_positions)
+    monkeypatch.setattr(ev._device_queues[0], "local_bytes", 200 + opencl_layout.TRANSFORM_BYTES * joints)
     hd = Camera.look_at("hd", (0, 500, 3000), (0, 400, 0), 1500.0, 1920, 1080)
     with pytest.raises(
         ConfigError,
@@ -462,7 +488,7 @@ def test_the_model_points_of_a_body_with_a_kinematic_chain_project_as_numpy_bit_
     X = scene.candidates(9)
     ev = make()
     ev.setup(scene.body, scene.cameras, scene.foreground, keypoints)
-    assert ev._chain is scene.body.chain  # the transforms come from the joint_transforms kernel
+    assert ev._chain is scene.body.chain  # the kernel computes the transforms
     with registry.make_evaluator("numpy") as reference:
         reference.setup(scene.body, scene.cameras, scene.foreground, keypoints)
         expected = reference.counts_and_pixels(X)
@@ -486,7 +512,7 @@ def test_buffers_kept_across_calls_of_other_population_sizes_give_fresh_results(
     keypoints = scene_keypoints(scene)
     ev = opencl.OpenCLEvaluator(local_size=local_size)
     ev.setup(scene.body, scene.cameras, scene.foreground, keypoints)
-    assert ev._chain is scene.body.chain  # the kinematics kernel's buffers are kept too
+    assert ev._chain is scene.body.chain  # with the chain's buffers kept too
     with registry.make_evaluator("numpy") as reference:
         reference.setup(scene.body, scene.cameras, scene.foreground, keypoints)
         # the kept buffers grow with n (3, then 14) and keep their arguments: each call must
@@ -535,9 +561,29 @@ def test_the_model_points_go_up_when_they_change_and_their_pixels_come_with_the_
     ev.counts(X)
     assert calls == {"enqueue_copy": 1, "enqueue_nd_range_kernel": 1}
     assert device_queue.bound[device_queue.kernel.int_ptr][-1] == 0  # K, the last of the arguments' key
-    ev.counts_and_pixels(X)
-    assert calls == {"enqueue_copy": 3, "enqueue_nd_range_kernel": 2}
+    ev.counts_and_pixels(X)  # the pixels come back with the counts, in the same copy
+    assert calls == {"enqueue_copy": 2, "enqueue_nd_range_kernel": 2}
     assert device_queue.bound[device_queue.kernel.int_ptr][-1] == len(kp.points)
+    ev.close()
+
+
+@pytest.mark.parametrize("local_size", [1, 32])
+def test_a_body_with_a_kinematic_chain_is_one_launch_and_one_read_back_per_call(monkeypatch, local_size):
+    import pyopencl as cl
+
+    from mmocap.bench.keypoints import scene_keypoints
+    from mmocap.testing.scene import Scene
+
+    scene = Scene(3000, cameras=3)
+    ev = opencl.OpenCLEvaluator(local_size=local_size)
+    ev.setup(scene.body, scene.cameras, scene.foreground, scene_keypoints(scene))
+    assert ev._chain is scene.body.chain
+    calls = {"enqueue_copy": 0, "enqueue_nd_range_kernel": 0}
+    for name in calls:
+        monkeypatch.setattr(cl, name, functools.partial(counted, getattr(cl, name), calls, name))
+    ev.counts(scene.candidates(5))
+    ev.counts_and_pixels(scene.candidates(5))
+    assert calls == {"enqueue_copy": 2, "enqueue_nd_range_kernel": 2}
     ev.close()
 
 
@@ -564,3 +610,29 @@ def test_platform_null_takes_a_gpu_whatever_order_the_loader_lists_the_platforms
     for listed, chosen in (([simulator, pocl, nvidia], nvidia), ([nvidia, pocl], nvidia), ([simulator, pocl], pocl)):
         monkeypatch.setattr(opencl_devices, "platforms", lambda listed=listed: listed)
         assert opencl_devices.select_platform(None) is chosen
+
+
+@pytest.mark.parametrize("views", [1, 2, 3])
+@pytest.mark.parametrize("max_local_bytes", [None, 4000])
+def test_every_number_of_cameras_per_work_group_counts_and_projects_as_numpy(monkeypatch, views, max_local_bytes):
+    from mmocap import registry
+    from mmocap.bench.keypoints import scene_keypoints
+    from mmocap.testing.scene import Scene
+
+    scene = Scene(3000, cameras=3)
+    keypoints = scene_keypoints(scene)
+    X = scene.candidates(5)
+    # 2 cameras per group: the second group of each candidate holds only the third camera
+    monkeypatch.setattr(opencl, "views_per_group", lambda local_size, cameras, candidates, units: views)
+    with (
+        opencl.OpenCLEvaluator(max_local_bytes=max_local_bytes) as ev,
+        registry.make_evaluator("numpy") as reference,
+    ):
+        ev.setup(scene.body, scene.cameras, scene.foreground, keypoints)
+        reference.setup(scene.body, scene.cameras, scene.foreground, keypoints)
+        assert (ev.bands[0] > 1) == (max_local_bytes is not None)
+        got, expected = ev.counts_and_pixels(X), reference.counts_and_pixels(X)
+        np.testing.assert_array_equal(got[0], expected[0])
+        np.testing.assert_array_equal(got[1], expected[1])
+        np.testing.assert_array_equal(got[2].view(np.uint32), expected[2].view(np.uint32))
+        np.testing.assert_array_equal(ev.render(X[3], 2), reference.render(X[3], 2))

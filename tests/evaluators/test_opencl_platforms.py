@@ -242,10 +242,10 @@ def test_full_hd_masks_on_32_kb_of_local_memory_count_exactly_in_bands(folder):
     assert done.returncode == 0, done.stderr[-3000:]
     result = json.loads(done.stdout.splitlines()[-1])
     assert result["local_bytes"] == 32768
-    assert result["bands"] == [9, 127]
+    assert result["bands"] == [9, 126]  # beside the kernel's own and the body's joint transforms
     assert result["got"] == result["expected"]
     first, last = result["rows"]  # the body in the second pose spans several bands' rows
-    assert first // 127 + 2 < last // 127
+    assert first // 126 + 2 < last // 126
     assert np.array(result["expected"]).min() > 0
     assert result["pixels"] == result["expected_pixels"]
     with open(log) if log.exists() else open(os.devnull) as f:

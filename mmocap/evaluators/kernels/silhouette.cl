@@ -2,26 +2,31 @@
 // float64 as view_geometry spells them out, steps 3-6 in float32 as the rule prescribes
 // (build with -cl-fp32-correctly-rounded-divide-sqrt); float64 for the per-block culling
 // bounds.
-// One work-group of LOCAL_SIZE work-items per model-view g = candidate * C + camera: the
-// work-items share the view's vertices, stamp their patches into a bit mask in local
-// memory (1 bit per pixel, rows padded to 32-bit words) and count |M| and |M & F| with
-// popcounts against the camera's foreground bit mask, 8 words at a time. Where the largest
-// mask does not fit the local memory, each view's rows are split into bands of band_rows
-// rows, one work-group per band (stamped directly: a patch clipped to the band's rows sets
-// exactly their bits of the whole mask), and the host adds up each view's band counts.
+// One launch per call: one work-group of LOCAL_SIZE work-items per candidate and group of
+// views_per_group cameras (opencl_layout.views_per_group: all of them on CPUs, one on
+// GPUs). The work-group first puts its candidate's joint transforms in local memory (with a
+// KinematicChain computed there from the joint angles' cosines and sines, once for all its
+// views; else the host's), then does its views one after the other in the same local
+// memory: the work-items share the view's vertices, stamp their patches into a bit mask
+// (1 bit per pixel, rows padded to 32-bit words) and count |M| and |M & F| with popcounts
+// against the camera's foreground bit mask, 8 words at a time. Where the largest mask does
+// not fit the local memory, each view's rows are split into bands of band_rows rows, one
+// work-group per band of its views (stamped directly: a patch clipped to the band's rows
+// sets exactly their bits of the whole mask), and the host adds up each view's band counts.
 //
 // Compile-time constants, every one passed with -D by the host (build_options in
 // mmocap/evaluators/opencl_layout.py, their one owner; none is defined here): LOCAL_SIZE,
-// LANES, COUNT_WORDS, BLOCK, PAD, MAX_LAYERS, MAX_JOINTS, PITCH_WORDS, NEAR_MM, ROUNDING and
-// MAX_SIDE; a program is built once per context. With LOCAL_SIZE 1 (CPU devices) a
-// work-group is one work-item and plain read-modify-writes replace the local atomics. With
-// write_masks != 0 the kernel also copies each view's mask to masks_out (nV, mask_words) for
-// rendering; with K > 0 it also writes the pixels of K model points (project_points).
+// LANES, COUNT_WORDS, BLOCK, PAD, MAX_LAYERS, PITCH_WORDS, NEAR_MM, ROUNDING and MAX_SIDE;
+// a program is built once per context. With LOCAL_SIZE 1 (CPU devices) a work-group is one
+// work-item and plain read-modify-writes replace the local atomics. The counts and, with
+// K > 0, the pixels of K model points (project_points) go to one output buffer, read back
+// at once; with write_masks != 0 the kernel also copies each view's mask to masks_out
+// (nV, mask_words) for rendering.
 #if !defined(LOCAL_SIZE) || !defined(LANES) || !defined(COUNT_WORDS) || !defined(BLOCK)
 #error "build with -DLOCAL_SIZE, -DLANES, -DCOUNT_WORDS and -DBLOCK (opencl_layout.build_options)"
 #endif
-#if !defined(PAD) || !defined(MAX_LAYERS) || !defined(MAX_JOINTS) || !defined(PITCH_WORDS)
-#error "build with -DPAD, -DMAX_LAYERS, -DMAX_JOINTS and -DPITCH_WORDS (opencl_layout.build_options)"
+#if !defined(PAD) || !defined(MAX_LAYERS) || !defined(PITCH_WORDS)
+#error "build with -DPAD, -DMAX_LAYERS and -DPITCH_WORDS (opencl_layout.build_options)"
 #endif
 #if !defined(NEAR_MM) || !defined(ROUNDING) || !defined(MAX_SIDE)
 #error "build with -DNEAR_MM, -DROUNDING and -DMAX_SIDE (opencl_layout.build_options)"
@@ -260,18 +265,18 @@ inline int project_lanes(__global const float *vertices, const int v, const int 
 // Steps 1-2 for one view and joint, in float64 as silhouette.view_geometry: entry (i, k) of
 // A = P [R t] from row i of the camera's P (4 values) and the joint's T = [R t] (3x4,
 // row-major), for k < 3 and for k = 3.
-inline double a_rotation(__global const double *P_i, __global const double *T, const int k)
+inline double a_rotation(__global const double *P_i, __local const double *T, const int k)
 {
     return (P_i[0] * T[k] + P_i[1] * T[4 + k]) + P_i[2] * T[8 + k];
 }
 
-inline double a_translation(__global const double *P_i, __global const double *T)
+inline double a_translation(__global const double *P_i, __local const double *T)
 {
     return ((P_i[0] * T[3] + P_i[1] * T[7]) + P_i[2] * T[11]) + P_i[3];
 }
 
 // The patch side in px of a joint (rest position and patch mm in joint[0..3]), 0 if dropped.
-inline int patch_side(__global const double *camera, __global const double *T,
+inline int patch_side(__global const double *camera, __local const double *T,
                       __global const double *joint)
 {
     __global const double *P2 = camera + 8;
@@ -282,26 +287,27 @@ inline int patch_side(__global const double *camera, __global const double *T,
     return s < 1.0 ? 1 : s > MAX_SIDE ? MAX_SIDE : (int)s;
 }
 
-// The joint transforms of a body with a KinematicChain (mmocap/body/kinematics.py), in its
-// float64 order, one candidate per work-item: the [R t] rows of the skinning transforms S_j,
-// the input of silhouette_counts. Joints come after their parents.
-// A fixed work-group size of 1: PoCL compiles a kernel again for each new work-group size
-// it is launched with.
-__kernel __attribute__((reqd_work_group_size(1, 1, 1)))
-void joint_transforms(
-    __global const double *poses,      // (n, 3 + 6 J) KinematicChain.pose_rows: T (mm), then
-                                       // per joint cos a, cos b, cos c, sin a, sin b, sin c
+// A candidate's joint transforms S_j = [R t] (J, 12: 3x4, row-major, mm) into local memory,
+// where every view of its work-group reads them. With a KinematicChain
+// (mmocap/body/kinematics.py) work-item 0 computes them from the pose rows in the chain's
+// float64 order: the global transforms G_j first (joints come after their parents, which
+// they read), then each turned into S_j = G_j translate(-o_j) in place; the same bits as
+// KinematicChain's. Without one the work-items copy the host's (body.transforms). A barrier
+// must follow.
+__attribute__((always_inline)) inline void candidate_transforms(
+    __global const double *pose,       // with_chain: (3 + 6 J,) KinematicChain.pose_rows:
+                                       // T (mm), then per joint cos a, cos b, cos c, sin a,
+                                       // sin b, sin c; else (J, 12) the transforms
     __global const double *chain,      // (J, 16) KinematicChain.rows: A (3x3, row-major),
                                        // o_j - o_parent (mm), o_j (mm), parent (-1: root)
-    const int n, const int J,          // candidates, joints (J <= MAX_JOINTS)
-    __global double *transforms)       // (n, J, 12) S_j = [R t] (3x4, row-major, mm)
+    const int with_chain, const int J, const int lid, __local double *out)
 {
-    const int i = get_global_id(0);
-    if (i >= n) return;
-    __global const double *pose = poses + i * (3 + 6 * J);
-    __global double *out = transforms + i * J * 12;
-    double G[MAX_JOINTS][12];  // [R t] of the global transforms G_j
-    for (int j = 0; j < J; ++j) {
+    if (!with_chain) {
+        for (int k = lid; k < 12 * J; k += LOCAL_SIZE) out[k] = pose[k];
+        return;
+    }
+    if (lid != 0) return;
+    for (int j = 0; j < J; ++j) {  // G_j
         __global const double *A = chain + 16 * j, *q = pose + 3 + 6 * j;
         const double ca = q[0], cb = q[1], cc = q[2], sa = q[3], sb = q[4], sc = q[5];
         const double R[9] = {cb * cc, -cb * sc, sb,
@@ -317,14 +323,14 @@ void joint_transforms(
                 L[3 * a + k] = (A[3 * a] * M[k] + A[3 * a + 1] * M[3 + k])
                                + A[3 * a + 2] * M[6 + k];
         const int parent = (int)A[15];
-        double *g = G[j];
+        __local double *g = out + 12 * j;
         if (parent < 0) {
             for (int a = 0; a < 3; ++a) {
                 for (int k = 0; k < 3; ++k) g[4 * a + k] = L[3 * a + k];
                 g[4 * a + 3] = pose[a];
             }
         } else {
-            const double *P = G[parent];
+            __local const double *P = out + 12 * parent;
             for (int a = 0; a < 3; ++a) {
                 for (int k = 0; k < 3; ++k)
                     g[4 * a + k] = (P[4 * a] * L[k] + P[4 * a + 1] * L[3 + k])
@@ -333,11 +339,13 @@ void joint_transforms(
                                + P[4 * a + 3];
             }
         }
-        for (int a = 0; a < 3; ++a) {  // S_j = G_j translate(-o_j)
-            for (int k = 0; k < 3; ++k) out[12 * j + 4 * a + k] = g[4 * a + k];
-            out[12 * j + 4 * a + 3] = g[4 * a + 3] - ((g[4 * a] * A[12] + g[4 * a + 1] * A[13])
-                                                      + g[4 * a + 2] * A[14]);
-        }
+    }
+    for (int j = 0; j < J; ++j) {  // S_j = G_j translate(-o_j)
+        __global const double *A = chain + 16 * j;
+        __local double *g = out + 12 * j;
+        for (int a = 0; a < 3; ++a)
+            g[4 * a + 3] = g[4 * a + 3] - ((g[4 * a] * A[12] + g[4 * a + 1] * A[13])
+                                          + g[4 * a + 2] * A[14]);
     }
 }
 
@@ -361,7 +369,7 @@ typedef struct {
 // 32); the mask cleared (its layers, or the mask and its spare word) and the totals reset.
 // A barrier must follow.
 __attribute__((always_inline)) inline int setup_view(
-    __global const double *camera, __global const double *T0, __global const double *joints,
+    __global const double *camera, __local const double *T0, __global const double *joints,
     const int J, const int max_layers, const int width, const int height, const int pitch,
     const int layer_words, const int lid, __local uint8 *mask, __local ViewTotals *totals,
     int *side_of, int *layers)
@@ -389,7 +397,7 @@ __attribute__((always_inline)) inline int setup_view(
 // Steps 1-2's projection coefficients for one view and joint, rounded to float32 once:
 // a = A (3x4, row-major).
 __attribute__((always_inline)) inline void joint_projection(__global const double *camera,
-                                                           __global const double *T, float *a)
+                                                           __local const double *T, float *a)
 {
     for (int i = 0; i < 3; ++i) {
         for (int k = 0; k < 3; ++k) a[4 * i + k] = a_rotation(camera + 4 * i, T, k);
@@ -400,7 +408,7 @@ __attribute__((always_inline)) inline void joint_projection(__global const doubl
 // Steps 1-2's coefficients for one view and joint, rounded to float32 once: a = A (3x4,
 // row-major) and b = R^T (t - centre).
 __attribute__((always_inline)) inline void joint_coefficients(__global const double *camera,
-                                                             __global const double *T,
+                                                             __local const double *T,
                                                              float *a, float *b)
 {
     joint_projection(camera, T, a);
@@ -630,7 +638,7 @@ __attribute__((always_inline)) inline void count_stamped(
 // (0x7fc00000), not the device's NAN (0x7fffffff on PoCL), so that the bits agree too.
 #define NUMPY_NAN as_float(0x7fc00000u)
 __attribute__((always_inline)) inline void project_points(
-    __global const double *camera, __global const double *T0, const int K,
+    __global const double *camera, __local const double *T0, const int K,
     __global const int *point_joint, __global const float *point_rest, const int lid,
     __global float *out)
 {
@@ -646,67 +654,62 @@ __attribute__((always_inline)) inline void project_points(
     }
 }
 
-__kernel __attribute__((reqd_work_group_size(LOCAL_SIZE, 1, 1)))
-void silhouette_counts(
-    __global const float *vertices,    // (N4 / LANES, 7, LANES) rest x, y, z (mm),
-                                       // normal x, y, z, n . v
-    __global const int *joint_start,   // (J + 1,) first vertex of each joint (multiples of BLOCK)
-    __global const double *cones,      // (N4 / BLOCK, 10) normal cone axis (3), cos, sin,
-                                       // sphere centre (3, mm), radius (mm), 1 if no padding
-    __global const double *transforms, // (n, J, 12) T = [R t] (3x4, row-major, mm) of each
-                                       // candidate's joints, body.transforms
-    __global const double *cameras,    // (C, 16) P = [K[0] E; K[1] E; E[2]] (3x4, row-major),
-                                       // centre (3, mm), focal (px): silhouette.camera_rows
-    __global const double *joints,     // (J, 4) rest position (3, mm), patch (mm)
-    __global const int *shapes,        // (C, 3) width, height, first word of the mask in fg
-    __global const uint *fg,           // foreground bit masks, bit x % 32 of word x / 32 of
-                                       // its row (pitch words), each camera's followed by
-                                       // zeros to mask_words
-    const int C, const int J,          // cameras, joints
-    __local uint8 *mask,               // the largest camera's mask (with bands > 1: a band
-                                       // of band_rows rows) + 1 spare word, or max_layers
-                                       // of its padded layers (see PAD)
-    const int max_layers,              // 0 .. MAX_LAYERS
-    __global int *counts,              // (nV, bands, 2) |M|, |M & F| of each band
-    const int write_masks, const int mask_words, // mask_words: a multiple of 8
-    __global uint *masks_out,          // (nV, mask_words) when write_masks != 0
-    const int K,                       // model points whose pixels to write, 0: none
-    __global const int *point_joint,   // (K,) the joint each point rides on
-    __global const float *point_rest,  // (K, 3) its rest position (mm)
-    __global float *pixels,            // (nV, K, 2) u, v (px) of each point, NaN behind
-    const int bands,                   // work-groups per view: 1, or the bands (max_layers 0)
-    const int band_rows)               // rows of each band (with bands > 1)
+// What a work-group's views share: the arrays of the body, the frame and the call, the local
+// memory, and the layout of the output.
+typedef struct {
+    __global const float *vertices;
+    __global const int *joint_start;
+    __global const double *cones, *cameras, *joints;
+    __global const int *shapes;
+    __global const uint *fg;
+    int J, max_layers, bands, band_rows, write_masks, mask_words, K;
+    __global uint *masks_out;
+    __global const int *point_joint;
+    __global const float *point_rest;
+    __global int *counts;
+    __global float *pixels;
+} Frame;
+
+// One model-view g = candidate * C + c and band of it, by the work-group: its model points'
+// pixels (by the first band), its mask set up, stamped or scattered and dilated, and counted
+// into counts[g * bands + band]. T0: the candidate's transforms in local memory. Every
+// work-item of the group calls it with the same view (it has barriers); a barrier must
+// follow before the local memory is used again.
+__attribute__((always_inline)) inline void count_view(
+    const Frame *fr, const int g, const int c, const int band, __local const double *T0,
+    __local uint8 *mask, __local ViewTotals *totals, const int lid)
 {
-    __local ViewTotals totals;
-    // work-group gb: band gb % bands of model-view g = candidate * C + camera; a band holds
-    // image rows band_lo .. band_lo + height - 1 of the mask, stamped directly (patches clipped
-    // to them: no halo), and counts them against the same rows of the foreground
-    const int gb = get_group_id(0), lid = get_local_id(0), g = gb / bands, c = g % C;
-    __global const double *camera = cameras + 16 * c, *T0 = transforms + (g / C) * J * 12;
-    const int width = shapes[3 * c], full_height = shapes[3 * c + 1];
-    const int band_lo = (gb % bands) * band_rows;
-    const int height = bands == 1 ? full_height : MIN(band_rows, full_height - band_lo);
+    // a band holds image rows band_lo .. band_lo + height - 1 of the mask, stamped directly
+    // (patches clipped to them: no halo), and counts them against the same rows of the
+    // foreground
+    const int J = fr->J, max_layers = fr->max_layers, bands = fr->bands, gb = g * bands + band;
+    __global const double *camera = fr->cameras + 16 * c, *joints = fr->joints;
+    const int width = fr->shapes[3 * c], full_height = fr->shapes[3 * c + 1];
+    const int band_lo = band * fr->band_rows;
+    const int height = bands == 1 ? full_height : MIN(fr->band_rows, full_height - band_lo);
     const int stride = (width + 31) / 32;                               // words of a row
     const int pitch = (stride + PITCH_WORDS - 1) / PITCH_WORDS * PITCH_WORDS;  // words per row
     // padded layer: (height + 2 PAD) rows of pstride words
     const int pstride = (stride + COUNT_WORDS) / COUNT_WORDS * COUNT_WORDS;
     const int layer_words = pstride * (height + 2 * PAD);
-    __global const uint *f = fg + shapes[3 * c + 2] + band_lo * pitch;
+    __global const uint *f = fr->fg + fr->shapes[3 * c + 2] + band_lo * pitch;
+    __global uint *masks_out = fr->masks_out + g * fr->mask_words;
     __local uint *words = (__local uint *)mask;
 
     // the model points (none unless asked: K = 0), from the transforms at hand, by the
     // view's first band
     if (band_lo == 0)
-        project_points(camera, T0, K, point_joint, point_rest, lid, pixels + 2 * K * g);
+        project_points(camera, T0, fr->K, fr->point_joint, fr->point_rest, lid,
+                       fr->pixels + 2 * fr->K * g);
     if (height <= 0) {  // a band below a smaller camera's last row: nothing to count
-        if (lid == 0) counts[2 * gb] = counts[2 * gb + 1] = 0;
+        if (lid == 0) fr->counts[2 * gb] = fr->counts[2 * gb + 1] = 0;
         return;
     }
 
     // setup
     int side_of[MAX_LAYERS], layers;  // the distinct patch sides, one per layer
     const int layered = setup_view(camera, T0, joints, J, max_layers, width, height, pitch,
-                                   layer_words, lid, mask, &totals, side_of, &layers);
+                                   layer_words, lid, mask, totals, side_of, &layers);
     barrier(CLK_LOCAL_MEM_FENCE);
 
     // the layered scatter or the direct stamp, joint by joint and block by block; a lane of
@@ -718,51 +721,107 @@ void silhouette_counts(
     reach.loV = (intV)(height + 2 * PAD); reach.hiV = (intV)(-1);
     reach.leftV = (intV)(width + 2 * PAD); reach.rightV = (intV)(-1);
     for (int j = 0; j < J; ++j) {
-        __global const double *T = T0 + 12 * j;
+        __local const double *T = T0 + 12 * j;
         const int s = patch_side(camera, T, joints + 4 * j);
         if (s == 0) continue;
         float a[12], b[3];
         joint_coefficients(camera, T, a, b);
         int l = 0;
         while (layered && side_of[l] != s) ++l;
-        for (int blk = joint_start[j] / BLOCK + lid; blk < joint_start[j + 1] / BLOCK;
+        for (int blk = fr->joint_start[j] / BLOCK + lid; blk < fr->joint_start[j + 1] / BLOCK;
              blk += LOCAL_SIZE) {
             int all_facing;
-            if (!block_may_face(cones + 10 * blk, b, &all_facing)) continue;
-            if (bands > 1 && !block_meets_rows(cones + 10 * blk, a, s, band_lo, band_lo + height - 1))
+            if (!block_may_face(fr->cones + 10 * blk, b, &all_facing)) continue;
+            if (bands > 1
+                && !block_meets_rows(fr->cones + 10 * blk, a, s, band_lo, band_lo + height - 1))
                 continue;
             if (layered)
-                scatter_centres(vertices, blk, all_facing, a, b, width, height, pstride,
+                scatter_centres(fr->vertices, blk, all_facing, a, b, width, height, pstride,
                                 32 * l * layer_words, sink, words, &pending, &reach);
             else
-                stamp_patches(vertices, blk, all_facing, a, b, width, height, pitch, s, band_lo,
-                              words, &reach);
+                stamp_patches(fr->vertices, blk, all_facing, a, b, width, height, pitch, s,
+                              band_lo, words, &reach);
         }
     }
     if (layered) set_bits(words, &pending);
-    MIN_INT(&totals.row_lo, MIN(reach.lo, min_lane(reach.loV)));
-    MAX_INT(&totals.row_hi, MAX(reach.hi, max_lane(reach.hiV)));
-    MIN_INT(&totals.col_lo, min_lane(reach.leftV));
-    MAX_INT(&totals.col_hi, max_lane(reach.rightV));
+    MIN_INT(&totals->row_lo, MIN(reach.lo, min_lane(reach.loV)));
+    MAX_INT(&totals->row_hi, MAX(reach.hi, max_lane(reach.hiV)));
+    MIN_INT(&totals->col_lo, min_lane(reach.leftV));
+    MAX_INT(&totals->col_hi, max_lane(reach.rightV));
     barrier(CLK_LOCAL_MEM_FENCE);
 
     // dilate-and-count, or count the stamped mask
     int model, overlap;
     if (layered)
         dilate_and_count(words, side_of, layers, layer_words, pstride, stride, pitch, width,
-                         height, &totals, f, lid, write_masks, masks_out + g * mask_words,
-                         &model, &overlap);
+                         height, totals, f, lid, fr->write_masks, masks_out, &model, &overlap);
     else
-        count_stamped(mask, (__global const uint8 *)f, totals.row_lo, totals.row_hi, pitch, lid,
-                      &model, &overlap);
-    ADD_INT(&totals.model_px, model);
-    ADD_INT(&totals.overlap_px, overlap);
+        count_stamped(mask, (__global const uint8 *)f, totals->row_lo, totals->row_hi, pitch,
+                      lid, &model, &overlap);
+    ADD_INT(&totals->model_px, model);
+    ADD_INT(&totals->overlap_px, overlap);
     barrier(CLK_LOCAL_MEM_FENCE);
-    if (write_masks && !layered)
+    if (fr->write_masks && !layered)
         for (int k = lid; k < pitch * height; k += LOCAL_SIZE)
-            masks_out[g * mask_words + band_lo * pitch + k] = words[k];
+            masks_out[band_lo * pitch + k] = words[k];
     if (lid == 0) {  // per band: the host adds a view's bands up
-        counts[2 * gb] = totals.model_px;
-        counts[2 * gb + 1] = totals.overlap_px;
+        fr->counts[2 * gb] = totals->model_px;
+        fr->counts[2 * gb + 1] = totals->overlap_px;
+    }
+}
+
+__kernel __attribute__((reqd_work_group_size(LOCAL_SIZE, 1, 1)))
+void silhouette_counts(
+    __global const float *vertices,    // (N4 / LANES, 7, LANES) rest x, y, z (mm),
+                                       // normal x, y, z, n . v
+    __global const int *joint_start,   // (J + 1,) first vertex of each joint (multiples of BLOCK)
+    __global const double *cones,      // (N4 / BLOCK, 10) normal cone axis (3), cos, sin,
+                                       // sphere centre (3, mm), radius (mm), 1 if no padding
+    __global const double *poses,      // with_chain: (n, 3 + 6 J) KinematicChain.pose_rows;
+                                       // else (n, J, 12) T = [R t] (3x4, row-major, mm) of
+                                       // each candidate's joints, body.transforms
+    __global const double *chain,      // (J, 16) KinematicChain.rows (with_chain only)
+    const int with_chain,              // 1: poses are pose rows, 0: transforms
+    __local double *transforms,        // (J, 12) the candidate's transforms
+    __global const double *cameras,    // (C, 16) P = [K[0] E; K[1] E; E[2]] (3x4, row-major),
+                                       // centre (3, mm), focal (px): silhouette.camera_rows
+    __global const double *joints,     // (J, 4) rest position (3, mm), patch (mm)
+    __global const int *shapes,        // (C, 3) width, height, first word of the mask in fg
+    __global const uint *fg,           // foreground bit masks, bit x % 32 of word x / 32 of
+                                       // its row (pitch words), each camera's followed by
+                                       // zeros to mask_words
+    const int C, const int J,          // cameras, joints
+    const int views_per_group,         // cameras per work-group: 1 .. C
+    __local uint8 *mask,               // the largest camera's mask (with bands > 1: a band
+                                       // of band_rows rows) + 1 spare word, or max_layers
+                                       // of its padded layers (see PAD)
+    const int max_layers,              // 0 .. MAX_LAYERS
+    __global int *out,                 // (n C, bands, 2) |M|, |M & F| of each band, then
+                                       // (n C, K, 2) float32 u, v (px) of each model point,
+                                       // NaN behind
+    const int write_masks, const int mask_words, // mask_words: a multiple of 8
+    __global uint *masks_out,          // (n C, mask_words) when write_masks != 0
+    const int K,                       // model points whose pixels to write, 0: none
+    __global const int *point_joint,   // (K,) the joint each point rides on
+    __global const float *point_rest,  // (K, 3) its rest position (mm)
+    const int bands,                   // work-groups per view: 1, or the bands (max_layers 0)
+    const int band_rows)               // rows of each band (with bands > 1)
+{
+    __local ViewTotals totals;
+    // work-group gb: band gb % bands of cameras first .. first + views_per_group - 1 (at
+    // most C - 1) of a candidate, in the order (candidate, camera group, band)
+    const int gb = get_group_id(0), lid = get_local_id(0);
+    const int groups = (C + views_per_group - 1) / views_per_group;  // camera groups
+    const int candidate = gb / bands / groups, first = gb / bands % groups * views_per_group;
+    const int views = get_num_groups(0) / bands / groups * C;  // n C
+    const Frame fr = {vertices, joint_start, cones, cameras, joints, shapes, fg, J, max_layers,
+                      bands, band_rows, write_masks, mask_words, K, masks_out, point_joint,
+                      point_rest, out, (__global float *)(out + 2 * bands * views)};
+    candidate_transforms(poses + candidate * (with_chain ? 3 + 6 * J : 12 * J), chain,
+                         with_chain, J, lid, transforms);
+    barrier(CLK_LOCAL_MEM_FENCE);
+    for (int c = first; c < MIN(first + views_per_group, C); ++c) {
+        count_view(&fr, candidate * C + c, c, gb % bands, transforms, mask, &totals, lid);
+        barrier(CLK_LOCAL_MEM_FENCE);  // before the next view clears the mask and totals
     }
 }
