@@ -6,7 +6,8 @@
 - ``table1``: Cano Table 1 and Fig. 3, time per CMA-ES frame per backend, vertex level and
   budget, and the host's share of it (:func:`mmocap.bench.tables.table1`);
 - ``roofline``: the silhouette kernel's time per model-view at the largest vertex level
-  beside the floor of this device's measured rates (:mod:`mmocap.bench.roofline`);
+  beside the floor of this device's measured rates (:mod:`mmocap.bench.roofline`), and where
+  its time goes, part by part (:mod:`mmocap.bench.parts`);
 - ``keypoints``: the keypoint term's cost, the time per evaluation with the hybrid fitness
   against the silhouettes alone at the demo's and Cano's workloads
   (:mod:`mmocap.bench.keypoints`), by default on the opencl backend;
@@ -44,7 +45,7 @@ import pandas as pd
 
 from mmocap import registry
 from mmocap.analysis.figures import plot_frames_per_second, plot_pareto_front
-from mmocap.bench import fidelity, fullhd, keypoints, roofline
+from mmocap.bench import fidelity, fullhd, keypoints, parts, roofline
 from mmocap.bench.backends import backends
 from mmocap.bench.output import TableWriter, update_bench_page
 from mmocap.bench.tables import MAX_FRAMES, table1, table2
@@ -64,10 +65,10 @@ FIDELITY_FRAMES = 60
 #: the tables each subcommand makes, by name: its sections of a ``--page``
 TABLES = {
     "table1": ("table1",),
-    "table2": ("table2", "roofline"),
-    "roofline": ("roofline",),
+    "table2": ("table2", "roofline", "kernel_parts"),
+    "roofline": ("roofline", "kernel_parts"),
     "keypoints": ("keypoints",),
-    "all": ("table2", "roofline", "table1", "keypoints"),
+    "all": ("table2", "roofline", "kernel_parts", "table1", "keypoints"),
     "fidelity": ("fidelity",),
     "fidelity-cano": ("fidelity_cano",),
     "fullhd": ("fullhd", "fullhd_foreground"),
@@ -315,7 +316,7 @@ def write_roofline(
     args: argparse.Namespace, tables: TableWriter, evaluators: dict, scenes: dict, times: pd.DataFrame | None = None
 ) -> None:
     """The roofline at the largest vertex level, beside the opencl kernel's Table 2 time
-    there (from ``times``, Table 2, else timed now)."""
+    there (from ``times``, Table 2, else timed now), and the kernel's parts there."""
     vertices = max(scenes)
     if times is None:
         times = table2(evaluators, {vertices: scenes[vertices]}, args.population, args.repeats)
@@ -324,6 +325,12 @@ def write_roofline(
         roofline.table(vertices, kernel),
         "roofline",
         f"Roofline of the silhouette kernel: one 640x480 model-view at {vertices} vertices, microseconds",
+    )
+    tables.write(
+        parts.parts_table(lambda: registry.make_evaluator("opencl"), scenes[vertices], args.population, args.repeats),
+        "kernel_parts",
+        f"Where the silhouette kernel's time goes: built to stop after each part, one 640x480 model-view at "
+        f"{vertices} vertices, {args.population} candidates per call, microseconds",
     )
 
 

@@ -15,7 +15,17 @@ from mmocap.io import write_text_atomic
 from mmocap.report.results_page import machine, update_page
 
 #: the page's sections in the order they appear, by table name (others follow these)
-PAGE_ORDER = ("table2", "table1", "roofline", "keypoints", "fidelity", "fidelity_cano", "fullhd", "fullhd_foreground")
+PAGE_ORDER = (
+    "table2",
+    "table1",
+    "roofline",
+    "kernel_parts",
+    "keypoints",
+    "fidelity",
+    "fidelity_cano",
+    "fullhd",
+    "fullhd_foreground",
+)
 
 
 def update_bench_page(page: Path, written: dict[str, str], replaced: Iterable[str]) -> None:

@@ -179,6 +179,7 @@ class _DeviceQueue:
         # the kernel's chain argument for a body without one (then never read)
         self.no_chain = cl.Buffer(ctx, cl.mem_flags.READ_ONLY, 64)
         self.block = 0
+        self.extra_options: tuple[str, ...] = ()  # see OpenCLEvaluator.build_with
         self.build(LARGEST_BLOCK)
         # the block size changes loop bounds only, not what the kernel needs of the device
         info = cl.kernel_work_group_info
@@ -196,7 +197,7 @@ class _DeviceQueue:
         """Take the kernel built for culling blocks of ``block`` vertices (once per process,
         context and options; see :func:`~mmocap.evaluators.opencl_layout.block_size`)."""
         if block != self.block:
-            built = program(self.ctx, build_options(self.local_size, self.simd_lanes, block))
+            built = program(self.ctx, build_options(self.local_size, self.simd_lanes, block) + list(self.extra_options))
             self.kernel = self.cl.Kernel(built, "silhouette_counts")
             self.block = block
             self.bound = {}  # a new kernel has no arguments set (and may reuse the old one's handle)
@@ -281,6 +282,15 @@ class OpenCLEvaluator(SilhouetteEvaluator):
         self._chain: KinematicChain | None = None
         self._weights = np.array([queue.device.max_compute_units for queue in self._device_queues], float)
         self.check = self._self_check(bool(accept_inexact))
+
+    def build_with(self, options: list[str]) -> None:
+        """Build the kernel with these options added (``-DNAME=VALUE``) from the next
+        :meth:`setup` on: a changed kernel to measure (:mod:`mmocap.bench.parts`), whose
+        counts are then that kernel's, not the silhouette rule's."""
+        for device_queue in self._device_queues:
+            device_queue.extra_options = tuple(options)
+            device_queue.block = 0  # built again by the next setup
+        self._body_uploaded = None
 
     @property
     def where(self) -> str:

@@ -3,6 +3,7 @@
 import pandas as pd
 import pytest
 
+from mmocap.bench import parts
 from mmocap.bench.cli import build_parser
 from mmocap.config import compose
 from mmocap.report.results_page import sections
@@ -85,6 +86,10 @@ def test_roofline_puts_the_kernel_beside_the_floor_of_the_measured_rates(tmp_pat
     assert kernel.us_per_model_view > 0
     assert kernel.ratio_to_floor == pytest.approx(kernel.us_per_model_view / floor.us_per_model_view)
     assert "500 ORs" in needs.need_per_model_view.iloc[2]  # half of 1000 vertices face the camera
+    kernel_parts = pd.read_csv(tmp_path / "kernel_parts.csv")
+    assert kernel_parts.part.tolist() == list(parts.PARTS.values())
+    assert kernel_parts.until_us.to_numpy() == pytest.approx(kernel_parts.part_us.cumsum().to_numpy())
+    assert kernel_parts.share.sum() == pytest.approx(1)
 
 
 def test_keypoints_times_the_opencl_backend_off_and_on_and_all_adds_it_to_the_page(tmp_path):
@@ -118,7 +123,7 @@ def test_keypoints_times_the_opencl_backend_off_and_on_and_all_adds_it_to_the_pa
         )
         == 0
     )
-    assert list(sections(page.read_text())) == ["table2", "table1", "roofline", "keypoints"]
+    assert list(sections(page.read_text())) == ["table2", "table1", "roofline", "kernel_parts", "keypoints"]
 
 
 def test_roofline_needs_the_opencl_backend(capsys):

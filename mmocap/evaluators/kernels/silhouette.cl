@@ -21,7 +21,9 @@
 // work-item and plain read-modify-writes replace the local atomics. The counts and, with
 // K > 0, the pixels of K model points (project_points) go to one output buffer, read back
 // at once; with write_masks != 0 the kernel also copies each view's mask to masks_out
-// (nV, mask_words) for rendering.
+// (nV, mask_words) for rendering. Only mmocap bench's kernel parts (mmocap/bench/parts.py,
+// the owner of PARTS and the PART_* numbers) define PARTS = k: the kernel stops after its
+// k-th part (layered path) and counts nothing.
 #if !defined(LOCAL_SIZE) || !defined(LANES) || !defined(COUNT_WORDS) || !defined(BLOCK)
 #error "build with -DLOCAL_SIZE, -DLANES, -DCOUNT_WORDS and -DBLOCK (opencl_layout.build_options)"
 #endif
@@ -30,6 +32,15 @@
 #endif
 #if !defined(NEAR_MM) || !defined(ROUNDING) || !defined(MAX_SIDE)
 #error "build with -DNEAR_MM, -DROUNDING and -DMAX_SIDE (opencl_layout.build_options)"
+#endif
+// Kernel parts: KEPT(part), whether the kernel runs that part; STOPS_AFTER(part), whether it
+// is the last it runs (always 1 and 0 unless PARTS is defined).
+#ifdef PARTS
+#define KEPT(part) (PARTS >= (part))
+#define STOPS_AFTER(part) (PARTS == (part))
+#else
+#define KEPT(part) 1
+#define STOPS_AFTER(part) 0
 #endif
 #pragma OPENCL EXTENSION cl_khr_fp64 : enable
 #pragma OPENCL FP_CONTRACT OFF   // no fused multiply-adds: round as NumPy does
@@ -82,6 +93,7 @@
 #define convert_uintV(x) CONVERT(x, uintV)
 #define convert_floatV(x) CONVERT(x, floatV)
 #define as_uintV CAT(as_uint, LANES)
+#define as_intV CAT(as_int, LANES)
 
 // PoCL (3.0) calls builtins such as vload, vstore, any, min, max, clamp and popcount as
 // functions instead of inlining them, so the loops below use plain operators instead. MIN
@@ -253,6 +265,10 @@ inline int project_lanes(__global const float *vertices, const int v, const int 
         facing = nv + (nx * b[0] + ny * b[1] + nz * b[2]) < 0.0f;
         if (!any_lane(facing)) return 0;
     }
+#if STOPS_AFTER(PART_CULLING)
+    *keep = facing;
+    return 1;
+#endif
     const floatV x = LOAD(row), y = LOAD(row + LANES), z = LOAD(row + 2 * LANES);
     const floatV pz = a[8] * x + a[9] * y + a[10] * z + a[11];
     *keep = facing & (pz > (float)NEAR_MM);  // lanes off: masked by the caller
@@ -483,6 +499,13 @@ __attribute__((always_inline)) inline void scatter_centres(
         intV keep;
         floatV tu, tw;
         if (!project_lanes(vertices, v, all_facing, a, b, &keep, &tu, &tw)) continue;
+#if STOPS_AFTER(PART_CULLING)  // the parts' results kept alive, cheaply
+        reach->hiV = MAX(reach->hiV, keep);
+        continue;
+#elif STOPS_AFTER(PART_PROJECTION)
+        reach->hiV = MAX(reach->hiV, keep & (as_intV(tu) ^ as_intV(tw)));
+        continue;
+#endif
         // a centre in the padded layer: in range as a float, so floor needs no clamp
         const intV in = keep & (tu >= (float)-PAD) & (tu < (float)(width + PAD))
                         & (tw >= (float)-PAD) & (tw < (float)(height + PAD));
@@ -496,7 +519,9 @@ __attribute__((always_inline)) inline void scatter_centres(
         reach->hiV = MAX(reach->hiV, in ? py : -1);
         reach->leftV = MIN(reach->leftV, in ? px : reach->leftV);
         reach->rightV = MAX(reach->rightV, in ? px : -1);
+#if KEPT(PART_ORS)
         set_bits(words, pending);
+#endif
         *pending = in ? layer_bit + py * (32 * pstride) + px : sink;
     }
 }
@@ -726,6 +751,10 @@ __attribute__((always_inline)) inline void count_view(
         if (s == 0) continue;
         float a[12], b[3];
         joint_coefficients(camera, T, a, b);
+#if STOPS_AFTER(PART_SETUP)  // no vertex: the coefficients kept alive
+        reach.lo = MIN(reach.lo, as_int(a[0]) ^ as_int(b[0]));
+        continue;
+#endif
         int l = 0;
         while (layered && side_of[l] != s) ++l;
         for (int blk = fr->joint_start[j] / BLOCK + lid; blk < fr->joint_start[j + 1] / BLOCK;
@@ -743,7 +772,9 @@ __attribute__((always_inline)) inline void count_view(
                               band_lo, words, &reach);
         }
     }
+#if KEPT(PART_ORS)
     if (layered) set_bits(words, &pending);
+#endif
     MIN_INT(&totals->row_lo, MIN(reach.lo, min_lane(reach.loV)));
     MAX_INT(&totals->row_hi, MAX(reach.hi, max_lane(reach.hiV)));
     MIN_INT(&totals->col_lo, min_lane(reach.leftV));
@@ -752,12 +783,17 @@ __attribute__((always_inline)) inline void count_view(
 
     // dilate-and-count, or count the stamped mask
     int model, overlap;
+#if !KEPT(PART_COUNT)  // nothing counted: the reach kept alive
+    model = totals->row_lo + totals->row_hi + totals->col_lo + totals->col_hi;
+    overlap = 0;
+#else
     if (layered)
         dilate_and_count(words, side_of, layers, layer_words, pstride, stride, pitch, width,
                          height, totals, f, lid, fr->write_masks, masks_out, &model, &overlap);
     else
         count_stamped(mask, (__global const uint8 *)f, totals->row_lo, totals->row_hi, pitch,
                       lid, &model, &overlap);
+#endif
     ADD_INT(&totals->model_px, model);
     ADD_INT(&totals->overlap_px, overlap);
     barrier(CLK_LOCAL_MEM_FENCE);
@@ -820,6 +856,9 @@ void silhouette_counts(
     candidate_transforms(poses + candidate * (with_chain ? 3 + 6 * J : 12 * J), chain,
                          with_chain, J, lid, transforms);
     barrier(CLK_LOCAL_MEM_FENCE);
+#if STOPS_AFTER(PART_CALL)  // the transforms alone
+    return;
+#endif
     for (int c = first; c < MIN(first + views_per_group, C); ++c) {
         count_view(&fr, candidate * C + c, c, gb % bands, transforms, mask, &totals, lid);
         barrier(CLK_LOCAL_MEM_FENCE);  // before the next view clears the mask and totals
