@@ -122,16 +122,19 @@ class PopulationOptimizer(ABC):
         asked = self._pending
         X = np.asarray(X)
         f = np.asarray(f, dtype=float)
-        if X.shape != asked.shape or not (X == asked).all():
+        # equal bytes of equal dtype are the same values: the element-wise test,
+        # several times dearer on a generation's array, is only needed when they differ
+        same = X.dtype == asked.dtype and X.tobytes() == asked.tobytes()
+        if X.shape != asked.shape or not (same or (X == asked).all()):
             raise ValueError(f"tell() needs exactly the {asked.shape} array that ask() returned, got shape {X.shape}")
         if f.shape != (X.shape[0],):
             raise ValueError(f"tell() needs fitness of shape ({X.shape[0]},), got {f.shape}")
-        if np.isnan(f).any():
+        best = int(f.argmin())  # the first NaN if there is one
+        if math.isnan(f[best]):
             raise ValueError("tell() got NaN fitness values")
         self._pending = None
         self.evaluations += X.shape[0]
         self.iterations += 1
-        best = int(f.argmin())
         if f[best] < self._fbest:
             self._fbest = float(f[best])
             self._xbest = asked[best].copy()

@@ -39,6 +39,7 @@ the decomposition, done every generation, would be a large share of CMA-ES's own
 from __future__ import annotations
 
 import math
+from collections import deque
 from dataclasses import dataclass
 from typing import cast
 
@@ -92,29 +93,80 @@ class BoxTransform:
         self._four_margin_upper = 4 * self.margin_upper
         # where the map is the identity (most coordinates of a tracked frame; joints at a limit are not)
         self._identity = (lower + self.margin_lower, upper - self.margin_upper)
+        # the same constants per coordinate as Python floats, for the few genotypes beyond a margin
+        self._coordinates = list(
+            zip(
+                *(
+                    a.tolist()
+                    for a in (
+                        self._start,
+                        self._period_end,
+                        self._period,
+                        self._end,
+                        self._twice_end,
+                        *self._identity,
+                        lower,
+                        upper,
+                        self._four_margin_lower,
+                        self._four_margin_upper,
+                    )
+                )
+            )
+        )
 
     def base_period(self, Y: np.ndarray) -> np.ndarray:
         """Genotypes (..., D) moved by whole periods into the base period (same image);
         those already in it are returned unchanged (no rounding)."""
         inside = (Y >= self._start) & (Y < self._period_end)
-        if inside.all():
+        if np.count_nonzero(inside) == inside.size:  # cheaper than inside.all() on small arrays
             return Y
         return np.where(inside, Y, self._start + np.mod(Y - self._start, self._period))
 
     def __call__(self, Y: np.ndarray) -> np.ndarray:
         """Images (..., D) in the box of the genotypes Y (..., D)."""
         inner_low, inner_high = self._identity
-        if ((Y >= inner_low) & (Y <= inner_high)).all():  # the same values, without the work
-            return Y
-        Y = self.base_period(Y)
-        Y = np.where(Y > self._end, self._twice_end - Y, Y)
         below, above = Y < inner_low, Y > inner_high
-        X = Y
-        if below.any():  # a search at a bound seldom reaches the other one: its side is skipped
-            X = np.where(below, self.lower + (Y - self._start) ** 2 / self._four_margin_lower, X)
-        if above.any():
-            X = np.where(above, self.upper - (Y - self._end) ** 2 / self._four_margin_upper, X)
+        n_below, n_above = np.count_nonzero(below), np.count_nonzero(above)
+        if not (n_below or n_above):  # the same values, without the work
+            return Y
+        # a search at a bound seldom reaches the other one: its side is skipped; the signs of the
+        # differences are exact, so they tell the few genotypes beyond a margin apart
+        X, beyond = Y, []
+        if n_below:
+            from_start = Y - self._start
+            X = np.where(below, self.lower + from_start**2 / self._four_margin_lower, X)
+            if from_start.min() < 0:
+                beyond.append(from_start < 0)
+        if n_above:
+            from_end = Y - self._end
+            X = np.where(above, self.upper - from_end**2 / self._four_margin_upper, X)
+            if from_end.max() > 0:
+                beyond.append(from_end > 0)
+        if beyond:
+            self._fold_beyond(Y, X, np.logical_or.reduce(beyond))
         return X
+
+    def _fold_beyond(self, Y: np.ndarray, X: np.ndarray, beyond: np.ndarray) -> None:
+        """Write into the images X (..., D), a new array, those of the genotypes Y (..., D)
+        where ``beyond`` (..., D) (outside ``[start, end]``): moved by whole periods into the
+        base period, reflected, then mapped, one by one (they are few) by the operations that
+        map the arrays, in the same order, so with the same rounding."""
+        dim = Y.shape[-1]
+        images = X.reshape(-1)
+        where = np.flatnonzero(beyond)
+        for i, y in zip(where.tolist(), Y.reshape(-1)[where].tolist()):
+            start, period_end, period, end, twice_end, inner_low, inner_high, lower, upper, quad_low, quad_up = (
+                self._coordinates[i % dim]
+            )
+            if not start <= y < period_end:  # Python's float % rounds as np.mod does
+                y = start + (y - start) % period
+            if y > end:
+                y = twice_end - y
+            if y < inner_low:
+                y = lower + (y - start) * (y - start) / quad_low
+            elif y > inner_high:
+                y = upper - (y - end) * (y - end) / quad_up
+            images[i] = y
 
     def inverse(self, X: np.ndarray) -> np.ndarray:
         """A genotype (..., D) in ``[lower - a_l, upper + a_u]`` of each point X (..., D) of
@@ -239,8 +291,8 @@ class CMAES(PopulationOptimizer):
         self._h_sigma_limit = (1.4 + 2 / (p.dim + 1)) * p.chi_n
         self._c_one = p.c_cov / p.mu_cov
         self._c_mu = p.c_cov - self._c_one
-        self._best_history: list[float] = []
         self._history_len = 10 + math.ceil(30 * dim / p.lam)
+        self._best_history: deque[float] = deque(maxlen=self._history_len)
         self._last_f = np.empty(0)
 
     def _propose(self, n_max: int) -> np.ndarray:
@@ -258,7 +310,6 @@ class CMAES(PopulationOptimizer):
         order = f.argsort(kind="stable")
         self._last_f = f
         self._best_history.append(float(f[order[0]]))
-        del self._best_history[: -self._history_len]
         mu = cast(StrategyParameters, self.params).mu
         if X.shape[0] >= mu:
             self._update(z[order[:mu]])
