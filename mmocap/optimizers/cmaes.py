@@ -130,31 +130,28 @@ class BoxTransform:
         if not (n_below or n_above):  # the same values, without the work
             return Y
         # a search at a bound seldom reaches the other one: its side is skipped; the signs of the
-        # differences are exact, so they tell the few genotypes beyond a margin apart
-        X, beyond = Y, []
+        # differences are exact, so they find the few genotypes beyond a margin
+        X = Y
         if n_below:
             from_start = Y - self._start
             X = np.where(below, self.lower + from_start**2 / self._four_margin_lower, X)
-            if from_start.min() < 0:
-                beyond.append(from_start < 0)
+            self._fold_beyond(Y, X, np.flatnonzero(from_start < 0))
         if n_above:
             from_end = Y - self._end
             X = np.where(above, self.upper - from_end**2 / self._four_margin_upper, X)
-            if from_end.max() > 0:
-                beyond.append(from_end > 0)
-        if beyond:
-            self._fold_beyond(Y, X, np.logical_or.reduce(beyond))
+            self._fold_beyond(Y, X, np.flatnonzero(from_end > 0))
         return X
 
     def _fold_beyond(self, Y: np.ndarray, X: np.ndarray, beyond: np.ndarray) -> None:
         """Write into the images X (..., D), a new array, those of the genotypes Y (..., D)
-        where ``beyond`` (..., D) (outside ``[start, end]``): moved by whole periods into the
-        base period, reflected, then mapped, one by one (they are few) by the operations that
-        map the arrays, in the same order, so with the same rounding."""
+        at the flat indices ``beyond`` (k,), outside ``[start, end]``: moved by whole periods
+        into the base period, reflected, then mapped, one by one (they are few) by the
+        operations that map the arrays, in the same order, so with the same rounding."""
+        if not beyond.size:
+            return
         dim = Y.shape[-1]
         images = X.reshape(-1)
-        where = np.flatnonzero(beyond)
-        for i, y in zip(where.tolist(), Y.reshape(-1)[where].tolist()):
+        for i, y in zip(beyond.tolist(), Y.reshape(-1)[beyond].tolist()):
             start, period_end, period, end, twice_end, inner_low, inner_high, lower, upper, quad_low, quad_up = (
                 self._coordinates[i % dim]
             )
@@ -294,6 +291,8 @@ class CMAES(PopulationOptimizer):
         self._history_len = 10 + math.ceil(30 * dim / p.lam)
         self._best_history: deque[float] = deque(maxlen=self._history_len)
         self._last_f = np.empty(0)
+        self._widest = 0  # the coordinate whose std was the largest when last computed (stop test)
+        self._scales = self.scale.tolist()
 
     def _propose(self, n_max: int) -> np.ndarray:
         """Lambda samples of N(m, sigma^2 C), fewer in a last generation cut by the budget."""
@@ -358,9 +357,16 @@ class CMAES(PopulationOptimizer):
         reasons: dict[str, float] = {}
         if self._updates == 0:
             return reasons
-        std = float((self._sigma * np.sqrt(self._C.diagonal()) * self.scale).max())
-        if std < self.tolx:
-            reasons["tolx"] = std
+        # one coordinate's std (the largest the last time), the same product as the array's
+        # element: at or above tolx, the largest is too and the array is not needed
+        j = self._widest
+        variance = self._C.item(j, j)
+        if not (variance >= 0 and self._sigma * math.sqrt(variance) * self._scales[j] >= self.tolx):
+            stds = self._sigma * np.sqrt(self._C.diagonal()) * self.scale
+            self._widest = int(stds.argmax())
+            std = float(stds.max())
+            if std < self.tolx:
+                reasons["tolx"] = std
         if len(self._best_history) == self._history_len:
             f_range = max(
                 float(self._last_f.max() - self._last_f.min()), max(self._best_history) - min(self._best_history)
