@@ -298,8 +298,12 @@ class CMAES(PopulationOptimizer):
         """Lambda samples of N(m, sigma^2 C), fewer in a last generation cut by the budget."""
         p = cast(StrategyParameters, self.params)  # set by _start
         n = min(p.lam, n_max)
-        normal = self.rng.standard_normal((n, p.dim))
-        self._z = self._mean + self._sigma * (normal * self._D) @ self._B.T
+        # mean + sigma (normal D) B^T, in place (the products and sums of the formula, so its values)
+        steps = self.rng.standard_normal((n, p.dim))
+        steps *= self._D
+        steps *= self._sigma
+        self._z = steps @ self._B.T
+        self._z += self._mean
         self._x = self.from_unit(self._box(self._z) if self.bounds == "transform" else self._z)
         return self._x
 
@@ -324,7 +328,8 @@ class CMAES(PopulationOptimizer):
         < (1.4 + 2 / (D + 1)) E||N(0, I)||.
         """
         p = cast(StrategyParameters, self.params)
-        y = (z_sel - self._mean) / self._sigma
+        y = z_sel - self._mean
+        y /= self._sigma
         y_w = p.weights @ y
         self._mean = self._mean + self._sigma * y_w
         inv_sqrt_C_y_w = self._B @ ((self._B.T @ y_w) / self._D)
@@ -337,9 +342,14 @@ class CMAES(PopulationOptimizer):
         rank_one = np.multiply.outer(self._p_c, self._p_c)
         if not h_sigma:  # Hansen's compensation for the p_c update stalled by h_sigma
             rank_one += p.c_c * (2 - p.c_c) * self._C
-        C = (1 - p.c_cov) * self._C
-        C += self._c_one * rank_one
-        C += self._c_mu * (y.T * p.weights) @ y
+        # in place, with the products and sums of the formula (so its values)
+        C = self._C
+        C *= 1 - p.c_cov
+        rank_one *= self._c_one
+        C += rank_one
+        rank_mu = y.T * p.weights
+        rank_mu *= self._c_mu
+        C += rank_mu @ y
         C += C.T  # symmetric despite rounding
         C /= 2
         self._C = C
