@@ -129,6 +129,39 @@ def test_box_transform_maps_each_point_alike_whatever_else_is_in_the_call():
     np.testing.assert_array_equal(shortcut, np.r_[Y, edges])
 
 
+def reference_box_map(box_map: BoxTransform, Y: np.ndarray) -> np.ndarray:
+    """The map of the BoxTransform docstring on whole arrays: whole periods, reflection, margins."""
+    start, end = box_map.lower - box_map.margin_lower, box_map.upper + box_map.margin_upper
+    period = 2 * (end - start)
+    Y = np.where((Y >= start) & (Y < start + period), Y, start + np.mod(Y - start, period))
+    Y = np.where(Y > end, 2 * end - Y, Y)
+    X = np.where(
+        Y < box_map.lower + box_map.margin_lower, box_map.lower + (Y - start) ** 2 / (4 * box_map.margin_lower), Y
+    )
+    return np.where(
+        Y > box_map.upper - box_map.margin_upper, box_map.upper - (Y - end) ** 2 / (4 * box_map.margin_upper), X
+    )
+
+
+def test_box_transform_is_the_whole_array_map_bit_for_bit():
+    """Genotypes in the margins and beyond them (mapped one by one) get the values of the map
+    computed on whole arrays, down to the last bit: at the margins' ends, the base period's
+    end and many periods away, in calls that reach one side or both."""
+    rng = np.random.default_rng(3)
+    lower, upper = -rng.uniform(0.01, 2.0, 12), rng.uniform(0.01, 2.0, 12)
+    lower[:2] = 0.0
+    box_map = BoxTransform(lower, upper)
+    start, end = lower - box_map.margin_lower, upper + box_map.margin_upper
+    for spread in (0.01, 0.1, 1.0, 50.0):
+        Y = rng.uniform(-0.01, 0.01, (14, 12))
+        Y[:, :4] = lower[:4] + rng.normal(0.0, spread, (14, 4))
+        Y[:, 4:6] = upper[4:6] + rng.normal(0.0, spread, (14, 2))
+        Y[:4, 6:8] = [start[6:8], end[6:8], start[6:8] + 2 * (end - start)[6:8], np.nextafter(start[6:8], -1)]
+        assert box_map(Y).tobytes() == reference_box_map(box_map, Y).tobytes()
+        low_side = BoxTransform(lower[:4], upper[:4])  # a call that reaches the lower side only
+        assert low_side(Y[:, :4]).tobytes() == reference_box_map(low_side, Y[:, :4]).tobytes()
+
+
 def test_transform_needs_finite_bounds():
     space = SearchSpace(x0=np.zeros(3), lower=np.full(3, -np.inf), upper=np.ones(3), radius=np.ones(3), budget=100)
     with pytest.raises(ConfigError, match="finite search bounds; use optimizer.bounds=clip"):
@@ -222,7 +255,9 @@ def test_tell_checks_its_input():
         opt.tell(X + 1e-3, sphere(X))
     with pytest.raises(ValueError, match="needs fitness of shape"):
         opt.tell(X, sphere(X)[:-1])
-    opt.tell(X, sphere(X))
+    with pytest.raises(ValueError, match="NaN fitness"):
+        opt.tell(X, np.r_[sphere(X)[:-1], np.nan])
+    opt.tell(X.tolist(), sphere(X))  # the same values in another container are the same candidates
     with pytest.raises(RuntimeError):
         opt.tell(X, sphere(X))
 
