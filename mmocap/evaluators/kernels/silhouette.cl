@@ -90,6 +90,16 @@
 #define CONVERT(x, type) CAT(convert_, type)(x)
 #endif
 #define convert_intV(x) CONVERT(x, intV)
+// floor of each lane, in place where the compiler has Clang's elementwise builtin (one
+// instruction with SSE4.1 or AVX), else OpenCL's floor
+#ifdef __has_builtin
+#if __has_builtin(__builtin_elementwise_floor)
+#define FLOOR(x) __builtin_elementwise_floor(x)
+#endif
+#endif
+#ifndef FLOOR
+#define FLOOR(x) floor(x)
+#endif
 #define convert_uintV(x) CONVERT(x, uintV)
 #define convert_floatV(x) CONVERT(x, floatV)
 #define as_uintV CAT(as_uint, LANES)
@@ -506,15 +516,14 @@ __attribute__((always_inline)) inline void scatter_centres(
         reach->hiV = MAX(reach->hiV, keep & (as_intV(tu) ^ as_intV(tw)));
         continue;
 #endif
-        // a centre in the padded layer: in range as a float, so floor needs no clamp
+        // a centre in the padded layer: in range as a float (tu >= -PAD exactly when its
+        // floor is), so its floor converts exactly
         const intV in = keep & (tu >= (float)-PAD) & (tu < (float)(width + PAD))
                         & (tw >= (float)-PAD) & (tw < (float)(height + PAD));
         // lanes that are not in convert 0: a float out of int's range (or NaN) converts to
         // an undefined value, which may spoil the masked results too
-        const intV tx = convert_intV(in ? tu : (floatV)(0.0f));
-        const intV ty = convert_intV(in ? tw : (floatV)(0.0f));
-        const intV px = tx + (convert_floatV(tx) > tu) + PAD;
-        const intV py = ty + (convert_floatV(ty) > tw) + PAD;
+        const intV px = convert_intV(in ? FLOOR(tu) : (floatV)(0.0f)) + PAD;
+        const intV py = convert_intV(in ? FLOOR(tw) : (floatV)(0.0f)) + PAD;
         reach->loV = MIN(reach->loV, in ? py : reach->loV);
         reach->hiV = MAX(reach->hiV, in ? py : -1);
         reach->leftV = MIN(reach->leftV, in ? px : reach->leftV);
