@@ -494,15 +494,16 @@ __attribute__((always_inline)) inline int block_meets_rows(__global const double
 }
 
 // Layered scatter of culling block blk: each kept vertex whose centre lies in the padded
-// layer sets one bit, at its centre, in the layer at bit address layer_bit; reach gets the
-// centres' padded rows and columns. The bit addresses of the last vector of centres wait in
+// layer sets one bit, at its centre, in the layer whose image pixel (0, 0) has bit address
+// origin (PAD rows and columns into the layer); reach's lanes get the centres' image rows
+// and columns. The bit addresses of the last vector of centres wait in
 // *pending (a lane without a centre: its own sink word past the layers, see SINK_WORDS) and
 // are set one vector later: read back from memory lane by lane (faster than extracting them
 // from registers) once their store has long completed (read right after it, every load
 // would wait for the store).
 __attribute__((always_inline)) inline void scatter_centres(
     __global const float *vertices, const int blk, const int all_facing, const float *a,
-    const float *b, const int width, const int height, const int pstride, const int layer_bit,
+    const float *b, const int width, const int height, const int pstride, const int origin,
     const intV sink, __local uint *words, volatile intV *pending, Reach *reach)
 {
     for (int v = BLOCK * blk; v < BLOCK * (blk + 1); v += LANES) {
@@ -522,16 +523,16 @@ __attribute__((always_inline)) inline void scatter_centres(
                         & (tw >= (float)-PAD) & (tw < (float)(height + PAD));
         // lanes that are not in convert 0: a float out of int's range (or NaN) converts to
         // an undefined value, which may spoil the masked results too
-        const intV px = convert_intV(in ? FLOOR(tu) : (floatV)(0.0f)) + PAD;
-        const intV py = convert_intV(in ? FLOOR(tw) : (floatV)(0.0f)) + PAD;
+        const intV px = convert_intV(in ? FLOOR(tu) : (floatV)(0.0f));
+        const intV py = convert_intV(in ? FLOOR(tw) : (floatV)(0.0f));
         reach->loV = MIN(reach->loV, in ? py : reach->loV);
-        reach->hiV = MAX(reach->hiV, in ? py : -1);
+        reach->hiV = MAX(reach->hiV, in ? py : reach->hiV);
         reach->leftV = MIN(reach->leftV, in ? px : reach->leftV);
-        reach->rightV = MAX(reach->rightV, in ? px : -1);
+        reach->rightV = MAX(reach->rightV, in ? px : reach->rightV);
 #if KEPT(PART_ORS)
         set_bits(words, pending);
 #endif
-        *pending = in ? layer_bit + py * (32 * pstride) + px : sink;
+        *pending = in ? origin + py * (32 * pstride) + px : sink;
     }
 }
 
@@ -752,8 +753,11 @@ __attribute__((always_inline)) inline void count_view(
     volatile intV pending = sink;
     Reach reach;
     reach.lo = height + 2 * PAD; reach.hi = -1;
-    reach.loV = (intV)(height + 2 * PAD); reach.hiV = (intV)(-1);
-    reach.leftV = (intV)(width + 2 * PAD); reach.rightV = (intV)(-1);
+    // the lanes' rows and columns: those of reach.lo and the totals less lane_pad (image
+    // ones on the layered path)
+    const int lane_pad = layered ? PAD : 0;
+    reach.loV = (intV)(height + 2 * PAD - lane_pad); reach.hiV = (intV)(-1 - lane_pad);
+    reach.leftV = (intV)(width + 2 * PAD - lane_pad); reach.rightV = (intV)(-1 - lane_pad);
     for (int j = 0; j < J; ++j) {
         __local const double *T = T0 + 12 * j;
         const int s = patch_side(camera, T, joints + 4 * j);
@@ -775,7 +779,8 @@ __attribute__((always_inline)) inline void count_view(
                 continue;
             if (layered)
                 scatter_centres(fr->vertices, blk, all_facing, a, b, width, height, pstride,
-                                32 * l * layer_words, sink, words, &pending, &reach);
+                                32 * l * layer_words + PAD * (32 * pstride + 1), sink, words,
+                                &pending, &reach);
             else
                 stamp_patches(fr->vertices, blk, all_facing, a, b, width, height, pitch, s,
                               band_lo, words, &reach);
@@ -784,10 +789,10 @@ __attribute__((always_inline)) inline void count_view(
 #if KEPT(PART_ORS)
     if (layered) set_bits(words, &pending);
 #endif
-    MIN_INT(&totals->row_lo, MIN(reach.lo, min_lane(reach.loV)));
-    MAX_INT(&totals->row_hi, MAX(reach.hi, max_lane(reach.hiV)));
-    MIN_INT(&totals->col_lo, min_lane(reach.leftV));
-    MAX_INT(&totals->col_hi, max_lane(reach.rightV));
+    MIN_INT(&totals->row_lo, MIN(reach.lo, min_lane(reach.loV) + lane_pad));
+    MAX_INT(&totals->row_hi, MAX(reach.hi, max_lane(reach.hiV) + lane_pad));
+    MIN_INT(&totals->col_lo, min_lane(reach.leftV) + lane_pad);
+    MAX_INT(&totals->col_hi, max_lane(reach.rightV) + lane_pad);
     barrier(CLK_LOCAL_MEM_FENCE);
 
     // dilate-and-count, or count the stamped mask
