@@ -90,15 +90,13 @@
 #define CONVERT(x, type) CAT(convert_, type)(x)
 #endif
 #define convert_intV(x) CONVERT(x, intV)
-// floor of each lane, in place where the compiler has Clang's elementwise builtin (one
-// instruction with SSE4.1 or AVX), else OpenCL's floor
-#ifdef __has_builtin
+// CPUs with SSE4.1 (or AVX) round a float vector down in one instruction: Clang's
+// elementwise floor gives it in place (PoCL calls OpenCL's floor as a function, and
+// Oclgrind, compiling for SPIR, has no llvm.floor of vectors).
+#if defined(__SSE4_1__) && defined(__has_builtin)
 #if __has_builtin(__builtin_elementwise_floor)
-#define FLOOR(x) __builtin_elementwise_floor(x)
+#define FLOOR_INSTRUCTION
 #endif
-#endif
-#ifndef FLOOR
-#define FLOOR(x) floor(x)
 #endif
 #define convert_uintV(x) CONVERT(x, uintV)
 #define convert_floatV(x) CONVERT(x, floatV)
@@ -158,16 +156,26 @@
 // (cx, cy) clamped to [-2^20, 2^20] before the conversion to int: far beyond any image.
 #define CLAMP_PX 1048576.0f
 
-// floor(t) as int, t clamped to [-CLAMP_PX, CLAMP_PX] (NaN, from a rejected vertex, to 0:
-// converting NaN to int is undefined); exact, and on PoCL faster than the floor, clamp and
-// convert builtins together.
+// floor(t) as int for t within int's range (no NaN: converting a float out of it to int
+// is undefined); exact.
+inline intV floor_in_range(const floatV t)
+{
+#ifdef FLOOR_INSTRUCTION
+    return convert_intV(__builtin_elementwise_floor(t));
+#else
+    const intV truncated = convert_intV(t);
+    return truncated + (convert_floatV(truncated) > t);   // true is -1
+#endif
+}
+
+// floor(t) as int, t clamped to [-CLAMP_PX, CLAMP_PX] (NaN, from a rejected vertex, to 0);
+// exact, and on PoCL faster than the floor, clamp and convert builtins together.
 inline intV floor_int(floatV t)
 {
     t = t != t ? (floatV)(0.0f) : t;
     t = t < -CLAMP_PX ? -CLAMP_PX : t;
     t = t > CLAMP_PX ? CLAMP_PX : t;
-    const intV truncated = convert_intV(t);
-    return truncated + (convert_floatV(truncated) > t);   // true is -1
+    return floor_in_range(t);
 }
 
 // Whether any lane of a comparison result is true (-1).
@@ -517,14 +525,13 @@ __attribute__((always_inline)) inline void scatter_centres(
         reach->hiV = MAX(reach->hiV, keep & (as_intV(tu) ^ as_intV(tw)));
         continue;
 #endif
-        // a centre in the padded layer: in range as a float (tu >= -PAD exactly when its
-        // floor is), so its floor converts exactly
+        // a centre in the padded layer: in range as a float, so floor needs no clamp
         const intV in = keep & (tu >= (float)-PAD) & (tu < (float)(width + PAD))
                         & (tw >= (float)-PAD) & (tw < (float)(height + PAD));
-        // lanes that are not in convert 0: a float out of int's range (or NaN) converts to
-        // an undefined value, which may spoil the masked results too
-        const intV px = convert_intV(in ? FLOOR(tu) : (floatV)(0.0f));
-        const intV py = convert_intV(in ? FLOOR(tw) : (floatV)(0.0f));
+        // lanes that are not in take the floor of 0: a float out of int's range (or NaN)
+        // converts to an undefined value, which may spoil the masked results too
+        const intV px = floor_in_range(in ? tu : (floatV)(0.0f));
+        const intV py = floor_in_range(in ? tw : (floatV)(0.0f));
         reach->loV = MIN(reach->loV, in ? py : reach->loV);
         reach->hiV = MAX(reach->hiV, in ? py : reach->hiV);
         reach->leftV = MIN(reach->leftV, in ? px : reach->leftV);
