@@ -528,13 +528,14 @@ __attribute__((always_inline)) inline void scatter_centres(
         // a centre in the padded layer: in range as a float, so floor needs no clamp
         const intV in = keep & (tu >= (float)-PAD) & (tu < (float)(width + PAD))
                         & (tw >= (float)-PAD) & (tw < (float)(height + PAD));
-        // lanes that are not in take the floor of 0: a float out of int's range (or NaN)
-        // converts to an undefined value, which may spoil the masked results too
-        const intV px = floor_in_range(in ? tu : (floatV)(0.0f));
-        const intV py = floor_in_range(in ? tw : (floatV)(0.0f));
-        reach->loV = MIN(reach->loV, in ? py : reach->loV);
+        // lanes that are not in take the floor of the layer's last column and row + 1, no
+        // lower bound to reach: a float out of int's range (or NaN) converts to an undefined
+        // value, which may spoil the masked results too
+        const intV px = floor_in_range(in ? tu : (floatV)(width + PAD));
+        const intV py = floor_in_range(in ? tw : (floatV)(height + PAD));
+        reach->loV = MIN(reach->loV, py);
         reach->hiV = MAX(reach->hiV, in ? py : reach->hiV);
-        reach->leftV = MIN(reach->leftV, in ? px : reach->leftV);
+        reach->leftV = MIN(reach->leftV, px);
         reach->rightV = MAX(reach->rightV, in ? px : reach->rightV);
 #if KEPT(PART_ORS)
         set_bits(words, pending);
