@@ -90,6 +90,10 @@
 #define CONVERT(x, type) CAT(convert_, type)(x)
 #endif
 #define convert_intV(x) CONVERT(x, intV)
+#define convert_uintV(x) CONVERT(x, uintV)
+#define convert_floatV(x) CONVERT(x, floatV)
+#define as_uintV CAT(as_uint, LANES)
+#define as_intV CAT(as_int, LANES)
 // CPUs with SSE4.1 (or AVX) round a float vector down in one instruction: Clang's
 // elementwise floor gives it in place (PoCL calls OpenCL's floor as a function, and
 // Oclgrind, compiling for SPIR, has no llvm.floor of vectors).
@@ -98,10 +102,6 @@
 #define FLOOR_INSTRUCTION
 #endif
 #endif
-#define convert_uintV(x) CONVERT(x, uintV)
-#define convert_floatV(x) CONVERT(x, floatV)
-#define as_uintV CAT(as_uint, LANES)
-#define as_intV CAT(as_int, LANES)
 
 // PoCL (3.0) calls builtins such as vload, vstore, any, min, max, clamp and popcount as
 // functions instead of inlining them, so the loops below use plain operators instead. MIN
@@ -392,7 +392,8 @@ typedef struct {
 } ViewTotals;
 
 // What one work-item's stamps or centres reached: rows (padded rows when layered) from
-// stamp() and per lane, and per lane the padded columns of the layered path's centres.
+// stamp(), and per lane the rows of the stamps or the image rows and columns of the layered
+// path's centres (PAD less than the padded ones).
 typedef struct {
     int lo, hi;
     intV loV, hiV, leftV, rightV;
@@ -528,9 +529,9 @@ __attribute__((always_inline)) inline void scatter_centres(
         // a centre in the padded layer: in range as a float, so floor needs no clamp
         const intV in = keep & (tu >= (float)-PAD) & (tu < (float)(width + PAD))
                         & (tw >= (float)-PAD) & (tw < (float)(height + PAD));
-        // lanes that are not in take the floor of the layer's last column and row + 1, no
-        // lower bound to reach: a float out of int's range (or NaN) converts to an undefined
-        // value, which may spoil the masked results too
+        // lanes that are not in take the floor of width + PAD and height + PAD, past every
+        // centre (so the lower bounds need no select): a float out of int's range (or NaN)
+        // converts to an undefined value, which may spoil the masked results too
         const intV px = floor_in_range(in ? tu : (floatV)(width + PAD));
         const intV py = floor_in_range(in ? tw : (floatV)(height + PAD));
         reach->loV = MIN(reach->loV, py);
@@ -761,8 +762,8 @@ __attribute__((always_inline)) inline void count_view(
     volatile intV pending = sink;
     Reach reach;
     reach.lo = height + 2 * PAD; reach.hi = -1;
-    // the lanes' rows and columns: those of reach.lo and the totals less lane_pad (image
-    // ones on the layered path)
+    // the lanes' rows and columns: those of reach.lo and the totals less lane_pad (the
+    // layered path's image ones)
     const int lane_pad = layered ? PAD : 0;
     reach.loV = (intV)(height + 2 * PAD - lane_pad); reach.hiV = (intV)(-1 - lane_pad);
     reach.leftV = (intV)(width + 2 * PAD - lane_pad); reach.rightV = (intV)(-1 - lane_pad);
