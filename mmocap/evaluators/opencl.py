@@ -69,6 +69,7 @@ from mmocap.errors import ConfigError
 from mmocap.evaluators import opencl_devices
 from mmocap.evaluators.numpy_backend import NumpyEvaluator
 from mmocap.evaluators.opencl_devices import (
+    compiled_vector_bits,
     context,
     platforms,
     program,
@@ -136,12 +137,15 @@ def mask_path(width: int, height: int, local_bytes: int) -> str:
     return f"in {-(-height // rows)} bands of {rows} rows" if rows else "refused"
 
 
-def default_lanes(device) -> int:
+def default_lanes(device, ctx) -> int:
     """The kernel's vector width when none is given: on a CPU one vector register of floats
-    (16 with AVX-512, else 8; measured fastest), 4 on other devices."""
+    as the kernel compiler targets (:func:`~mmocap.evaluators.opencl_devices.compiled_vector_bits`
+    in ``ctx``; where it does not say, as the device reports): 16 with AVX-512, else 8
+    (measured fastest); 4 on other devices."""
     if not device.type & pyopencl().device_type.CPU:
         return 4
-    return 16 if device.native_vector_width_float >= 16 else 8
+    floats = compiled_vector_bits(ctx, device) // 32 or device.native_vector_width_float
+    return 16 if floats >= 16 else 8
 
 
 class _DeviceQueue:
@@ -165,7 +169,7 @@ class _DeviceQueue:
         if not 1 <= int(local_size) <= largest:
             raise ConfigError(f"local_size must be in [1, {largest}] on {device.name.strip()!r}, got {local_size}")
         if lanes is None:
-            lanes = default_lanes(device)
+            lanes = default_lanes(device, ctx)
         if lanes not in (4, 8, 16):
             raise ConfigError(
                 f"lanes must be 4, 8 or 16 (or null: the CPU's vector width, 4 on other devices), got {lanes!r}"
@@ -240,8 +244,9 @@ class OpenCLEvaluator(SilhouetteEvaluator):
         local_size: work-items per work-group (a candidate and one or more of its cameras,
             see :func:`~mmocap.evaluators.opencl_layout.views_per_group`); None: 1 on a
             CPU, 64 on other devices.
-        lanes: vertices per vector in the kernel, 4, 8 or 16; None: on a CPU its native float
-            vector width (16 with AVX-512, else 8), 4 on other devices. The counts do not
+        lanes: vertices per vector in the kernel, 4, 8 or 16; None: on a CPU the float
+            vector width that its kernel compiler targets (16 with AVX-512, else 8; see
+            :func:`default_lanes`), 4 on other devices. The counts do not
             depend on it.
         accept_inexact: also run on a device whose self-check counts are within
             :data:`TOLERANCE` of NumPy's instead of equal (see the module's doc).

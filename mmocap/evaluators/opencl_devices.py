@@ -43,6 +43,23 @@ _cl = None  # the pyopencl module, once imported
 _CONTEXTS: dict[tuple, object] = {}
 _PROGRAMS: dict[tuple, object] = {}
 _SUB_DEVICES: dict[tuple, list] = {}
+_VECTOR_BITS: dict[int, int] = {}
+#: a kernel that writes the width in bits of the float vector registers its compiler targets
+#: (x86: AVX-512, AVX or SSE), 0 where the compiler does not say
+_VECTOR_BITS_PROBE = """
+__kernel void vector_bits(__global int *out)
+{
+#if defined(__AVX512F__)
+    out[0] = 512;
+#elif defined(__AVX__)
+    out[0] = 256;
+#elif defined(__SSE__)
+    out[0] = 128;
+#else
+    out[0] = 0;
+#endif
+}
+"""
 
 
 def _private_pocl_cache() -> None:
@@ -175,6 +192,23 @@ def program(ctx, options: list[str]):
     if key not in _PROGRAMS:
         _PROGRAMS[key] = pyopencl().Program(ctx, kernel_source()).build(options=list(options))
     return _PROGRAMS[key]
+
+
+def compiled_vector_bits(ctx, device) -> int:
+    """The width in bits of the float vector registers that the device's kernel compiler
+    targets (x86: 512 with AVX-512, 256 with AVX, 128 with SSE), 0 where it does not say;
+    once per process and device. It may be less than the device reports: PoCL 3.0 compiles
+    for the CPU that LLVM 14 names, and a Zen 4 is an AVX2 CPU to it."""
+    if device.int_ptr not in _VECTOR_BITS:
+        cl = pyopencl()
+        probe = cl.Program(ctx, _VECTOR_BITS_PROBE).build(devices=[device])
+        queue = cl.CommandQueue(ctx, device)
+        out = np.zeros(1, np.int32)
+        written = cl.Buffer(ctx, cl.mem_flags.WRITE_ONLY, out.nbytes)
+        probe.vector_bits(queue, (1,), None, written)
+        cl.enqueue_copy(queue, out, written)
+        _VECTOR_BITS[device.int_ptr] = int(out[0])
+    return _VECTOR_BITS[device.int_ptr]
 
 
 def sub_devices(device, count: int) -> list:

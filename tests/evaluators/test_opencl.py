@@ -202,16 +202,33 @@ def test_a_device_without_what_the_kernel_needs_is_a_config_error(missing, messa
 
 
 @pytest.mark.parametrize(
-    ("kind", "native", "lanes"), [("CPU", 16, 16), ("CPU", 8, 8), ("CPU", 4, 8), ("GPU", 16, 4), ("GPU", 1, 4)]
+    ("kind", "native", "compiled", "lanes"),
+    [
+        ("CPU", 16, 512, 16),
+        ("CPU", 16, 256, 8),  # PoCL 3.0 on a Zen 4: AVX-512 reported, AVX2 compiled
+        ("CPU", 16, 0, 16),  # the compiler does not say: as reported
+        ("CPU", 8, 0, 8),
+        ("CPU", 4, 128, 8),
+        ("GPU", 16, 0, 4),
+        ("GPU", 1, 0, 4),
+    ],
 )
-def test_a_cpu_gets_one_vector_register_of_lanes_by_default(kind, native, lanes):
+def test_a_cpu_gets_one_vector_register_of_lanes_by_default(monkeypatch, kind, native, compiled, lanes):
     from types import SimpleNamespace
 
     cl = opencl_devices.pyopencl()
     device = SimpleNamespace(type=getattr(cl.device_type, kind), native_vector_width_float=native)
-    assert opencl.default_lanes(device) == lanes
+    with monkeypatch.context() as patched:
+        patched.setattr(opencl, "compiled_vector_bits", lambda ctx, dev: compiled)
+        assert opencl.default_lanes(device, None) == lanes
     real = opencl_devices.select_device(None, 0)  # and the evaluator takes it
-    assert opencl.OpenCLEvaluator()._device_queues[0].simd_lanes == opencl.default_lanes(real)
+    expected = opencl.default_lanes(real, opencl_devices.context([real]))
+    assert opencl.OpenCLEvaluator()._device_queues[0].simd_lanes == expected
+
+
+def test_the_compiled_vector_width_is_that_of_a_register():
+    real = opencl_devices.select_device(None, 0)
+    assert opencl_devices.compiled_vector_bits(opencl_devices.context([real]), real) in (0, 128, 256, 512)
 
 
 @pytest.mark.parametrize("max_layers", [1, 2, 4])

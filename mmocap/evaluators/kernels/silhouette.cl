@@ -94,6 +94,14 @@
 #define convert_floatV(x) CONVERT(x, floatV)
 #define as_uintV CAT(as_uint, LANES)
 #define as_intV CAT(as_int, LANES)
+// CPUs with SSE4.1 (or AVX) round a float vector down in one instruction: Clang's
+// elementwise floor gives it in place (PoCL calls OpenCL's floor as a function, and
+// Oclgrind, compiling for SPIR, has no llvm.floor of vectors).
+#if defined(__SSE4_1__) && defined(__has_builtin)
+#if __has_builtin(__builtin_elementwise_floor)
+#define FLOOR_INSTRUCTION
+#endif
+#endif
 
 // PoCL (3.0) calls builtins such as vload, vstore, any, min, max, clamp and popcount as
 // functions instead of inlining them, so the loops below use plain operators instead. MIN
@@ -148,16 +156,26 @@
 // (cx, cy) clamped to [-2^20, 2^20] before the conversion to int: far beyond any image.
 #define CLAMP_PX 1048576.0f
 
-// floor(t) as int, t clamped to [-CLAMP_PX, CLAMP_PX] (NaN, from a rejected vertex, to 0:
-// converting NaN to int is undefined); exact, and on PoCL faster than the floor, clamp and
-// convert builtins together.
+// floor(t) as int for t within int's range (no NaN: converting a float out of it to int
+// is undefined); exact.
+inline intV floor_in_range(const floatV t)
+{
+#ifdef FLOOR_INSTRUCTION
+    return convert_intV(__builtin_elementwise_floor(t));
+#else
+    const intV truncated = convert_intV(t);
+    return truncated + (convert_floatV(truncated) > t);   // true is -1
+#endif
+}
+
+// floor(t) as int, t clamped to [-CLAMP_PX, CLAMP_PX] (NaN, from a rejected vertex, to 0);
+// exact, and on PoCL faster than the floor, clamp and convert builtins together.
 inline intV floor_int(floatV t)
 {
     t = t != t ? (floatV)(0.0f) : t;
     t = t < -CLAMP_PX ? -CLAMP_PX : t;
     t = t > CLAMP_PX ? CLAMP_PX : t;
-    const intV truncated = convert_intV(t);
-    return truncated + (convert_floatV(truncated) > t);   // true is -1
+    return floor_in_range(t);
 }
 
 // Whether any lane of a comparison result is true (-1).
@@ -374,7 +392,8 @@ typedef struct {
 } ViewTotals;
 
 // What one work-item's stamps or centres reached: rows (padded rows when layered) from
-// stamp() and per lane, and per lane the padded columns of the layered path's centres.
+// stamp(), and per lane the rows of the stamps or the image rows and columns of the layered
+// path's centres (PAD less than the padded ones).
 typedef struct {
     int lo, hi;
     intV loV, hiV, leftV, rightV;
@@ -484,15 +503,16 @@ __attribute__((always_inline)) inline int block_meets_rows(__global const double
 }
 
 // Layered scatter of culling block blk: each kept vertex whose centre lies in the padded
-// layer sets one bit, at its centre, in the layer at bit address layer_bit; reach gets the
-// centres' padded rows and columns. The bit addresses of the last vector of centres wait in
+// layer sets one bit, at its centre, in the layer whose image pixel (0, 0) has bit address
+// origin (PAD rows and columns into the layer); reach's lanes get the centres' image rows
+// and columns. The bit addresses of the last vector of centres wait in
 // *pending (a lane without a centre: its own sink word past the layers, see SINK_WORDS) and
 // are set one vector later: read back from memory lane by lane (faster than extracting them
 // from registers) once their store has long completed (read right after it, every load
 // would wait for the store).
 __attribute__((always_inline)) inline void scatter_centres(
     __global const float *vertices, const int blk, const int all_facing, const float *a,
-    const float *b, const int width, const int height, const int pstride, const int layer_bit,
+    const float *b, const int width, const int height, const int pstride, const int origin,
     const intV sink, __local uint *words, volatile intV *pending, Reach *reach)
 {
     for (int v = BLOCK * blk; v < BLOCK * (blk + 1); v += LANES) {
@@ -509,20 +529,19 @@ __attribute__((always_inline)) inline void scatter_centres(
         // a centre in the padded layer: in range as a float, so floor needs no clamp
         const intV in = keep & (tu >= (float)-PAD) & (tu < (float)(width + PAD))
                         & (tw >= (float)-PAD) & (tw < (float)(height + PAD));
-        // lanes that are not in convert 0: a float out of int's range (or NaN) converts to
-        // an undefined value, which may spoil the masked results too
-        const intV tx = convert_intV(in ? tu : (floatV)(0.0f));
-        const intV ty = convert_intV(in ? tw : (floatV)(0.0f));
-        const intV px = tx + (convert_floatV(tx) > tu) + PAD;
-        const intV py = ty + (convert_floatV(ty) > tw) + PAD;
-        reach->loV = MIN(reach->loV, in ? py : reach->loV);
-        reach->hiV = MAX(reach->hiV, in ? py : -1);
-        reach->leftV = MIN(reach->leftV, in ? px : reach->leftV);
-        reach->rightV = MAX(reach->rightV, in ? px : -1);
+        // lanes that are not in take the floor of width + PAD and height + PAD, past every
+        // centre (so the lower bounds need no select): a float out of int's range (or NaN)
+        // converts to an undefined value, which may spoil the masked results too
+        const intV px = floor_in_range(in ? tu : (floatV)(width + PAD));
+        const intV py = floor_in_range(in ? tw : (floatV)(height + PAD));
+        reach->loV = MIN(reach->loV, py);
+        reach->hiV = MAX(reach->hiV, in ? py : reach->hiV);
+        reach->leftV = MIN(reach->leftV, px);
+        reach->rightV = MAX(reach->rightV, in ? px : reach->rightV);
 #if KEPT(PART_ORS)
         set_bits(words, pending);
 #endif
-        *pending = in ? layer_bit + py * (32 * pstride) + px : sink;
+        *pending = in ? origin + py * (32 * pstride) + px : sink;
     }
 }
 
@@ -743,8 +762,11 @@ __attribute__((always_inline)) inline void count_view(
     volatile intV pending = sink;
     Reach reach;
     reach.lo = height + 2 * PAD; reach.hi = -1;
-    reach.loV = (intV)(height + 2 * PAD); reach.hiV = (intV)(-1);
-    reach.leftV = (intV)(width + 2 * PAD); reach.rightV = (intV)(-1);
+    // the lanes' rows and columns: those of reach.lo and the totals less lane_pad (the
+    // layered path's image ones)
+    const int lane_pad = layered ? PAD : 0;
+    reach.loV = (intV)(height + 2 * PAD - lane_pad); reach.hiV = (intV)(-1 - lane_pad);
+    reach.leftV = (intV)(width + 2 * PAD - lane_pad); reach.rightV = (intV)(-1 - lane_pad);
     for (int j = 0; j < J; ++j) {
         __local const double *T = T0 + 12 * j;
         const int s = patch_side(camera, T, joints + 4 * j);
@@ -766,7 +788,8 @@ __attribute__((always_inline)) inline void count_view(
                 continue;
             if (layered)
                 scatter_centres(fr->vertices, blk, all_facing, a, b, width, height, pstride,
-                                32 * l * layer_words, sink, words, &pending, &reach);
+                                32 * l * layer_words + PAD * (32 * pstride + 1), sink, words,
+                                &pending, &reach);
             else
                 stamp_patches(fr->vertices, blk, all_facing, a, b, width, height, pitch, s,
                               band_lo, words, &reach);
@@ -775,10 +798,10 @@ __attribute__((always_inline)) inline void count_view(
 #if KEPT(PART_ORS)
     if (layered) set_bits(words, &pending);
 #endif
-    MIN_INT(&totals->row_lo, MIN(reach.lo, min_lane(reach.loV)));
-    MAX_INT(&totals->row_hi, MAX(reach.hi, max_lane(reach.hiV)));
-    MIN_INT(&totals->col_lo, min_lane(reach.leftV));
-    MAX_INT(&totals->col_hi, max_lane(reach.rightV));
+    MIN_INT(&totals->row_lo, MIN(reach.lo, min_lane(reach.loV) + lane_pad));
+    MAX_INT(&totals->row_hi, MAX(reach.hi, max_lane(reach.hiV) + lane_pad));
+    MIN_INT(&totals->col_lo, min_lane(reach.leftV) + lane_pad);
+    MAX_INT(&totals->col_hi, max_lane(reach.rightV) + lane_pad);
     barrier(CLK_LOCAL_MEM_FENCE);
 
     // dilate-and-count, or count the stamped mask
