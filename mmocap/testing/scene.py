@@ -1,6 +1,7 @@
 """The synthetic benchmark scene: a body at a vertex level seen by cameras of the synthetic
 ring (no lens distortion), the foreground being the model's own silhouettes of a reference
-pose; candidates are that pose with normal noise on the joint angles. The evaluator
+pose, packed as the foreground stage gives it (a tracked frame packs its masks there, not in
+the search); candidates are that pose with normal noise on the joint angles. The evaluator
 benchmark (:mod:`mmocap.bench`) times the backends on it, and the golden tests count its
 pixels."""
 
@@ -11,6 +12,7 @@ from typing import Any
 import numpy as np
 
 from mmocap import registry
+from mmocap.bitmask import ForegroundMask
 from mmocap.body.model import BodyModel
 from mmocap.data.synthetic import CAMERA_RING, camera_rig
 
@@ -26,7 +28,7 @@ class Scene:
         self.pose = self.body.rest_pose() + self.noise(rng, 1, 0.15)[0]
         with registry.make_evaluator("numpy") as ev:
             ev.setup(self.body, self.cameras, [np.zeros((480, 640), bool)] * cameras)
-            self.foreground = [ev.render(self.pose, c) for c in range(cameras)]
+            self.foreground = [ForegroundMask(ev.render(self.pose, c)) for c in range(cameras)]
 
     def noise(self, rng: np.random.Generator, n: int, radians: float) -> np.ndarray:
         """(n, 51) normal noise of ``radians`` on the active joint angles, none on the root."""
