@@ -257,6 +257,17 @@ def session_processes(session: int) -> list[int]:
     return alive
 
 
+def processes_left(session: int, wait: float = 10.0) -> list[int]:
+    """The live processes of the session ``session`` (:func:`session_processes`) after waiting
+    up to ``wait`` seconds for them to end by themselves."""
+    import time
+
+    deadline = time.monotonic() + wait
+    while session_processes(session) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    return session_processes(session)
+
+
 def end_session(session: int, grace: float = 3.0) -> None:
     """SIGTERM to every process of the session ``session``, then SIGKILL to those still there
     after ``grace`` seconds; returns when none is left."""

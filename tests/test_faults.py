@@ -12,7 +12,7 @@ import pytest
 
 from mmocap.data.synthetic import generate
 from tests.helpers import TINY_BAD_INPUT as TINY
-from tests.helpers import fault_sweep_command, session_processes
+from tests.helpers import fault_sweep_command, processes_left
 
 JOBS = 6
 
@@ -59,11 +59,8 @@ def test_an_interrupted_sweep_leaves_nothing_running_or_half_written_and_resumes
         assert f"mmocap: interrupted by {sig.name}" in stderr, stderr
         assert f"hydra.sweep.dir={folder}" in stderr, stderr
         assert "Traceback" not in stderr
-    for _ in range(100):  # workers of a SIGKILLed sweep get SIGTERM from the kernel
-        if not session_processes(process.pid):
-            break
-        time.sleep(0.1)
-    assert session_processes(process.pid) == [], "processes of the sweep are still running"
+    # workers of a SIGKILLed sweep get SIGTERM from the kernel
+    assert processes_left(process.pid) == [], "processes of the sweep are still running"
     before = records(folder)
     assert 1 <= len(before) < JOBS
 

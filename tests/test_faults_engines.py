@@ -25,7 +25,7 @@ from mmocap.data.synthetic import generate
 from mmocap.io import read_json_lines
 from mmocap.run_folder import FRAMES_PARTIAL, RUN_LOCK, SUMMARY
 from tests.helpers import TINY_BAD_INPUT as TINY
-from tests.helpers import end_session, fault_sweep_command, session_processes
+from tests.helpers import end_session, fault_sweep_command, processes_left, session_processes
 
 JOBS = 3
 #: the job whose worker is killed: it runs beside job 0, so that job 0 finishes either way
@@ -218,11 +218,8 @@ def test_a_submitit_job_killed_mid_job_is_named_and_resumed(sequence, tmp_path):
     named = [line for line in stderr.splitlines() if "sweep jobs did not finish" in line]
     assert len(named) == 1, stderr
     assert f"#{KILLED} (seed={KILLED})" in named[0]
-    for _ in range(100):  # the local executor's job processes end with the sweep
-        if not session_processes(sweep.pid):
-            break
-        time.sleep(0.1)
-    assert session_processes(sweep.pid) == [], "processes of the sweep are still running"
+    # the local executor's job processes end with the sweep
+    assert processes_left(sweep.pid) == [], "processes of the sweep are still running"
     before = records(folder)
     assert 1 <= len(before) < JOBS
     assert not list((folder / "records").glob("*.tmp"))
